@@ -1,0 +1,1 @@
+"""Launcher, MCAP recorder and replay, scenarios and reports."""

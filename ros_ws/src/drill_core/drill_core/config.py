@@ -1,0 +1,342 @@
+"""Configuration of the rig: the typed objects behind config/*.yaml (SI units).
+
+Values and their sources are documented in the YAML files. :func:`load_rig`
+reads the whole set once; every node receives the directory and loads the same
+objects, so there is one description of the well.
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import re
+
+import yaml
+
+from drill_core.schema import ConfigError, build, param
+
+
+# --------------------------------------------------------------------------- well
+@dataclass(frozen=True)
+class StringSection:
+    """One section of the drill string, listed from the top (paper Table 2)."""
+    name: str = param(doc="drill_pipe, collars, bha, ...")
+    length_m: float = param("m", 0.0, 20000.0, lo_open=True)
+    outer_diameter_m: float = param("m", 0.0, 1.0, lo_open=True)
+    inner_diameter_m: float = param("m", 0.0, 1.0, lo_open=True)
+    tool_joint_length_m: float = param("m", 0.0, 5.0, default=0.0)
+    tool_joint_spacing_m: float = param("m", 0.0, 50.0, lo_open=True, default=9.5)
+    tool_joint_outer_diameter_m: float = param("m", 0.0, 1.0, default=0.0)
+    tool_joint_inner_diameter_m: float = param("m", 0.0, 1.0, default=0.0)
+
+    def validate(self) -> None:
+        if self.inner_diameter_m >= self.outer_diameter_m:
+            raise ValueError(f"section {self.name}: inner diameter {self.inner_diameter_m} m must be "
+                             f"smaller than outer diameter {self.outer_diameter_m} m")
+        if self.tool_joint_length_m > 0.0:
+            if not 0.0 < self.tool_joint_inner_diameter_m < self.tool_joint_outer_diameter_m:
+                raise ValueError(f"section {self.name}: tool joint diameters must satisfy "
+                                 "0 < inner < outer")
+            if self.tool_joint_length_m >= self.tool_joint_spacing_m:
+                raise ValueError(f"section {self.name}: tool_joint_length_m must be shorter than "
+                                 "tool_joint_spacing_m")
+
+
+@dataclass(frozen=True)
+class Mud:
+    """Herschel-Bulkley drilling fluid, tau = tau_y + K * gamma_dot**n."""
+    density_kgm3: float = param("kg/m^3", 500.0, 3000.0)
+    bulk_modulus_pa: float = param("Pa", 1.0e8, 5.0e10)
+    yield_stress_pa: float = param("Pa", 0.0, 200.0, doc="string (tau_y,I); also annulus by default")
+    annulus_yield_stress_pa: float = param("Pa", 0.0, 200.0)
+    consistency_pa_sn: float = param("Pa s^n", 0.0, 100.0, lo_open=True)
+    flow_index: float = param("1", 0.1, 1.0)
+
+
+@dataclass(frozen=True)
+class Turbulence:
+    """Turbulent wall stress tau = a * rho * v^2 * Re_g^-b."""
+    string_a: float = param("1", 0.0, 1.0, lo_open=True)
+    string_b: float = param("1", 0.0, 1.0)
+    annulus_model: str = param(choices=("dodge_metzner", "power_law"))
+    annulus_a: float = param("1", 0.0, 1.0, lo_open=True, doc="used by power_law")
+    annulus_b: float = param("1", 0.0, 1.0, doc="used by power_law")
+
+
+@dataclass(frozen=True)
+class Well:
+    """Reference well, string, fluid and surface equipment (paper Tables 2 and 4)."""
+    hole_diameter_m: float = param("m", 0.0, 2.0, lo_open=True)
+    segment_lengths_m: tuple[float, ...] = param("m", 0.0, 20000.0, lo_open=True)
+    string: tuple[StringSection, ...] = param()
+    mud: Mud = param()
+    turbulence: Turbulence = param()
+    steel_density_kgm3: float = param("kg/m^3", 1000.0, 20000.0)
+    gravity_mps2: float = param("m/s^2", 0.0, 20.0)
+    choke_coefficient_m2: float = param("m^2", 0.0, 1.0, lo_open=True, doc="C_c")
+    choke_downstream_pressure_pa: float = param("Pa", 0.0, 1.0e7, doc="p_0, gauge")
+    bit_nozzle_coefficient_m2: float = param("m^2", 0.0, 1.0, lo_open=True, doc="K_v")
+    bha_loss_coefficient_pa_s_m3: float = param("Pa s/m^3", 0.0, 1.0e10, doc="K_b")
+    hoist_stiffness_n_m: float = param("N/m", 0.0, 1.0e9, lo_open=True, doc="k_eq")
+    hoist_damping_n_s_m: float = param("N s/m", 0.0, 1.0e8, doc="c_eq")
+
+    def validate(self) -> None:
+        if len(self.segment_lengths_m) < 2:
+            raise ValueError("segment_lengths_m needs at least 2 annulus segments")
+        for section in self.string:
+            widest = max(section.outer_diameter_m, section.tool_joint_outer_diameter_m)
+            if widest >= self.hole_diameter_m:
+                raise ValueError(f"section {section.name}: outer diameter {widest} m does not fit "
+                                 f"in the hole ({self.hole_diameter_m} m)")
+        string_length = sum(s.length_m for s in self.string)
+        if string_length > sum(self.segment_lengths_m):
+            raise ValueError(f"string length {string_length:g} m exceeds the well depth "
+                             f"{sum(self.segment_lengths_m):g} m")
+
+
+# -------------------------------------------------------------------------- plant
+@dataclass(frozen=True)
+class MeasurementNoise:
+    """Standard deviations of the four sensors (paper Table 4: sigma = W * y_nom)."""
+    block_position_m: float = param("m", 0.0, 10.0)
+    choke_dp_pa: float = param("Pa", 0.0, 1.0e7)
+    bhp_pa: float = param("Pa", 0.0, 1.0e7)
+    string_flow_m3s: float = param("m^3/s", 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Plant:
+    """Truth-model numerics, process noise and sensors."""
+    step_s: float = param("s", 0.0, 0.1, lo_open=True)
+    substeps: int = param("1", 1, 100)
+    sensor_period_s: float = param("s", 0.0, 10.0, lo_open=True)
+    pressure_diffusion_pa_sqrt_s: float = param("Pa/s^0.5", 0.0, 1.0e6, doc="g_p")
+    flow_diffusion_m3s_sqrt_s: float = param("m^3/s/s^0.5", 0.0, 1.0, doc="g_q")
+    yield_regularisation_velocity_mps: float = param("m/s", 0.0, 1.0, lo_open=True)
+    choke_regularisation_pa: float = param("Pa", 0.0, 1.0e6, lo_open=True)
+    measurement_noise: MeasurementNoise = param()
+
+    def validate(self) -> None:
+        ratio = self.sensor_period_s / self.step_s
+        if abs(ratio - round(ratio)) > 1e-9:
+            raise ValueError(f"sensor_period_s {self.sensor_period_s} must be a whole multiple "
+                             f"of step_s {self.step_s}")
+
+    @property
+    def steps_per_frame(self) -> int:
+        """Plant steps per sensor frame."""
+        return int(round(self.sensor_period_s / self.step_s))
+
+
+# ---------------------------------------------------------------------- actuators
+@dataclass(frozen=True)
+class Lag:
+    """First-order actuator with range and rate limits."""
+    time_constant_s: float = param("s", 0.0, 1000.0, lo_open=True)
+    minimum: float = param("SI unit of the actuator")
+    maximum: float = param("SI unit of the actuator")
+    rate_limit_per_s: float = param("SI unit of the actuator per s", 0.0, lo_open=True)
+
+    def validate(self) -> None:
+        if self.minimum >= self.maximum:
+            raise ValueError(f"minimum {self.minimum} must be below maximum {self.maximum}")
+
+
+@dataclass(frozen=True)
+class Actuators:
+    """Drawworks, choke, back-pressure pump and mud pump (DESIGN section 4, paper Table 4)."""
+    drawworks: Lag = param(doc="block position [m]")
+    block_kp: float = param("1", 0.0, 100.0, doc="block-position controller proportional gain")
+    block_ki_per_s: float = param("1/s", 0.0, 100.0, doc="block-position controller integral gain")
+    choke: Lag = param(doc="opening [1]")
+    choke_kp: float = param("1", 0.0, 100.0, doc="PI gain, opening per unit normalised flow error")
+    choke_ti_s: float = param("s", 0.0, 1000.0, lo_open=True)
+    choke_flow_scale_m3s: float = param("m^3/s", 0.0, 1.0, lo_open=True,
+                                        doc="flow error normalisation of the PI controller")
+    bpp: Lag = param(doc="back-pressure pump flow [m^3/s]")
+    mud_pump: Lag = param(doc="stand-pipe pressure [Pa]")
+    watchdog_timeout_s: float = param("s", 0.0, 60.0, lo_open=True)
+
+
+# ---------------------------------------------------------------------- estimator
+@dataclass(frozen=True)
+class Estimator:
+    """UKF tuning (paper Tables 3 and 6), SI units."""
+    alpha: float = param("1", 0.0, 1.0, lo_open=True)
+    beta: float = param("1", 0.0, 10.0)
+    kappa_offset: float = param("1", -100.0, 100.0, doc="kappa = kappa_offset - n_x (paper: 3)")
+    rig_process_std: tuple[float, ...] = param("m, m/s, m s", 0.0, doc="per-step std of z1..z3")
+    pressure_process_std_pa: float = param("Pa", 0.0, doc="per-step std of pressure states")
+    flow_process_std_m3s: float = param("m^3/s", 0.0, doc="per-step std of flow states")
+    friction_parameter_process_std: float = param("Pa s^2/m^2", 0.0, doc="per-step std of theta")
+    bhp_disturbance_process_std_pa: float = param("Pa", 0.0, doc="per-step std of d (NMPC2)")
+    initial_friction_parameter: float = param("Pa s^2/m^2", 0.0)
+    initial_pressure_std_pa: float = param("Pa", 0.0, lo_open=True)
+    initial_flow_std_m3s: float = param("m^3/s", 0.0, lo_open=True)
+    initial_friction_parameter_std: float = param("Pa s^2/m^2", 0.0, lo_open=True)
+    measurement_noise: MeasurementNoise = param()
+    nis_window: int = param("samples", 1, 10000)
+    nis_alarm_probability: float = param("1", 0.5, 0.999999)
+    covariance_inflation: float = param("1", 1.0, 100.0)
+    estimate_bhp_disturbance: bool = param(default=False)
+
+
+# --------------------------------------------------------------------------- nmpc
+@dataclass(frozen=True)
+class InputVector:
+    """A value per NMPC input [block ref m, choke flow m^3/s, bpp flow m^3/s, spp Pa]."""
+    block_position_m: float = param("m")
+    choke_flow_m3s: float = param("m^3/s")
+    bpp_flow_m3s: float = param("m^3/s")
+    spp_pa: float = param("Pa")
+
+    def as_tuple(self) -> tuple[float, float, float, float]:
+        return (self.block_position_m, self.choke_flow_m3s, self.bpp_flow_m3s, self.spp_pa)
+
+
+@dataclass(frozen=True)
+class OutputVector:
+    """A value per tracked output [block position m, choke dp Pa, BHP Pa]."""
+    block_position_m: float = param("m")
+    choke_dp_pa: float = param("Pa")
+    bhp_pa: float = param("Pa")
+
+    def as_tuple(self) -> tuple[float, float, float]:
+        return (self.block_position_m, self.choke_dp_pa, self.bhp_pa)
+
+
+@dataclass(frozen=True)
+class Nmpc:
+    """NMPC supervisor (paper eqs. 49-59, Tables 6 and 8)."""
+    configuration: str = param(choices=("NMPC0", "NMPC1", "NMPC2"))
+    sample_time_s: float = param("s", 0.0, 10.0, lo_open=True)
+    prediction_horizon_s: float = param("s", 0.0, 120.0, lo_open=True)
+    control_horizon_s: float = param("s", 0.0, 120.0, lo_open=True)
+    substeps: int = param("1", 1, 100)
+    integrator: str = param(choices=("rk4", "euler"))
+    reference_smoothing: OutputVector = param(doc="alpha_i of eq. 59, each in [0, 1)")
+    output_weight: OutputVector = param(doc="w_c tilde (eq. 55)")
+    output_span: OutputVector = param(doc="y_span (eq. 55)")
+    input_move_weight: InputVector = param(doc="r_c tilde (eq. 55)")
+    input_span: InputVector = param(doc="u_span (eq. 55)")
+    input_min: InputVector = param()
+    input_max: InputVector = param()
+    input_slew: InputVector = param(doc="largest |u_k - u_k-1| per sample")
+    integral_weight_factor: float = param("1", 0.0, 100.0, doc="Q_c = factor * W_c (NMPC1)")
+    velocity_limit_mps: float = param("m/s", 0.0, 10.0, lo_open=True)
+    bhp_band_pa: float = param("Pa", 0.0, 1.0e7, lo_open=True)
+    choke_dp_band_pa: float = param("Pa", 0.0, 1.0e7, lo_open=True)
+    choke_dp_min_pa: float = param("Pa", 0.0, 1.0e7, doc="lowest choke dp the band may reach")
+    slack_weight_velocity: float = param("1", 0.0)
+    slack_weight_choke_capacity: float = param("1", 0.0)
+    slack_weight_string_pressure: float = param("1", 0.0)
+    slack_weight_choke_dp: float = param("1", 0.0)
+    slack_weight_bhp: float = param("1", 0.0)
+    max_iterations: int = param("1", 1, 10000)
+    solver: str = param(choices=("ipopt", "fatrop", "sqpmethod"))
+
+    def validate(self) -> None:
+        if self.control_horizon_s > self.prediction_horizon_s:
+            raise ValueError("control_horizon_s must not exceed prediction_horizon_s")
+        for name in ("prediction_horizon_s", "control_horizon_s"):
+            ratio = getattr(self, name) / self.sample_time_s
+            if abs(ratio - round(ratio)) > 1e-9:
+                raise ValueError(f"{name} must be a whole multiple of sample_time_s")
+        for lo, hi in zip(self.input_min.as_tuple(), self.input_max.as_tuple()):
+            if lo >= hi:
+                raise ValueError(f"input_min {lo} must be below input_max {hi}")
+        for alpha in self.reference_smoothing.as_tuple():
+            if not 0.0 <= alpha < 1.0:
+                raise ValueError(f"reference_smoothing {alpha} must lie in [0, 1)")
+
+    @property
+    def prediction_steps(self) -> int:
+        return int(round(self.prediction_horizon_s / self.sample_time_s))
+
+    @property
+    def control_steps(self) -> int:
+        return int(round(self.control_horizon_s / self.sample_time_s))
+
+
+# ----------------------------------------------------------------------- the whole
+@dataclass(frozen=True)
+class RigConfig:
+    """All configuration of one rig, loaded once."""
+    well: Well
+    plant: Plant
+    actuators: Actuators
+    estimator: Estimator
+    nmpc: Nmpc
+    directory: str
+
+
+_FILES = {"well": Well, "plant": Plant, "actuators": Actuators, "estimator": Estimator, "nmpc": Nmpc}
+
+
+class _Loader(yaml.SafeLoader):
+    """Safe YAML loader that reads 6.5e9 as a float (YAML 1.2), not as a string."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)$"),
+    list("-+0123456789"))
+
+
+def load_yaml(path: str | os.PathLike) -> object:
+    """Parse one YAML file; syntax errors name the file."""
+    try:
+        with open(path, encoding="utf-8") as handle:
+            return yaml.load(handle, Loader=_Loader)
+    except OSError as err:
+        raise ConfigError(f"{path}: cannot read: {err.strerror}") from None
+    except yaml.YAMLError as err:
+        raise ConfigError(f"{path}: not valid YAML: {err}") from None
+
+
+def load_section(cls: type, path: str | os.PathLike) -> object:
+    """Load one YAML file into the typed object ``cls``."""
+    return build(cls, load_yaml(path), str(path))
+
+
+def load_rig(directory: str | os.PathLike, overrides: dict[str, dict] | None = None) -> RigConfig:
+    """Load config/{well,plant,actuators,estimator,nmpc}.yaml from ``directory``.
+
+    ``overrides`` maps a file stem to a mapping merged (recursively) over its YAML,
+    e.g. ``{"nmpc": {"configuration": "NMPC2"}}`` from a scenario file.
+    """
+    directory = Path(directory)
+    sections = {}
+    for stem, cls in _FILES.items():
+        path = directory / f"{stem}.yaml"
+        data = load_yaml(path)
+        if overrides and stem in overrides:
+            data = merge(data, overrides[stem])
+        sections[stem] = build(cls, data, str(path))
+    return RigConfig(directory=str(directory), **sections)
+
+
+def merge(base: object, over: object) -> object:
+    """Recursive merge of mappings; ``over`` wins."""
+    if isinstance(base, dict) and isinstance(over, dict):
+        out = dict(base)
+        for key, value in over.items():
+            out[key] = merge(base.get(key), value) if key in base else value
+        return out
+    return over
+
+
+def replace(obj: object, **changes: object) -> object:
+    """A copy of a frozen configuration object with some fields changed (re-validated)."""
+    new = dataclasses.replace(obj, **changes)
+    check = getattr(new, "validate", None)
+    if check is not None:
+        check()
+    return new
+
+
+__all__ = ["ConfigError", "RigConfig", "Well", "StringSection", "Mud", "Turbulence", "Plant",
+           "MeasurementNoise", "Lag", "Actuators", "Estimator", "Nmpc", "InputVector",
+           "OutputVector", "load_rig", "load_section", "load_yaml", "merge", "replace"]

@@ -1,0 +1,127 @@
+"""Wellbore hydraulics and hoisting equations shared by the truth plant and the
+estimation model (DESIGN section 3; paper eqs. 22-36, hydrostatics included).
+
+State convention: annulus pressures p_1 (surface, choke) .. p_n (bottom), annulus
+flows q_2 .. q_n positive upward, string flow q_d positive downward, string
+bottom pressure p_I, string position x_s and velocity v_s positive upward.
+All pressures are gauge [Pa]. Functions take an array namespace ``xp`` so the
+same code runs on numpy rows and CasADi symbols; the only difference between the
+plant and the estimation model is the annular friction passed in.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from drill_core.config import Well
+from drill_core.rheology import Fluid, annulus_fluid, path_pressure_loss, string_fluid
+from drill_core.well import WellGeometry, build_geometry
+
+
+@dataclass(frozen=True)
+class WellModel:
+    """The well description plus what is derived from it, built once."""
+    well: Well
+    geometry: WellGeometry
+    string_fluid: Fluid
+    annulus_fluid: Fluid
+    regularisation_mps: float      # yield-jump smoothing velocity
+    choke_regularisation_pa: float
+
+    @property
+    def n(self) -> int:
+        return self.geometry.n
+
+
+def build_well_model(well: Well, regularisation_mps: float, choke_regularisation_pa: float) -> WellModel:
+    return WellModel(well, build_geometry(well), string_fluid(well.mud, well.turbulence),
+                     annulus_fluid(well.mud, well.turbulence), regularisation_mps,
+                     choke_regularisation_pa)
+
+
+def hydrostatic_pa(wm: WellModel, depth_m: float) -> float:
+    """rho g D."""
+    return wm.well.mud.density_kgm3 * wm.well.gravity_mps2 * depth_m
+
+
+def choke_flow(wm: WellModel, opening, dp_pa):
+    """q_c = u_c C_c sqrt(2|dp|/rho) sign(dp), smoothed below the regularisation pressure."""
+    w = wm.well
+    root = dp_pa / (dp_pa * dp_pa + wm.choke_regularisation_pa ** 2) ** 0.25
+    return opening * w.choke_coefficient_m2 * (2.0 / w.mud.density_kgm3) ** 0.5 * root
+
+
+def choke_opening_for_flow(wm: WellModel, flow_m3s: float, dp_pa: float) -> float:
+    """Inverse of :func:`choke_flow` for a positive differential pressure."""
+    return flow_m3s / choke_flow(wm, 1.0, dp_pa)
+
+
+def bit_flow(xp, wm: WellModel, dp_pa):
+    """Flow through check valve + BHA: 0 if dp <= 0, else root of dp = K_b q + rho/2 (q/K_v)^2."""
+    w = wm.well
+    a = 0.5 * w.mud.density_kgm3 / w.bit_nozzle_coefficient_m2 ** 2
+    kb = w.bha_loss_coefficient_pa_s_m3
+    dp_pos = xp.fmax(dp_pa, 0.0)
+    return 2.0 * dp_pos / (kb + xp.sqrt(kb * kb + 4.0 * a * dp_pos))
+
+
+def string_friction(xp, wm: WellModel, string_flow_m3s, string_velocity_mps):
+    """Frictional loss down the drill string [Pa] (known first-principles model, paper f_2)."""
+    return path_pressure_loss(xp, string_flow_m3s, string_velocity_mps, wm.string_fluid,
+                              wm.geometry.string_sections, wm.regularisation_mps)
+
+
+def annulus_friction(xp, wm: WellModel, flows_m3s, string_velocity_mps):
+    """Herschel-Bulkley frictional loss [Pa] of annulus paths 2..n (truth model)."""
+    return [path_pressure_loss(xp, q, string_velocity_mps, wm.annulus_fluid, path,
+                               wm.regularisation_mps)
+            for q, path in zip(flows_m3s, wm.geometry.annulus_paths)]
+
+
+def hoisting_acceleration(wm: WellModel, position_m, velocity_mps, block_position_m):
+    """m a = -k_eq (x_s - u_b) - c_eq v_s - m g F_b (paper eq. 35)."""
+    w, g = wm.well, wm.geometry
+    return (-w.hoist_stiffness_n_m * (position_m - block_position_m)
+            - w.hoist_damping_n_s_m * velocity_mps) / g.string_mass_kg \
+        - w.gravity_mps2 * g.buoyancy_factor
+
+
+@dataclass(frozen=True)
+class HydraulicRates:
+    """Time derivatives of the hydraulic states plus the algebraic bit flow."""
+    pressure: list        # dp_i/dt, i = 1..n [Pa/s]
+    flow: list            # dq_i/dt, i = 2..n [m^3/s^2]
+    string_flow: object   # dq_d/dt [m^3/s^2]
+    string_pressure: object  # dp_I/dt [Pa/s]
+    bit_flow: object      # q_bit [m^3/s]
+
+
+def hydraulic_rates(xp, wm: WellModel, pressures, flows, string_flow_m3s, string_pressure_pa,
+                    position_m, velocity_mps, choke_flow_m3s, bpp_flow_m3s, pump_pressure_pa,
+                    friction_pa) -> HydraulicRates:
+    """Mass and momentum balances of annulus and drill string (DESIGN section 3).
+
+    ``friction_pa`` is the annular friction of paths 2..n (HB in the plant, quadratic
+    in the estimation model). The bit rises with the string, so the string column is
+    D_bit - x_s high and the annulus pressure at the bit is p_n - rho g x_s.
+    """
+    w, g = wm.well, wm.geometry
+    n = g.n
+    beta = w.mud.bulk_modulus_pa
+    rho_g = w.mud.density_kgm3 * w.gravity_mps2
+    v_s = velocity_mps
+    q_bit = bit_flow(xp, wm, string_pressure_pa - (pressures[n - 1] - rho_g * position_m))
+
+    inflow_from_below = list(flows) + [q_bit]     # into volume i from i+1 (bit for volume n)
+    outflow_above = [choke_flow_m3s - bpp_flow_m3s] + list(flows)  # out of volume i upward
+    dp = [beta / g.annulus_volume_m3[i]
+          * (inflow_from_below[i] - outflow_above[i] - g.displacement_area_m2[i] * v_s)
+          for i in range(n)]
+    dq = [(pressures[i] - pressures[i - 1]
+           - rho_g * (g.node_depth_m[i] - g.node_depth_m[i - 1]) - friction_pa[i - 1])
+          / g.annulus_inertance_kg_m4[i - 1]
+          for i in range(1, n)]
+    dp_string = beta / g.string_volume_m3 * (string_flow_m3s - q_bit
+                                              + g.string_top_inner_area_m2 * v_s)
+    dq_string = (pump_pressure_pa - string_pressure_pa + rho_g * (g.bit_depth_m - position_m)
+                 - string_friction(xp, wm, string_flow_m3s, v_s)) / g.string_inertance_kg_m4
+    return HydraulicRates(dp, dq, dq_string, dp_string, q_bit)

@@ -1,0 +1,121 @@
+"""Typed, immutable configuration objects built from YAML mappings.
+
+A configuration class is a frozen dataclass whose fields are declared with
+:func:`param`, giving each value its unit and allowed range. :func:`build`
+turns a mapping into such an object and refuses bad input with a
+:class:`ConfigError` that names the file, the key, the value and what is allowed.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from typing import Any, Mapping
+
+
+class ConfigError(ValueError):
+    """Bad configuration input; the message names file, key, value and the allowed range."""
+
+
+def param(unit: str = "", lo: float | None = None, hi: float | None = None, *,
+          lo_open: bool = False, choices: tuple[str, ...] | None = None,
+          default: Any = dataclasses.MISSING, doc: str = "") -> Any:
+    """Declare a configuration field with its SI unit and allowed range [lo, hi]."""
+    meta = {"unit": unit, "lo": lo, "hi": hi, "lo_open": lo_open, "choices": choices, "doc": doc}
+    if isinstance(default, (list, dict)):
+        raise TypeError("mutable defaults are not allowed")
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def _range_text(meta: Mapping[str, Any]) -> str:
+    lo, hi = meta.get("lo"), meta.get("hi")
+    left = "(" if meta.get("lo_open") else "["
+    lo_s = "-inf" if lo is None else f"{lo:g}"
+    hi_s = "inf" if hi is None else f"{hi:g}"
+    unit = f" {meta['unit']}" if meta.get("unit") else ""
+    return f"{left}{lo_s}, {hi_s}]{unit}"
+
+
+class _Where:
+    """Location of a value: file and dotted key path, for error messages."""
+
+    def __init__(self, source: str, path: str = ""):
+        self.source, self.path = source, path
+
+    def child(self, key: Any) -> "_Where":
+        key_s = f"[{key}]" if isinstance(key, int) else str(key)
+        sep = "" if not self.path or isinstance(key, int) else "."
+        return _Where(self.source, f"{self.path}{sep}{key_s}")
+
+    def fail(self, message: str) -> ConfigError:
+        return ConfigError(f"{self.source}: {self.path or '<top>'}: {message}")
+
+
+def _check_number(value: Any, meta: Mapping[str, Any], where: _Where, integer: bool) -> float | int:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        kind = "an integer" if integer else "a number"
+        raise where.fail(f"value {value!r} must be {kind} in {_range_text(meta)}")
+    if integer and not float(value).is_integer():
+        raise where.fail(f"value {value!r} must be an integer in {_range_text(meta)}")
+    number = int(value) if integer else float(value)
+    lo, hi = meta.get("lo"), meta.get("hi")
+    bad = (not math.isfinite(number)
+           or (lo is not None and (number <= lo if meta.get("lo_open") else number < lo))
+           or (hi is not None and number > hi))
+    if bad:
+        raise where.fail(f"value {value!r} is outside the allowed range {_range_text(meta)}")
+    return number
+
+
+def _convert(value: Any, hint: Any, meta: Mapping[str, Any], where: _Where) -> Any:
+    origin = typing.get_origin(hint)
+    if dataclasses.is_dataclass(hint):
+        return build(hint, value, where.source, where.path)
+    if origin is tuple:
+        item_hint = typing.get_args(hint)[0]
+        if not isinstance(value, (list, tuple)) or len(value) == 0:
+            raise where.fail(f"value {value!r} must be a non-empty list")
+        return tuple(_convert(v, item_hint, meta, where.child(i)) for i, v in enumerate(value))
+    if hint is float:
+        return _check_number(value, meta, where, integer=False)
+    if hint is int:
+        return _check_number(value, meta, where, integer=True)
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise where.fail(f"value {value!r} must be true or false")
+        return value
+    if hint is str:
+        if not isinstance(value, str):
+            raise where.fail(f"value {value!r} must be a string")
+        choices = meta.get("choices")
+        if choices and value not in choices:
+            raise where.fail(f"value {value!r} is not one of {', '.join(choices)}")
+        return value
+    raise TypeError(f"unsupported configuration type {hint!r}")
+
+
+def build(cls: type, data: Any, source: str = "<memory>", path: str = "") -> Any:
+    """Build the frozen dataclass ``cls`` from ``data``, checking keys, types and ranges."""
+    where = _Where(source, path)
+    if not isinstance(data, Mapping):
+        raise where.fail(f"expected a mapping of keys for {cls.__name__}, got {data!r}")
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    unknown = sorted(set(data) - set(fields))
+    if unknown:
+        raise where.fail(f"unknown key(s) {', '.join(map(str, unknown))}; allowed: {', '.join(fields)}")
+    values = {}
+    for name, field in fields.items():
+        if name not in data:
+            if field.default is dataclasses.MISSING:
+                raise where.child(name).fail(f"missing key (allowed {_range_text(field.metadata)})")
+            continue
+        values[name] = _convert(data[name], hints[name], field.metadata, where.child(name))
+    obj = cls(**values)
+    check = getattr(obj, "validate", None)
+    if check is not None:
+        try:
+            check()
+        except ValueError as err:
+            raise where.fail(str(err)) from None
+    return obj

@@ -1,0 +1,17 @@
+from setuptools import find_packages, setup
+
+PACKAGE = "drill_core"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
+        ("share/" + PACKAGE, ["package.xml"]),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    description="Plain-Python core of the rig: typed configuration, well description, rheology, the shared wellbore model, integrators; plus thin rclpy helpers in drill_core.ros.",
+    license="Apache-2.0",
+)

@@ -1,0 +1,1 @@
+"""Unscented Kalman filter for states and annular friction parameters, and its node."""

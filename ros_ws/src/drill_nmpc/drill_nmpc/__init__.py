@@ -1,0 +1,1 @@
+"""CasADi nonlinear MPC supervisor and its node."""

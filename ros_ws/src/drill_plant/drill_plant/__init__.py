@@ -1,0 +1,1 @@
+"""Truth plant (stochastic wellbore hydraulics + hoisting) and actuator nodes."""

@@ -1,0 +1,17 @@
+from setuptools import find_packages, setup
+
+PACKAGE = "drill_plant"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
+        ("share/" + PACKAGE, ["package.xml"]),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    description="Truth plant (stochastic wellbore hydraulics + hoisting) and actuator nodes.",
+    license="Apache-2.0",
+)
