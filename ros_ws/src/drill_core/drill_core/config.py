@@ -15,7 +15,7 @@ import re
 
 import yaml
 
-from drill_core.schema import ConfigError, build, param
+from drill_core.schema import ConfigError, FieldError, build, param
 
 
 # --------------------------------------------------------------------------- well
@@ -33,15 +33,19 @@ class StringSection:
 
     def validate(self) -> None:
         if self.inner_diameter_m >= self.outer_diameter_m:
-            raise ValueError(f"section {self.name}: inner diameter {self.inner_diameter_m} m must be "
-                             f"smaller than outer diameter {self.outer_diameter_m} m")
+            raise FieldError("inner_diameter_m",
+                             f"value {self.inner_diameter_m} m (section {self.name}) must be smaller "
+                             f"than outer_diameter_m {self.outer_diameter_m} m")
         if self.tool_joint_length_m > 0.0:
             if not 0.0 < self.tool_joint_inner_diameter_m < self.tool_joint_outer_diameter_m:
-                raise ValueError(f"section {self.name}: tool joint diameters must satisfy "
-                                 "0 < inner < outer")
+                raise FieldError("tool_joint_inner_diameter_m",
+                                 f"value {self.tool_joint_inner_diameter_m} m (section {self.name}) "
+                                 "must lie in (0, tool_joint_outer_diameter_m "
+                                 f"{self.tool_joint_outer_diameter_m} m)")
             if self.tool_joint_length_m >= self.tool_joint_spacing_m:
-                raise ValueError(f"section {self.name}: tool_joint_length_m must be shorter than "
-                                 "tool_joint_spacing_m")
+                raise FieldError("tool_joint_length_m",
+                                 f"value {self.tool_joint_length_m} m (section {self.name}) must be "
+                                 f"shorter than tool_joint_spacing_m {self.tool_joint_spacing_m} m")
 
 
 @dataclass(frozen=True)
@@ -84,16 +88,21 @@ class Well:
 
     def validate(self) -> None:
         if len(self.segment_lengths_m) < 2:
-            raise ValueError("segment_lengths_m needs at least 2 annulus segments")
-        for section in self.string:
-            widest = max(section.outer_diameter_m, section.tool_joint_outer_diameter_m)
+            raise FieldError("segment_lengths_m",
+                             f"value {list(self.segment_lengths_m)} must list at least 2 annulus segments")
+        for i, section in enumerate(self.string):
+            key = ("outer_diameter_m" if section.outer_diameter_m >= section.tool_joint_outer_diameter_m
+                   else "tool_joint_outer_diameter_m")
+            widest = getattr(section, key)
             if widest >= self.hole_diameter_m:
-                raise ValueError(f"section {section.name}: outer diameter {widest} m does not fit "
-                                 f"in the hole ({self.hole_diameter_m} m)")
+                raise FieldError(f"string[{i}].{key}",
+                                 f"value {widest} m (section {section.name}) does not fit in the hole: "
+                                 f"must be smaller than hole_diameter_m {self.hole_diameter_m} m")
         string_length = sum(s.length_m for s in self.string)
         if string_length > sum(self.segment_lengths_m):
-            raise ValueError(f"string length {string_length:g} m exceeds the well depth "
-                             f"{sum(self.segment_lengths_m):g} m")
+            raise FieldError("string",
+                             f"total length_m {string_length:g} m exceeds the well depth: must be at "
+                             f"most sum(segment_lengths_m) = {sum(self.segment_lengths_m):g} m")
 
 
 # -------------------------------------------------------------------------- plant
@@ -121,8 +130,9 @@ class Plant:
     def validate(self) -> None:
         ratio = self.sensor_period_s / self.step_s
         if abs(ratio - round(ratio)) > 1e-9:
-            raise ValueError(f"sensor_period_s {self.sensor_period_s} must be a whole multiple "
-                             f"of step_s {self.step_s}")
+            raise FieldError("sensor_period_s",
+                             f"value {self.sensor_period_s} s must be a whole multiple of step_s "
+                             f"{self.step_s} s")
 
     @property
     def steps_per_frame(self) -> int:
@@ -171,7 +181,7 @@ class Estimator:
     pressure_process_std_pa: float = param("Pa", 0.0, doc="per-step std of pressure states")
     flow_process_std_m3s: float = param("m^3/s", 0.0, doc="per-step std of flow states")
     friction_parameter_process_std: float = param("Pa s^2/m^2", 0.0, doc="per-step std of theta")
-    bhp_disturbance_process_std_pa: float = param("Pa", 0.0, doc="per-step std of d (NMPC2)")
+    bottom_influx_process_std_m3s: float = param("m^3/s", 0.0, doc="per-step std of d (NMPC2)")
     initial_friction_parameter: float = param("Pa s^2/m^2", 0.0)
     initial_pressure_std_pa: float = param("Pa", 0.0, lo_open=True)
     initial_flow_std_m3s: float = param("m^3/s", 0.0, lo_open=True)
@@ -180,7 +190,7 @@ class Estimator:
     nis_window: int = param("samples", 1, 10000)
     nis_alarm_probability: float = param("1", 0.5, 0.999999)
     covariance_inflation: float = param("1", 1.0, 100.0)
-    estimate_bhp_disturbance: bool = param(default=False)
+    estimate_bottom_influx: bool = param(default=False)
 
 
 # --------------------------------------------------------------------------- nmpc
@@ -276,7 +286,26 @@ _FILES = {"well": Well, "plant": Plant, "actuators": Actuators, "estimator": Est
 
 
 class _Loader(yaml.SafeLoader):
-    """Safe YAML loader that reads 6.5e9 as a float (YAML 1.2), not as a string."""
+    """Safe YAML loader that reads 6.5e9 as a float (YAML 1.2), not as a string, and refuses
+    a key given twice in one mapping (PyYAML would silently keep the last value)."""
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen = set()
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    duplicate = key in seen
+                    seen.add(key)
+                except TypeError:  # unhashable key: SafeConstructor reports it
+                    continue
+                if duplicate:
+                    raise yaml.constructor.ConstructorError(
+                        "while constructing a mapping", node.start_mark,
+                        f"found duplicate key {key!r}", key_node.start_mark)
+        return super().construct_mapping(node, deep=deep)
 
 
 _Loader.add_implicit_resolver(
@@ -292,6 +321,9 @@ def load_yaml(path: str | os.PathLike) -> object:
             return yaml.load(handle, Loader=_Loader)
     except OSError as err:
         raise ConfigError(f"{path}: cannot read: {err.strerror}") from None
+    except UnicodeDecodeError as err:
+        raise ConfigError(f"{path}: cannot read: not UTF-8 text ({err.reason} at byte {err.start})") \
+            from None
     except yaml.YAMLError as err:
         raise ConfigError(f"{path}: not valid YAML: {err}") from None
 

@@ -51,7 +51,9 @@ def choke_flow(wm: WellModel, opening, dp_pa):
 
 
 def choke_opening_for_flow(wm: WellModel, flow_m3s: float, dp_pa: float) -> float:
-    """Inverse of :func:`choke_flow` for a positive differential pressure."""
+    """Inverse of :func:`choke_flow` for a positive differential pressure (0: no flow wanted)."""
+    if flow_m3s == 0.0:
+        return 0.0
     return flow_m3s / choke_flow(wm, 1.0, dp_pa)
 
 

@@ -17,6 +17,16 @@ class ConfigError(ValueError):
     """Bad configuration input; the message names file, key, value and the allowed range."""
 
 
+class FieldError(ValueError):
+    """Raised by a ``validate()`` method about one key: ``key`` is its path relative to the
+    object being validated (e.g. ``"string[2].outer_diameter_m"``), so the resulting
+    :class:`ConfigError` names the full key path."""
+
+    def __init__(self, key: str, message: str):
+        super().__init__(message)
+        self.key = key
+
+
 def param(unit: str = "", lo: float | None = None, hi: float | None = None, *,
           lo_open: bool = False, choices: tuple[str, ...] | None = None,
           default: Any = dataclasses.MISSING, doc: str = "") -> Any:
@@ -36,6 +46,21 @@ def _range_text(meta: Mapping[str, Any]) -> str:
     return f"{left}{lo_s}, {hi_s}]{unit}"
 
 
+def _allowed_text(hint: Any, meta: Mapping[str, Any]) -> str:
+    """What a field accepts, for error messages."""
+    if dataclasses.is_dataclass(hint):
+        return f"a mapping with keys {', '.join(f.name for f in dataclasses.fields(hint) if f.init)}"
+    if typing.get_origin(hint) is tuple:
+        return f"a non-empty list, each item {_allowed_text(typing.get_args(hint)[0], meta)}"
+    if hint is bool:
+        return "true or false"
+    if hint is str:
+        choices = meta.get("choices")
+        return f"one of {', '.join(choices)}" if choices else "a string"
+    kind = "an integer" if hint is int else "a number"
+    return f"{kind} in {_range_text(meta)}"
+
+
 class _Where:
     """Location of a value: file and dotted key path, for error messages."""
 
@@ -46,6 +71,13 @@ class _Where:
         key_s = f"[{key}]" if isinstance(key, int) else str(key)
         sep = "" if not self.path or isinstance(key, int) else "."
         return _Where(self.source, f"{self.path}{sep}{key_s}")
+
+    def at(self, relative: str) -> "_Where":
+        """The location ``relative`` (a dotted key path, may start with ``[i]``) below this one."""
+        if not relative:
+            return self
+        sep = "" if not self.path or relative.startswith("[") else "."
+        return _Where(self.source, f"{self.path}{sep}{relative}")
 
     def fail(self, message: str) -> ConfigError:
         return ConfigError(f"{self.source}: {self.path or '<top>'}: {message}")
@@ -74,7 +106,7 @@ def _convert(value: Any, hint: Any, meta: Mapping[str, Any], where: _Where) -> A
     if origin is tuple:
         item_hint = typing.get_args(hint)[0]
         if not isinstance(value, (list, tuple)) or len(value) == 0:
-            raise where.fail(f"value {value!r} must be a non-empty list")
+            raise where.fail(f"value {value!r} must be {_allowed_text(hint, meta)}")
         return tuple(_convert(v, item_hint, meta, where.child(i)) for i, v in enumerate(value))
     if hint is float:
         return _check_number(value, meta, where, integer=False)
@@ -86,7 +118,7 @@ def _convert(value: Any, hint: Any, meta: Mapping[str, Any], where: _Where) -> A
         return value
     if hint is str:
         if not isinstance(value, str):
-            raise where.fail(f"value {value!r} must be a string")
+            raise where.fail(f"value {value!r} must be {_allowed_text(hint, meta)}")
         choices = meta.get("choices")
         if choices and value not in choices:
             raise where.fail(f"value {value!r} is not one of {', '.join(choices)}")
@@ -108,7 +140,8 @@ def build(cls: type, data: Any, source: str = "<memory>", path: str = "") -> Any
     for name, field in fields.items():
         if name not in data:
             if field.default is dataclasses.MISSING:
-                raise where.child(name).fail(f"missing key (allowed {_range_text(field.metadata)})")
+                raise where.child(name).fail(
+                    f"missing key (allowed: {_allowed_text(hints[name], field.metadata)})")
             continue
         values[name] = _convert(data[name], hints[name], field.metadata, where.child(name))
     obj = cls(**values)
@@ -117,5 +150,5 @@ def build(cls: type, data: Any, source: str = "<memory>", path: str = "") -> Any
         try:
             check()
         except ValueError as err:
-            raise where.fail(str(err)) from None
+            raise where.at(getattr(err, "key", "")).fail(str(err)) from None
     return obj

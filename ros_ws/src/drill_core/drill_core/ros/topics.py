@@ -1,0 +1,33 @@
+"""Topic and service names and their QoS (DESIGN section 2).
+
+Everything the fast-mode lockstep depends on, and everything recorded, is reliable
+with keep-all history; setpoints are latched (transient local, depth 1).
+"""
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+MEASUREMENT = "/rig/measurement"        # drill_msgs/RigMeasurement, plant -> estimator, actuators
+TRUTH = "/rig/truth"                    # drill_msgs/PlantTruth, evaluation only
+COMMAND = "/rig/command"                # drill_msgs/RigCommand, supervisor -> actuators
+ESTIMATE = "/estimator/estimate"        # drill_msgs/StateEstimate
+NMPC_STATUS = "/nmpc/status"            # drill_msgs/NmpcStatus
+SETPOINTS = "/setpoints"                # drill_msgs/Setpoints, latched
+SET_SETPOINTS = "/set_setpoints"        # drill_msgs/srv/SetSetpoints, validating
+OPERATOR_EVENTS = "/operator/events"    # drill_msgs/OperatorEvent
+ACTUATORS = ("drawworks", "choke", "bpp", "mud_pump")
+
+
+def actuator_frame(name: str) -> str:
+    """drill_msgs/ActuatorFrame topic of one actuator."""
+    return f"/actuators/{name}/frame"
+
+
+def status(node: str) -> str:
+    """drill_msgs/NodeStatus topic of one node."""
+    return f"/{node}/status"
+
+
+RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.VOLATILE)
+LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                     reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
