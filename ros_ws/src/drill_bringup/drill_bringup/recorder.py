@@ -13,10 +13,10 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 import rclpy
 from ament_index_python.packages import PackageNotFoundError
 from drill_msgs.msg import NodeStatus
-from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
@@ -68,9 +68,9 @@ class Recorder(Node):
 
     def __init__(self, **kwargs):
         super().__init__("recorder", **kwargs)
-        string_array = ParameterDescriptor(type=ParameterType.PARAMETER_STRING_ARRAY)
         self.output = self.declare_parameter("output", "recording.mcap").value
-        self.topic_list = list(self.declare_parameter("topics", [], string_array).value)
+        self.topic_list = list(
+            self.declare_parameter("topics", Parameter.Type.STRING_ARRAY).value or [])
         self.exclude_regex = self.declare_parameter("exclude_regex", "").value
         chunk_size_bytes = self.declare_parameter(
             "chunk_size_bytes", mcap_io.DEFAULT_CHUNK_SIZE_BYTES).value
