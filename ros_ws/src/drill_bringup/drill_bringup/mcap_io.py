@@ -104,7 +104,9 @@ def dependencies(text: str, package: str) -> List[str]:
     for type_name in field_types(text):
         if type_name in PRIMITIVE_TYPES:
             continue
-        pkg, _, name = split_type_name(type_name) if "/" in type_name else (package, "msg", type_name)
+        if "/" not in type_name:
+            type_name = f"{package}/{type_name}"
+        pkg, _, name = split_type_name(type_name)
         deps.add(f"{pkg}/{name}")
     return sorted(deps)
 
@@ -445,7 +447,7 @@ def read_messages(path, topics: Optional[Iterable[str]] = None,
         reader = make_reader(stream)
         selected = None if topics is None else list(topics)
         for schema, channel, message in reader.iter_messages(
-                topics=selected, start_time=start_ns, end_time=end_ns, log_time_order=True):
+                topics=selected, starting_at=start_ns, ending_before=end_ns):
             yield _recorded(schema, channel, message)
 
 

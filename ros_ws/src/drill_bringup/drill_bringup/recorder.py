@@ -12,6 +12,7 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 import rclpy
 from ament_index_python.packages import PackageNotFoundError
+from drill_core.ros import topics
 from drill_msgs.msg import NodeStatus
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -23,8 +24,10 @@ from rclpy.signals import SignalHandlerOptions
 from drill_bringup import mcap_io
 from drill_bringup.mcap_io import QosOffer
 
-STATUS_TOPIC = "/recorder/status"
-DRAIN_S = 0.3
+STATUS_TOPIC = topics.status("recorder")
+DRAIN_QUIET_S = 0.2
+DRAIN_MAX_S = 10.0
+DRAIN_SPIN_S = 0.02
 SPIN_TIMEOUT_S = 0.1
 
 
@@ -82,7 +85,8 @@ class Recorder(Node):
                                           compression=compression)
         self._subscriptions_by_topic = {}
         self._unrecordable = set()
-        self._status_pub = self.create_publisher(NodeStatus, STATUS_TOPIC, 10)
+        self._status_pub = self.create_publisher(NodeStatus, STATUS_TOPIC, topics.RELIABLE)
+        self._errors: List[str] = []
         self._last_status = (time.monotonic(), 0)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(discovery_period_s, self.discover, clock=steady)
@@ -107,7 +111,8 @@ class Recorder(Node):
             if not self._writer.has_topic(topic):
                 self._writer.add_topic(topic, type_name, offers, str(infos[0].topic_type_hash))
         except (ImportError, AttributeError, OSError, ValueError, PackageNotFoundError) as exc:
-            self.get_logger().warning(f"cannot record {topic} [{type_name}]: {exc}")
+            self._errors.append(f"cannot record {topic} [{type_name}]: {exc}")
+            self.get_logger().warning(self._errors[-1])
             self._unrecordable.add(topic)
             return
         self._subscriptions_by_topic[topic] = self.create_subscription(
@@ -119,6 +124,11 @@ class Recorder(Node):
         if not self._writer.closed:
             self._writer.write(topic, data, self.get_clock().now().nanoseconds)
 
+    @property
+    def message_total(self) -> int:
+        """Messages written so far, all topics."""
+        return sum(self._writer.counts.values())
+
     def publish_status(self) -> None:
         """NodeStatus with per-topic counts; rate_hz = messages recorded per wall second."""
         counts = self._writer.counts
@@ -126,7 +136,9 @@ class Recorder(Node):
         now_s = time.monotonic()
         last_s, last_total = self._last_status
         self._last_status = (now_s, total)
-        msg = NodeStatus(node="recorder", healthy=not self._writer.closed)
+        msg = NodeStatus(node="recorder", healthy=not self._writer.closed,
+                         last_error=self._errors[-1] if self._errors else "",
+                         error_count=len(self._errors))
         msg.header.stamp = self.get_clock().now().to_msg()
         use_sim_time = self.get_parameter("use_sim_time").value
         msg.mode = ("sim_time" if use_sim_time else "wall_time") + "/recording"
@@ -144,16 +156,25 @@ class Recorder(Node):
         return counts
 
 
-def spin_until(executor, stop: threading.Event, context) -> None:
-    """Spin until stop is set or the context shuts down, then take what is still queued."""
+def spin_until(executor, stop: threading.Event, node: "Recorder") -> None:
+    """Spin until stop is set or the context shuts down, then drain queued messages."""
     try:
-        while not stop.is_set() and context.ok():
+        while not stop.is_set() and node.context.ok():
             executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
-        deadline_s = time.monotonic() + DRAIN_S
-        while context.ok() and time.monotonic() < deadline_s:
-            executor.spin_once(timeout_sec=0.02)
+        drain(executor, node)
     except ExternalShutdownException:
         pass
+
+
+def drain(executor, node: "Recorder") -> None:
+    """Spin until no message arrived for DRAIN_QUIET_S (at most DRAIN_MAX_S)."""
+    now_s = time.monotonic()
+    deadline_s, quiet_since_s, last_total = now_s + DRAIN_MAX_S, now_s, node.message_total
+    while node.context.ok() and now_s < deadline_s and now_s - quiet_since_s < DRAIN_QUIET_S:
+        executor.spin_once(timeout_sec=DRAIN_SPIN_S)
+        now_s = time.monotonic()
+        if node.message_total != last_total:
+            quiet_since_s, last_total = now_s, node.message_total
 
 
 def main(args: Optional[List[str]] = None) -> int:
@@ -166,7 +187,7 @@ def main(args: Optional[List[str]] = None) -> int:
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
-        spin_until(executor, stop, node.context)
+        spin_until(executor, stop, node)
     finally:
         node.close()
         executor.shutdown()

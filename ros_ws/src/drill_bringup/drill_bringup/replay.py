@@ -2,6 +2,7 @@
 
 Run: python -m drill_bringup.replay FILE [--rate F] [--loop] [--topics T ...] [--regex R]
      [--exclude-regex R] [--start-offset S] [--clock [HZ]] [--remap OLD:=NEW ...] [--delay S]
+     [--wait-for-subscribers]
 """
 import argparse
 import re
@@ -10,7 +11,7 @@ import sys
 import threading
 import time
 from dataclasses import dataclass
-from typing import Dict, Iterable, List, Optional, Sequence
+from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 import rclpy
 from rclpy.duration import Duration
@@ -19,7 +20,6 @@ from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSPro
                        ReliabilityPolicy)
 from rclpy.signals import SignalHandlerOptions
 from rclpy.time import Time
-from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock
 
 from drill_bringup import mcap_io
@@ -31,6 +31,7 @@ VOLATILE_DEPTH = 100
 LATCHED_DEPTH = 1
 ACK_TIMEOUT_S = 5.0
 MAX_SLEEP_S = 0.1
+SUBSCRIBER_POLL_S = 0.05
 NS_PER_S = 1e9
 
 
@@ -40,13 +41,24 @@ def select_topics(names: Iterable[str], topics: Optional[Sequence[str]] = None,
                   regex: Optional[str] = None, exclude_regex: Optional[str] = None) -> List[str]:
     """Topics to replay: listed or regex-matched (all if neither given), minus excluded."""
     def chosen(name: str) -> bool:
-        if topics is None and regex is None:
-            included = True
-        else:
-            included = (topics is not None and name in topics) or bool(
-                regex and re.search(regex, name))
-        return included and not (exclude_regex and re.search(exclude_regex, name))
+        listed = topics is not None and name in topics
+        matched = bool(regex) and re.search(regex, name) is not None
+        excluded = bool(exclude_regex) and re.search(exclude_regex, name) is not None
+        return (listed or matched or (topics is None and regex is None)) and not excluded
     return sorted(name for name in names if chosen(name))
+
+
+def split_ros_args(argv: Sequence[str]) -> Tuple[List[str], List[str]]:
+    """argv -> (tool arguments, ROS arguments between --ros-args and -- or the end)."""
+    tool, ros, in_ros = [], [], False
+    for arg in argv:
+        if arg == "--ros-args":
+            in_ros = True
+        elif in_ros and arg == "--":
+            in_ros = False
+            continue
+        (ros if in_ros else tool).append(arg)
+    return tool, ros
 
 
 def parse_remaps(items: Iterable[str]) -> Dict[str, str]:
@@ -159,8 +171,9 @@ class Pacer:
 def _play_once(path, publishers: Dict[str, object], latched: List[str], start_ns: int,
                rate: float, pacer: Pacer) -> int:
     """One pass: latched backlog before start_ns at once, then the rest in time."""
-    backlog = latest_per_topic(mcap_io.read_messages(path, latched, end_ns=start_ns)) \
-        if latched else []
+    backlog = []
+    if latched:
+        backlog = latest_per_topic(mcap_io.read_messages(path, latched, end_ns=start_ns))
     for message in backlog:
         publishers[message.topic].publish(message.data)
     timebase = Timebase(start_ns, time.monotonic(), rate)
@@ -174,16 +187,23 @@ def _play_once(path, publishers: Dict[str, object], latched: List[str], start_ns
     return count
 
 
+def _wait_for_subscribers(publishers, stop: threading.Event) -> None:
+    while not stop.is_set() and any(
+            p is not None and p.get_subscription_count() == 0 for p in publishers):
+        stop.wait(SUBSCRIBER_POLL_S)
+
+
 def replay_file(path, *, rate: float = 1.0, loop: bool = False,
                 topics: Optional[Sequence[str]] = None, regex: Optional[str] = None,
                 exclude_regex: Optional[str] = None, start_offset_s: float = 0.0,
                 clock_hz: float = 0.0, remap: Optional[Dict[str, str]] = None,
-                delay_s: float = 0.5, node: Optional[Node] = None,
-                stop: Optional[threading.Event] = None) -> int:
+                delay_s: float = 0.5, wait_for_subscribers: bool = False,
+                node: Optional[Node] = None, stop: Optional[threading.Event] = None) -> int:
     """Republish a recording; returns the number of messages published.
 
     Needs an initialised rclpy context (a node named 'replay' is made if none is given).
-    delay_s lets subscribers discover the new publishers before the first message.
+    delay_s lets subscribers discover the new publishers before the first message;
+    wait_for_subscribers first waits until every publisher (and /clock) has a subscriber.
     With clock_hz > 0 a recorded /clock topic is not replayed (the player owns /clock).
     """
     if rate <= 0:
@@ -204,10 +224,13 @@ def replay_file(path, *, rate: float = 1.0, loop: bool = False,
     start_ns = mcap_io.time_range_ns(path)[0] + int(start_offset_s * NS_PER_S)
     count = 0
     try:
+        if wait_for_subscribers:
+            _wait_for_subscribers([*publishers.values(), clock_publisher], stop)
         stop.wait(delay_s)
         while not stop.is_set():
-            count += _play_once(path, publishers, latched, start_ns, rate, pacer)
-            if not loop:
+            played = _play_once(path, publishers, latched, start_ns, rate, pacer)
+            count += played
+            if not (loop and played):
                 break
         for publisher in publishers.values():
             publisher.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT_S))
@@ -221,7 +244,7 @@ def replay_file(path, *, rate: float = 1.0, loop: bool = False,
 
 
 def parse_args(argv: Sequence[str]) -> argparse.Namespace:
-    """Command line (ROS arguments already removed)."""
+    """Tool command line (without the program name and ROS arguments)."""
     parser = argparse.ArgumentParser(prog="python -m drill_bringup.replay",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("file", help="MCAP file")
@@ -240,14 +263,17 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
                         help="publish topic OLD as NEW")
     parser.add_argument("--delay", type=float, default=0.5, metavar="SECONDS",
                         help="wait for discovery before the first message")
+    parser.add_argument("--wait-for-subscribers", action="store_true",
+                        help="before the delay, wait until every replayed topic (and /clock) "
+                             "has a subscriber")
     return parser.parse_args(argv)
 
 
 def main(argv: Optional[List[str]] = None) -> int:
     """CLI entry point; SIGINT/SIGTERM stop the replay and exit 0."""
-    argv = sys.argv if argv is None else argv
-    args = parse_args(remove_ros_args(argv)[1:])
-    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+    tool_args, ros_args = split_ros_args(sys.argv if argv is None else argv)
+    args = parse_args(tool_args[1:])
+    rclpy.init(args=tool_args[:1] + ros_args, signal_handler_options=SignalHandlerOptions.NO)
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
@@ -256,7 +282,8 @@ def main(argv: Optional[List[str]] = None) -> int:
         count = replay_file(args.file, rate=args.rate, loop=args.loop, topics=args.topics,
                             regex=args.regex, exclude_regex=args.exclude_regex,
                             start_offset_s=args.start_offset, clock_hz=args.clock,
-                            remap=parse_remaps(args.remap), delay_s=args.delay, node=node,
+                            remap=parse_remaps(args.remap), delay_s=args.delay,
+                            wait_for_subscribers=args.wait_for_subscribers, node=node,
                             stop=stop)
         node.get_logger().info(f"replayed {count} messages from {args.file}")
     finally:

@@ -72,7 +72,8 @@ def test_status_values_list_counts_and_total():
 # ---------------------------------------------------------------- processes
 
 def dds_env(domain_id: int) -> dict:
-    return dict(os.environ, ROS_DOMAIN_ID=str(domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    return dict(os.environ, ROS_DOMAIN_ID=str(domain_id),
+                ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
 
 
 def start_recorder(output: Path, domain_id: int, *params: str) -> subprocess.Popen:
@@ -134,15 +135,20 @@ def publish_run(node, n: int) -> list:
     node.create_publisher(Setpoints, "/setpoints", LATCHED_QOS).publish(
         Setpoints(bhp_ref_pa=3.0e7, source="test"))
     publisher = node.create_publisher(RigMeasurement, "/rig/measurement", KEEP_ALL_QOS)
-    wait_for(lambda: publisher.get_subscription_count() > 0, 15, "recorder subscription")
+    wait_for(lambda: publisher.get_subscription_count() > 0
+             and recorded(statuses, "/rig/measurement") >= 0, 15,
+             "recorder subscription and a status listing it")
     for i in range(n):
         msg = RigMeasurement(bhp_pa=float(i), block_position_m=-0.01 * i)
         msg.header.stamp.sec, msg.header.stamp.nanosec = i + 1, 500
         publisher.publish(msg)
     assert publisher.wait_for_all_acked(Duration(seconds=10))
+    return statuses
+
+
+def wait_recorded(statuses, n: int) -> None:
     wait_for(lambda: recorded(statuses, "/rig/measurement") == n
              and recorded(statuses, "/setpoints") == 1, 10, "recorder status counts")
-    return statuses
 
 
 @pytest.mark.dds
@@ -152,10 +158,11 @@ def test_recorder_records_a_publisher_process_and_closes_on_sigint(tmp_path, mon
     with recorder_process(output, 61) as process:
         with spinning_node(61, "publisher", monkeypatch) as node:
             statuses = publish_run(node, N_MESSAGES)
-        process.send_signal(signal.SIGINT)
+        process.send_signal(signal.SIGINT)  # at once: what is still queued must be drained
         assert process.wait(timeout=10) == 0
     wall_end_ns = time.time_ns()
     assert statuses[-1].node == "recorder" and statuses[-1].mode == "wall_time/recording"
+    assert {"messages/rig/measurement", "messages_total"} <= set(statuses[-1].keys)
 
     counts = json.loads(Path(f"{output}.counts.json").read_text())
     assert counts["/rig/measurement"] == N_MESSAGES and counts["/setpoints"] == 1
@@ -199,7 +206,7 @@ def test_recorder_uses_sim_time_and_closes_on_sigterm(tmp_path, monkeypatch):
             tick = Clock()
             tick.clock.sec, tick.clock.nanosec = divmod(SIM_TIME_NS, 10**9)
             node.create_timer(0.02, lambda: clock.publish(tick))
-            publish_run(node, 20)
+            wait_recorded(publish_run(node, 20), 20)
         process.send_signal(signal.SIGTERM)
         assert process.wait(timeout=10) == 0
     assert set(mcap_io.topics(output)) == {"/rig/measurement", "/setpoints"}
@@ -212,7 +219,7 @@ def test_hard_killed_recorder_file_is_recoverable(tmp_path, monkeypatch):
     output = tmp_path / "killed.mcap"
     with recorder_process(output, 62, "chunk_size_bytes:=1024") as process:
         with spinning_node(62, "publisher", monkeypatch) as node:
-            publish_run(node, N_MESSAGES)
+            wait_recorded(publish_run(node, N_MESSAGES), N_MESSAGES)
         process.send_signal(signal.SIGKILL)
         assert process.wait(timeout=10) == -signal.SIGKILL
     assert not output.read_bytes().endswith(MCAP_MAGIC)

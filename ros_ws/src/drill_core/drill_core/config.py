@@ -191,6 +191,25 @@ class Estimator:
     nis_alarm_probability: float = param("1", 0.5, 0.999999)
     covariance_inflation: float = param("1", 1.0, 100.0)
     estimate_bottom_influx: bool = param(default=False)
+    initial_rig_std: tuple[float, ...] = param("m, m/s, m s", 0.0, lo_open=True,
+                                               default=(0.01, 0.01, 0.01),
+                                               doc="initial std of z1..z3")
+    initial_bottom_influx_std_m3s: float = param("m^3/s", 0.0, lo_open=True, default=1.0e-4)
+    max_std_factor: float = param("1", 1.0, 1.0e6, default=10.0,
+                                  doc="each state's std is capped at this times its initial std")
+    block_input: str = param(choices=("reference", "block_position"), default="reference",
+                             doc="time-update input u[0]: drawworks reference u_r or its output u_b")
+    choke_input: str = param(choices=("flow", "opening"), default="flow",
+                             doc="time-update input u[1]: virtual-meter choke flow or choke opening")
+
+    def validate(self) -> None:
+        for key in ("rig_process_std", "initial_rig_std"):
+            if len(getattr(self, key)) != 3:
+                raise FieldError(key, f"value {list(getattr(self, key))} must list 3 values "
+                                 "(z1 m, z2 m/s, z3 m s)")
+        if self.alpha ** 2 * self.kappa_offset <= 0.0:
+            raise FieldError("kappa_offset", f"value {self.kappa_offset} must be positive "
+                             "(n_x + lambda = alpha^2 kappa_offset is the sigma-point spread)")
 
 
 # --------------------------------------------------------------------------- nmpc
@@ -246,6 +265,16 @@ class Nmpc:
     slack_weight_bhp: float = param("1", 0.0)
     max_iterations: int = param("1", 1, 10000)
     solver: str = param(choices=("ipopt", "fatrop", "sqpmethod"))
+    input_reference_weight: InputVector = param(
+        default=InputVector(0.0, 0.0, 1.0, 1.0),
+        doc="r_r tilde (eq. 49/55); u_ref = [block target, previous choke flow, 0, initial spp]")
+    integral_limit_s: float = param("s", 0.0, 1.0e4, lo_open=True, default=20.0,
+                                    doc="NMPC1 anti-windup: |e_i| <= limit (e in output spans x s)")
+    jit: bool = param(default=False, doc="compile the NLP functions with the C compiler (JIT)")
+    pore_pressure_pa: float = param("Pa", 0.0, 5.0e8, default=6.5e7,
+                                    doc="lower edge of the pressure window at the BHP sensor")
+    fracture_pressure_pa: float = param("Pa", 0.0, 5.0e8, default=7.5e7,
+                                        doc="upper edge of the pressure window at the BHP sensor")
 
     def validate(self) -> None:
         if self.control_horizon_s > self.prediction_horizon_s:
@@ -260,6 +289,9 @@ class Nmpc:
         for alpha in self.reference_smoothing.as_tuple():
             if not 0.0 <= alpha < 1.0:
                 raise ValueError(f"reference_smoothing {alpha} must lie in [0, 1)")
+        if self.pore_pressure_pa >= self.fracture_pressure_pa:
+            raise FieldError("pore_pressure_pa", f"value {self.pore_pressure_pa:g} Pa must be below "
+                             f"fracture_pressure_pa {self.fracture_pressure_pa:g} Pa")
 
     @property
     def prediction_steps(self) -> int:

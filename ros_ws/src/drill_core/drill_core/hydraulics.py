@@ -67,8 +67,15 @@ def bit_flow(xp, wm: WellModel, dp_pa):
 
 
 def string_friction(xp, wm: WellModel, string_flow_m3s, string_velocity_mps):
-    """Frictional loss down the drill string [Pa] (known first-principles model, paper f_2)."""
-    return path_pressure_loss(xp, string_flow_m3s, string_velocity_mps, wm.string_fluid,
+    """Frictional loss down the drill string [Pa] (known first-principles model, paper f_2).
+
+    The string column is lumped incompressible, so the flow relative to the moving pipe is
+    the same in every section: q_rel = q_d + A_I v_s (A_I at the top, as in the p_I balance),
+    giving wall-relative velocity q_rel / A_section (not q_d / A_section + v_s, which leaves
+    spurious friction where the inner diameter changes while the mud moves with the pipe).
+    """
+    relative_flow = string_flow_m3s + wm.geometry.string_top_inner_area_m2 * string_velocity_mps
+    return path_pressure_loss(xp, relative_flow, 0.0, wm.string_fluid,
                               wm.geometry.string_sections, wm.regularisation_mps)
 
 

@@ -1,0 +1,182 @@
+"""Launch the rig graph as separate processes (there is no ros2 launch in our stack).
+
+Every node runs as ``python -m <module> --ros-args -p ...`` on an isolated
+ROS_DOMAIN_ID with localhost discovery; each node's output goes to
+``<run>/logs/<node>.log``. The recorder starts first and stops last. In fast mode
+the plant starts the lockstep once every subscription the graph needs is
+connected, and exits when the scenario ends; the launcher then stops the rest.
+A node that dies makes the launch fail with its name, exit code and last log lines.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from drill_core.ros import topics
+
+ACTUATOR_NODES = topics.ACTUATORS
+LOG_TAIL_LINES = 15
+
+
+@dataclass
+class NodeSpec:
+    name: str
+    module: str
+    params: dict = field(default_factory=dict)
+
+
+@dataclass
+class LaunchResult:
+    ok: bool
+    message: str
+    mcap_path: Path
+    wall_time_s: float
+    exit_codes: dict
+
+
+class LaunchError(RuntimeError):
+    """A node failed; the message names it and shows its last log lines."""
+
+
+def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -> list[NodeSpec]:
+    """The node set of a run, recorder first and plant last."""
+    nodes = [NodeSpec("recorder", "drill_bringup.recorder", {"output": str(mcap_path)})]
+    for name in ACTUATOR_NODES:
+        nodes.append(NodeSpec(name, "drill_plant.actuator_node", {"actuator": name}))
+    nodes.append(NodeSpec("estimator", "drill_estimator.estimator_node"))
+    if scenario_controller == "nmpc":
+        nodes.append(NodeSpec("nmpc", "drill_nmpc.nmpc_node"))
+    elif scenario_controller == "baseline":
+        nodes.append(NodeSpec("baseline", "drill_nmpc.baseline_node"))
+    sim_nodes = len(nodes)
+    controller = scenario_controller in ("nmpc", "baseline")
+    wait_for = [
+        f"sub@{topics.MEASUREMENT}:{len(ACTUATOR_NODES) + 2 + (scenario_controller == 'baseline')}",
+        f"sub@{topics.TRUTH}:1",
+        f"sub@{topics.ESTIMATE}:{1 + (scenario_controller == 'nmpc')}",
+        f"sub@/clock:{sim_nodes}" if fast else "",
+    ]
+    if controller:
+        wait_for.append(f"sub@{topics.COMMAND}:{len(ACTUATOR_NODES) + 1}")
+        wait_for.append(f"pub@{topics.COMMAND}:1")
+    for name in ACTUATOR_NODES:
+        wait_for.append(f"sub@{topics.actuator_frame(name)}:3")
+        wait_for.append(f"pub@{topics.actuator_frame(name)}:1")
+    nodes.append(NodeSpec("plant", "drill_plant.plant_node", {"wait_for": [w for w in wait_for if w]}))
+    for node in nodes:
+        node.params.update(common)
+        node.params["use_sim_time"] = fast and node.name != "plant"
+    return nodes
+
+
+def _param_arg(key: str, value) -> str:
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, (list, tuple)):
+        text = "[" + ",".join(f"'{v}'" for v in value) + "]"
+    else:
+        text = str(value)
+    return f"{key}:={text}"
+
+
+def command_line(spec: NodeSpec) -> list[str]:
+    args = [sys.executable, "-m", spec.module, "--ros-args", "-r", f"__node:={spec.name}"]
+    for key, value in spec.params.items():
+        args += ["-p", _param_arg(key, value)]
+    return args
+
+
+def isolated_env(domain_id: int) -> dict:
+    env = dict(os.environ)
+    env["ROS_DOMAIN_ID"] = str(domain_id)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    env["RMW_IMPLEMENTATION"] = "rmw_fastrtps_cpp"
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
+
+
+def default_domain_id() -> int:
+    """A domain per process tree, so parallel runs do not see each other (1..100)."""
+    return 1 + os.getpid() % 100
+
+
+def tail(path: Path, lines: int = LOG_TAIL_LINES) -> str:
+    try:
+        with open(path, encoding="utf-8", errors="replace") as handle:
+            return "".join(deque(handle, maxlen=lines))
+    except OSError:
+        return "(no log)"
+
+
+class Launch:
+    """A running graph: start, watch, stop."""
+
+    def __init__(self, nodes: list[NodeSpec], run_dir: Path, domain_id: int):
+        self.nodes = nodes
+        self.run_dir = run_dir
+        self.logs = run_dir / "logs"
+        self.env = isolated_env(domain_id)
+        self.procs: dict[str, subprocess.Popen] = {}
+
+    def start(self) -> None:
+        self.logs.mkdir(parents=True, exist_ok=True)
+        for spec in self.nodes:
+            log = open(self.logs / f"{spec.name}.log", "w", encoding="utf-8")
+            self.procs[spec.name] = subprocess.Popen(
+                command_line(spec), stdout=log, stderr=subprocess.STDOUT, env=self.env,
+                start_new_session=True)
+            log.close()
+
+    def failure(self, name: str, code: int) -> str:
+        return (f"node '{name}' exited with code {code}; last lines of "
+                f"{self.logs / (name + '.log')}:\n{tail(self.logs / (name + '.log'))}")
+
+    def watch(self, timeout_s: float, on_poll=None) -> tuple[bool, str]:
+        """Wait for the plant to finish; fail if any node dies first or time runs out."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            for name, proc in self.procs.items():
+                code = proc.poll()
+                if code is None:
+                    continue
+                if name == "plant" and code == 0:
+                    return True, "scenario finished"
+                return False, self.failure(name, code)
+            if on_poll is not None:
+                on_poll()
+            time.sleep(0.1)
+        return False, f"timed out after {timeout_s:.0f} s (see {self.logs})"
+
+    def stop(self, grace_s: float = 10.0) -> dict:
+        """SIGINT every node (recorder last), escalate to SIGKILL after ``grace_s``."""
+        order = [n for n in self.procs if n != "recorder"] + ["recorder"]
+        for name in order:
+            if name == "recorder":
+                self._wait([n for n in order if n != "recorder"], grace_s)
+                time.sleep(0.5)
+            proc = self.procs.get(name)
+            if proc is not None and proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+        self._wait(order, grace_s)
+        for proc in self.procs.values():
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+        return {name: proc.returncode for name, proc in self.procs.items()}
+
+    def _wait(self, names, grace_s: float) -> None:
+        deadline = time.monotonic() + grace_s
+        for name in names:
+            proc = self.procs.get(name)
+            if proc is None:
+                continue
+            try:
+                proc.wait(timeout=max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                pass

@@ -1,0 +1,261 @@
+"""Run report from a recording: the paper's Table 7 figures, BHP-window violations,
+peak surge/swab, solve-time statistics and PNG plots (bar and L/min on the plots
+and in the printed table only; summary.json stays SI)."""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from drill_bringup import mcap_io
+from drill_core.ros import topics
+
+PA_PER_BAR = 1e5
+LPM_PER_M3S = 60000.0
+
+
+@dataclass
+class Series:
+    """Time series pulled from one recording (SI)."""
+    t: dict = field(default_factory=dict)
+    v: dict = field(default_factory=dict)
+
+    def add(self, key: str, t_s: float, value) -> None:
+        self.t.setdefault(key, []).append(t_s)
+        self.v.setdefault(key, []).append(value)
+
+    def get(self, key: str):
+        return np.asarray(self.t.get(key, []), float), np.asarray(self.v.get(key, []), float)
+
+
+def _stamp_s(msg) -> float:
+    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+
+def load_series(mcap_path: Path) -> Series:
+    s = Series()
+    wanted = [topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.NMPC_STATUS, topics.COMMAND,
+              topics.SETPOINTS]
+    for rec, msg in mcap_io.decoded_messages(mcap_path, wanted):
+        t = _stamp_s(msg)
+        if rec.topic == topics.TRUTH:
+            s.add("bhp", t, msg.bhp_pa)
+            s.add("choke_dp", t, msg.annulus_pressure_pa[0])
+            s.add("position", t, msg.string_position_m)
+            s.add("velocity", t, msg.string_velocity_mps)
+            s.add("block", t, msg.block_position_m)
+            s.add("friction", t, list(msg.annulus_friction_pa))
+            s.add("choke_opening", t, msg.choke_opening)
+            s.add("bpp", t, msg.bpp_flow_m3s)
+            s.add("spp", t, msg.spp_pa)
+            s.add("choke_flow", t, msg.annulus_flow_m3s[0])
+        elif rec.topic == topics.MEASUREMENT:
+            s.add("bhp_meas", t, msg.bhp_pa)
+        elif rec.topic == topics.ESTIMATE:
+            s.add("bhp_est", t, msg.bhp_pa)
+            s.add("friction_est", t, list(msg.friction_pa))
+            s.add("nis", t, msg.nis)
+        elif rec.topic == topics.NMPC_STATUS:
+            s.add("solve_time", t, msg.solve_time_s)
+            s.add("fallback", t, 0.0 if msg.fallback == "none" else 1.0)
+            s.add("bhp_ref_smoothed", t, msg.bhp_ref_pa)
+        elif rec.topic == topics.COMMAND:
+            s.add("cmd", t, [msg.block_position_ref_m, msg.choke_flow_ref_m3s, msg.bpp_flow_m3s,
+                             msg.spp_pa])
+        elif rec.topic == topics.SETPOINTS:
+            s.add("setpoints", t, [msg.bhp_ref_pa, msg.bhp_band_pa, msg.block_position_target_m])
+    return s
+
+
+def _held(t_query, t_src, v_src, default):
+    """Zero-order hold of a step signal (setpoints) at the query times."""
+    if len(t_src) == 0:
+        return np.full((len(t_query),) + np.shape(default), default, float)
+    idx = np.clip(np.searchsorted(t_src, t_query, side="right") - 1, 0, None)
+    return np.asarray(v_src)[idx]
+
+
+def references(s: Series, t):
+    """BHP reference, half band and block target at the truth times."""
+    t_sp, sp = s.get("setpoints")
+    _, bhp = s.get("bhp")
+    default = [bhp[0], 2e5, 0.0]
+    held = _held(t, t_sp, sp, default)
+    held[:, 0] = np.where(np.isfinite(held[:, 0]) & (held[:, 0] > 0), held[:, 0], bhp[0])
+    return held[:, 0], held[:, 1], held[:, 2]
+
+
+def summarise(s: Series) -> dict:
+    """The run's numbers (SI) in the paper's Table 7 form plus window and timing statistics."""
+    t, bhp = s.get("bhp")
+    _, pos = s.get("position")
+    ref, band, target = references(s, t)
+    e_bhp = bhp - ref
+    e_pos = pos - target
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    outside = np.abs(e_bhp) > band
+    excursion = np.where(outside, np.abs(e_bhp) - band, 0.0)
+    _, solve = s.get("solve_time")
+    _, fallback = s.get("fallback")
+    out = {
+        "duration_s": float(t[-1] - t[0]) if len(t) else 0.0,
+        "block_position_mean_error_m": float(np.mean(e_pos)),
+        "block_position_rmse_m": float(np.sqrt(np.mean(e_pos ** 2))),
+        "bhp_mean_error_pa": float(np.mean(e_bhp)),
+        "bhp_rmse_pa": float(np.sqrt(np.mean(e_bhp ** 2))),
+        "bhp_window_violations": int(np.count_nonzero(np.diff(outside.astype(int)) == 1)
+                                     + int(outside[0])) if len(outside) else 0,
+        "bhp_worst_excursion_pa": float(np.max(excursion)) if len(excursion) else 0.0,
+        "bhp_time_outside_s": float(np.count_nonzero(outside) * dt),
+        "peak_surge_pa": float(np.max(bhp - bhp[0])),
+        "peak_swab_pa": float(np.min(bhp - bhp[0])),
+        "max_string_speed_mps": float(np.max(np.abs(s.get("velocity")[1]))) if len(t) else 0.0,
+        "trip_distance_m": float(np.max(pos) - np.min(pos)) if len(pos) else 0.0,
+    }
+    t_est, bhp_est = s.get("bhp_est")
+    if len(t_est):
+        truth_at = np.interp(t_est, t, bhp)
+        out["bhp_estimate_rmse_pa"] = float(np.sqrt(np.mean((bhp_est - truth_at) ** 2)))
+    if len(solve):
+        out.update({
+            "solve_time_median_s": float(np.median(solve)),
+            "solve_time_p95_s": float(np.percentile(solve, 95)),
+            "solve_time_max_s": float(np.max(solve)),
+            "solves": int(len(solve)),
+            "fallbacks": int(np.sum(fallback)),
+        })
+    return out
+
+
+def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
+    """Human-readable summary in drilling units."""
+    rows = [
+        f"Run: {name}",
+        f"  duration                      {summary['duration_s']:.0f} s",
+        f"  trip distance                 {summary['trip_distance_m']:.1f} m "
+        f"(max string speed {summary['max_string_speed_mps']:.2f} m/s)",
+        "  Table 7 form                  mean error      RMSE",
+        f"    block position [m]         {summary['block_position_mean_error_m']:10.3f}  "
+        f"{summary['block_position_rmse_m']:9.3f}",
+        f"    BHP [bar]                  {summary['bhp_mean_error_pa'] / PA_PER_BAR:10.3f}  "
+        f"{summary['bhp_rmse_pa'] / PA_PER_BAR:9.3f}",
+        f"  BHP window violations         {summary['bhp_window_violations']} "
+        f"(worst {summary['bhp_worst_excursion_pa'] / PA_PER_BAR:.2f} bar outside, "
+        f"{summary['bhp_time_outside_s']:.1f} s outside)",
+        f"  peak surge / swab             {summary['peak_surge_pa'] / PA_PER_BAR:+.2f} / "
+        f"{summary['peak_swab_pa'] / PA_PER_BAR:+.2f} bar",
+    ]
+    if "bhp_estimate_rmse_pa" in summary:
+        rows.append(f"  BHP estimate RMSE             {summary['bhp_estimate_rmse_pa'] / PA_PER_BAR:.3f} bar")
+    if "solves" in summary:
+        rows.append(f"  NMPC solve time               median {summary['solve_time_median_s'] * 1e3:.1f} ms, "
+                    f"p95 {summary['solve_time_p95_s'] * 1e3:.1f} ms, max {summary['solve_time_max_s'] * 1e3:.1f} ms "
+                    f"({summary['solves']} solves, {summary['fallbacks']} fallbacks; paper: 16.4 s)")
+    if baseline:
+        rows.append(f"  baseline peak surge / swab    {baseline['peak_surge_pa'] / PA_PER_BAR:+.2f} / "
+                    f"{baseline['peak_swab_pa'] / PA_PER_BAR:+.2f} bar, BHP RMSE "
+                    f"{baseline['bhp_rmse_pa'] / PA_PER_BAR:.3f} bar")
+    return "\n".join(rows)
+
+
+def plot(s: Series, out_dir: Path) -> list[Path]:
+    """PNG plots a drilling engineer expects; returns their paths."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    t, bhp = s.get("bhp")
+    ref, band, target = references(s, t)
+    paths = []
+
+    def save(fig, name):
+        path = out_dir / name
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    tm, meas = s.get("bhp_meas")
+    ax.plot(tm, meas / PA_PER_BAR, ".", ms=1, color="0.7", label="measured")
+    ax.plot(t, bhp / PA_PER_BAR, lw=1.2, label="true")
+    te, est = s.get("bhp_est")
+    if len(te):
+        ax.plot(te, est / PA_PER_BAR, lw=1, label="estimated")
+    ax.plot(t, ref / PA_PER_BAR, "k--", lw=1, label="reference")
+    ax.fill_between(t, (ref - band) / PA_PER_BAR, (ref + band) / PA_PER_BAR, color="tab:green",
+                    alpha=0.15, label="window")
+    ax.set(xlabel="time [s]", ylabel="BHP [bar]", title="Bottom-hole pressure")
+    ax.legend(loc="best", fontsize=8)
+    save(fig, "bhp.png")
+
+    fig, ax = plt.subplots(figsize=(10, 3.5))
+    _, dp = s.get("choke_dp")
+    ax.plot(t, dp / PA_PER_BAR)
+    ax.set(xlabel="time [s]", ylabel="choke dp [bar]", title="Choke differential pressure")
+    save(fig, "choke_dp.png")
+
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True)
+    _, pos = s.get("position")
+    _, blk = s.get("block")
+    a1.plot(t, pos, label="string position")
+    a1.plot(t, blk, lw=0.8, label="block (drawworks)")
+    a1.plot(t, target, "k--", lw=0.8, label="target")
+    a1.set(ylabel="position [m]")
+    a1.legend(fontsize=8)
+    _, vel = s.get("velocity")
+    a2.plot(t, vel)
+    a2.axhline(0.5, color="r", ls=":", lw=0.8)
+    a2.axhline(-0.5, color="r", ls=":", lw=0.8)
+    a2.set(xlabel="time [s]", ylabel="string velocity [m/s]")
+    save(fig, "block.png")
+
+    fig, axes = plt.subplots(4, 1, figsize=(10, 8), sharex=True)
+    tc, cmd = s.get("cmd")
+    _, qc = s.get("choke_flow")
+    _, bpp = s.get("bpp")
+    _, spp = s.get("spp")
+    has_cmd = cmd.ndim == 2 and len(cmd)
+    axes[0].plot(t, pos, label="string position")
+    axes[1].plot(t, qc * LPM_PER_M3S, label="choke flow")
+    axes[2].plot(t, bpp * LPM_PER_M3S, label="back-pressure pump")
+    axes[3].plot(t, spp / PA_PER_BAR, label="stand-pipe pressure")
+    if has_cmd:
+        axes[0].step(tc, cmd[:, 0], where="post", label="u_r command")
+        axes[1].step(tc, cmd[:, 1] * LPM_PER_M3S, where="post", label="reference")
+        axes[2].step(tc, cmd[:, 2] * LPM_PER_M3S, where="post", label="command")
+        axes[3].step(tc, cmd[:, 3] / PA_PER_BAR, where="post", label="command")
+    for ax, unit in zip(axes, ["m", "L/min", "L/min", "bar"]):
+        ax.set_ylabel(unit)
+        ax.legend(fontsize=7, loc="best")
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle("Inputs: block reference, choke flow, back-pressure pump, stand-pipe pressure")
+    save(fig, "inputs.png")
+
+    fig, ax = plt.subplots(figsize=(10, 4))
+    _, fr = s.get("friction")
+    tf, fe = s.get("friction_est")
+    for i in range(fr.shape[1] if fr.ndim == 2 else 0):
+        line, = ax.plot(t, fr[:, i] / PA_PER_BAR, lw=1, label=f"true path {i + 2}")
+        if fe.ndim == 2 and len(fe):
+            ax.plot(tf, fe[:, i] / PA_PER_BAR, "--", lw=1, color=line.get_color(),
+                    label=f"estimated path {i + 2}")
+    ax.set(xlabel="time [s]", ylabel="friction [bar]", title="Annular friction: estimated vs true")
+    ax.legend(fontsize=7, ncol=2)
+    save(fig, "friction.png")
+    return paths
+
+
+def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | None = None):
+    """Summary JSON, plots and the printed table for one recording."""
+    series = load_series(mcap_path)
+    summary = summarise(series)
+    (out_dir / "summary.json").write_text(json.dumps(
+        {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+         for k, v in summary.items()}, indent=2))
+    plots = plot(series, out_dir / "plots")
+    return summary, plots, format_table(name, summary, baseline)

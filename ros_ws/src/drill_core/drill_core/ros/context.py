@@ -1,0 +1,43 @@
+"""Parameters every rig node takes: config_dir, scenario, mode (fast | realtime)."""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from drill_core import hydraulics as hy
+from drill_core.config import RigConfig
+from drill_core.scenario import Scenario, load_scenario_config
+
+MODES = ("fast", "realtime")
+
+
+@dataclass(frozen=True)
+class NodeContext:
+    scenario: Scenario
+    config: RigConfig
+    mode: str
+    well_model: hy.WellModel
+
+    @property
+    def fast(self) -> bool:
+        return self.mode == "fast"
+
+
+def _default_root() -> Path:
+    return Path(os.environ.get("RIG_ROOT", Path.cwd()))
+
+
+def load_context(node) -> NodeContext:
+    """Declare and read the common parameters, then load scenario and configuration once."""
+    root = _default_root()
+    config_dir = node.declare_parameter("config_dir", str(root / "config")).value
+    scenario_path = node.declare_parameter(
+        "scenario", str(root / "config" / "scenarios" / "case2.yaml")).value
+    mode = node.declare_parameter("mode", "fast").value
+    if mode not in MODES:
+        raise ValueError(f"parameter mode: {mode!r} is not one of {', '.join(MODES)}")
+    scenario, config = load_scenario_config(scenario_path, config_dir)
+    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
+                             config.plant.choke_regularisation_pa)
+    return NodeContext(scenario, config, mode, wm)

@@ -1,0 +1,30 @@
+"""Run a node until shutdown, turning SIGINT/SIGTERM into a clean exit."""
+from __future__ import annotations
+
+import signal
+import sys
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+
+
+def run(node_factory, args=None) -> int:
+    """Create the node with ``node_factory`` and spin it; returns the process exit code."""
+    rclpy.init(args=args)
+    signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
+    node = None
+    code = 0
+    try:
+        node = node_factory()
+        rclpy.spin(node)
+        code = getattr(node, "exit_code", 0)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        code = getattr(node, "exit_code", 0) if node is not None else 0
+    except Exception as err:  # a node that fails says why, then exits non-zero
+        print(f"[fatal] {type(err).__name__}: {err}", file=sys.stderr, flush=True)
+        code = 1
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code

@@ -1,0 +1,460 @@
+"""Unscented Kalman filter of the rig (paper eqs. 6-16 and 45-48; DESIGN section 5).
+
+Plain Python (no rclpy). The filter is filterpy's ``UnscentedKalmanFilter`` with
+``MerweScaledSigmaPoints`` (the paper's alpha, beta and kappa = kappa_offset - n_x),
+specialised in four ways:
+
+* **Vectorised time update.** All 2 n_x + 1 sigma points go through the shared
+  estimation model (drill_core.estimation_model, one RK4 step per plant step) in one
+  call of the CasADi-mapped discrete model, instead of filterpy's loop over points.
+* **Scaled coordinates.** The filter runs on s = x / em.state_scale() (bar, 10 L/s,
+  1e6 Pa s^2/m^2, ...) and measurements scaled the same way; everything the class
+  returns is SI.
+* **Measurement switching.** While circulating y = [z1, p_1 - p_0, p_n, q_d]; with the
+  mud pump off the q_d row is dropped and ``string_flow_observable`` is False. q_d and
+  p_I (and theta while nothing flows) are then unobservable; their covariance cannot
+  explode because every state's standard deviation is capped at ``max_std_factor``
+  times its initial value (rows/columns of P scaled down, which keeps P positive
+  semi-definite), and the model's string dynamics are stable, so the mean stays bounded.
+* **Guards.** A measurement with a NaN/inf value is rejected (counted, no update, the
+  prediction is kept). The normalised innovation squared (NIS) is summed over a window
+  of ``nis_window`` accepted updates; when the sum exceeds the chi-square quantile
+  ``nis_alarm_probability`` of its degrees of freedom the filter is judged overconfident
+  and P is multiplied by ``covariance_inflation`` (counted; the window restarts).
+  Covariance square roots never fail: P is symmetrised, a failed Cholesky is retried with
+  growing diagonal jitter, then with negative eigenvalues clipped (counted as
+  ``repairs``); a non-finite mean or covariance resets to the last finite mean and the
+  initial covariance (counted as ``resets``). theta_i is kept >= 0 (projection of the
+  mean; a negative quadratic friction coefficient is unphysical).
+
+With the paper's alpha = 1 and kappa = 3 - n_x the centre weights are negative
+(w_m0 = (3 - n_x)/3), so a nonlinear propagation can return an indefinite P; the repair
+path above handles it.
+"""
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter, unscented_transform
+from scipy.stats import chi2
+
+from drill_core import hydraulics as hy
+from drill_core.config import Estimator, RigConfig
+from drill_core.estimation_model import (MEASUREMENT_NAMES, EstimationModel, build_discrete_model,
+                                         build_estimation_model, friction_estimate)
+
+BLOCK_INPUTS = ("reference", "block_position")
+CHOKE_INPUTS = ("flow", "opening")
+_JITTER = (1e-12, 1e-10, 1e-8, 1e-6)     # relative to the largest diagonal entry (scaled P)
+
+
+@dataclass(frozen=True)
+class UpdateResult:
+    """Outcome of one measurement update (SI)."""
+    accepted: bool                    # False: measurement rejected (NaN/inf), prediction kept
+    measurement_names: tuple          # channels used (q_d dropped while not circulating)
+    innovation: np.ndarray            # y - y_hat per channel [SI]; NaN if rejected
+    nis: float                        # normalised innovation squared; NaN if rejected
+    nis_dof: int                      # channels used
+    string_flow_observable: bool      # False while circulation is off
+    nis_alarm: bool = False           # the windowed NIS exceeded its chi-square bound
+    window_nis_per_dof: float = float("nan")  # mean NIS per channel over the current window
+
+
+def use_bottom_influx(config: RigConfig) -> bool:
+    """The disturbance state is estimated when asked for, and always for NMPC2."""
+    return bool(config.estimator.estimate_bottom_influx or config.nmpc.configuration == "NMPC2")
+
+
+def frame_inputs(wm: hy.WellModel, block_reference_m, choke_opening, bpp_flow_m3s, pump_pressure_pa,
+                 choke_dp_pa) -> np.ndarray:
+    """Model inputs U [4 x N] for one sensor frame from the actuator outputs.
+
+    The choke flow is not measured: it comes from the valve law with the choke opening and
+    a choke differential pressure (a virtual flow meter). Every argument may be a scalar
+    (held over the frame) or N samples.
+    """
+    cols = [np.atleast_1d(np.asarray(v, dtype=float)) for v in
+            (block_reference_m, choke_opening, bpp_flow_m3s, pump_pressure_pa, choke_dp_pa)]
+    steps = max(c.size for c in cols)
+    cols = [np.broadcast_to(c, (steps,)) if c.size == 1 else c for c in cols]
+    ref, opening, bpp, pump, dp = cols
+    return np.vstack([ref, hy.choke_flow(wm, opening, dp), bpp, pump])
+
+
+class _SigmaPoints(MerweScaledSigmaPoints):
+    """Merwe's scaled sigma points, computed without a Python loop over the dimensions."""
+
+    def sigma_points(self, x, P):
+        lambda_ = self.alpha ** 2 * (self.n + self.kappa) - self.n
+        root = self.sqrt((lambda_ + self.n) * P)      # upper factor: root.T @ root = (n+lambda) P
+        return np.vstack([x, x + root, x - root])     # filterpy's order: X0, X0 + U[k], X0 - U[k]
+
+
+class _BatchUkf(UnscentedKalmanFilter):
+    """filterpy UKF whose process model maps all sigma points in one call."""
+
+    def compute_process_sigmas(self, dt, fx=None, **fx_args):
+        sigmas = self.points_fn.sigma_points(self.x, self.P)
+        self.sigmas_f = (fx or self.fx)(sigmas, dt, **fx_args)
+
+    def cross_variance(self, x, z, sigmas_f, sigmas_h):
+        return ((sigmas_f - x) * self.Wc[:, None]).T @ (sigmas_h - z)
+
+
+class RigUkf:
+    """UKF of the rig's estimation model: states, friction parameters (and bottom influx).
+
+    ``predict(u)`` advances one plant step with u = [u_r m, q_c m^3/s, q_bpp m^3/s, p_in Pa];
+    ``update(y, circulating)`` fuses one sensor sample. Properties return SI values.
+    """
+
+    def __init__(self, config: RigConfig, em: EstimationModel | None = None, jit: bool = False,
+                 block_input: str | None = None, choke_input: str | None = None):
+        self.config = config
+        est: Estimator = config.estimator
+        self.est = est
+        self.block_input = block_input or est.block_input
+        self.choke_input = choke_input or est.choke_input
+        if self.block_input not in BLOCK_INPUTS or self.choke_input not in CHOKE_INPUTS:
+            raise ValueError(f"block_input must be one of {BLOCK_INPUTS}, choke_input one of "
+                             f"{CHOKE_INPUTS}")
+        self.em = em if em is not None else build_estimation_model(config, use_bottom_influx(config))
+        em = self.em
+        self.n_x = em.size
+        self.step_s = config.plant.step_s
+        self.scale = em.state_scale()
+        self.p0 = em.wm.well.choke_downstream_pressure_pa
+
+        # discrete model on scaled states, mapped over all sigma points
+        n_sigma = 2 * self.n_x + 1
+        F = build_discrete_model(em, self.step_s, 1, "rk4")
+        s, u = ca.SX.sym("s", self.n_x), ca.SX.sym("u", 4)
+        scale = ca.DM(self.scale)
+        opts = {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O1"], "verbose": False}} \
+            if jit else {}
+        x = s * scale
+        step = ca.Function("ukf_step", [s, u], [F(x, self._model_input(x, u)) / scale], opts)
+        self._step_all = step.map("ukf_step_all", "serial", n_sigma, [1], [])
+
+        # measurement model: channel -> state index; scaled like the state
+        self._y_index = np.array([0, em.pressure(1), em.pressure(em.n), em.string_flow])
+        self._y_offset = np.array([0.0, self.p0, 0.0, 0.0])
+        self._y_scale = self.scale[self._y_index]
+        noise = est.measurement_noise
+        sigma = np.array([noise.block_position_m, noise.choke_dp_pa, noise.bhp_pa,
+                          noise.string_flow_m3s])
+        self._R = np.diag((sigma / self._y_scale) ** 2)
+
+        # process noise per plant step and initial covariance (SI standard deviations)
+        q_std = np.zeros(self.n_x)
+        p_std = np.zeros(self.n_x)
+        q_std[0:3] = est.rig_process_std
+        p_std[0:3] = est.initial_rig_std
+        for i in range(1, em.n + 1):
+            q_std[em.pressure(i)] = est.pressure_process_std_pa
+            p_std[em.pressure(i)] = est.initial_pressure_std_pa
+            if i > 1:
+                q_std[em.flow(i)] = est.flow_process_std_m3s
+                p_std[em.flow(i)] = est.initial_flow_std_m3s
+                q_std[em.theta(i)] = est.friction_parameter_process_std
+                p_std[em.theta(i)] = est.initial_friction_parameter_std
+        q_std[em.string_flow] = est.flow_process_std_m3s
+        p_std[em.string_flow] = est.initial_flow_std_m3s
+        q_std[em.string_pressure] = est.pressure_process_std_pa
+        p_std[em.string_pressure] = est.initial_pressure_std_pa
+        if em.with_disturbance:
+            q_std[em.disturbance] = est.bottom_influx_process_std_m3s
+            p_std[em.disturbance] = est.initial_bottom_influx_std_m3s
+        self._Q = np.diag((q_std / self.scale) ** 2)
+        self._P0 = np.diag((p_std / self.scale) ** 2)
+        self._max_std = est.max_std_factor * p_std / self.scale
+        self._theta_index = np.array([em.theta(i) for i in range(2, em.n + 1)])
+
+        points = _SigmaPoints(self.n_x, est.alpha, est.beta, est.kappa_offset - self.n_x,
+                              sqrt_method=self._factor)
+        self._ukf = _BatchUkf(dim_x=self.n_x, dim_z=4, dt=self.step_s, hx=None,
+                              fx=self._propagate, points=points)
+        self._lam_n = est.alpha ** 2 * (self.n_x + points.kappa)   # n_x + lambda
+        self._ukf.Q = self._Q.copy()
+        self._ukf.R = self._R.copy()
+
+        self._window: deque = deque(maxlen=est.nis_window)
+        self._repaired: tuple[np.ndarray, bool] | None = None
+        self._x_good = np.zeros(self.n_x)
+        self.initialised = False
+        self.string_flow_observable = True
+        # counters
+        self.rejected = 0          # measurement samples rejected (NaN/inf)
+        self.inflations = 0        # covariance inflations after an NIS alarm
+        self.repairs = 0           # covariance square roots that needed jitter/eigenvalue clipping
+        self.resets = 0            # non-finite mean/covariance reset to the last good mean and P0
+        self.predictions = 0
+        self.updates = 0
+
+    # ------------------------------------------------------------------ set-up
+    def initialise(self, x0, covariance_diagonal=None) -> None:
+        """Start from mean ``x0`` (SI) with the configured (or given, SI^2) covariance."""
+        x0 = np.asarray(x0, dtype=float)
+        if x0.shape != (self.n_x,) or not np.all(np.isfinite(x0)):
+            raise ValueError(f"initial state must be {self.n_x} finite values")
+        self._ukf.x = x0 / self.scale
+        self._ukf.P = self._P0.copy() if covariance_diagonal is None else \
+            np.diag(np.asarray(covariance_diagonal, dtype=float) / self.scale ** 2)
+        self._x_good = self._ukf.x.copy()
+        self._window.clear()
+        self.initialised = True
+
+    def initial_state(self, y, circulating: bool) -> np.ndarray:
+        """A steady state of the estimation model consistent with one measurement (SI).
+
+        String at rest at the measured position; annulus pressures from the measured
+        choke dp plus hydrostatics, the measured BHP minus that hydrostatic column spread
+        over the paths as friction (so p_n matches the measurement); all flows equal the
+        measured string flow (0 with the pump off); p_I = BHP + bit loss (circulating) or
+        the string's hydrostatic column (pump off); theta from the configuration.
+        """
+        em, g, w = self.em, self.em.wm.geometry, self.em.wm.well
+        y = np.asarray(y, dtype=float)
+        rho_g = w.mud.density_kgm3 * w.gravity_mps2
+        x = np.zeros(self.n_x)
+        x[0] = y[0]
+        flow = float(y[3]) if circulating and len(y) > 3 and np.isfinite(y[3]) else 0.0
+        flow = max(flow, 0.0)
+        p1 = self.p0 + y[1]
+        static = [p1 + rho_g * (g.node_depth_m[i] - g.node_depth_m[0]) for i in range(em.n)]
+        extra = y[2] - static[-1]                  # friction (and model error) to distribute
+        lengths = np.diff(np.asarray(g.node_depth_m))
+        share = np.concatenate([[0.0], np.cumsum(lengths) / np.sum(lengths)])
+        for i in range(1, em.n + 1):
+            x[em.pressure(i)] = static[i - 1] + extra * share[i - 1]
+            if i > 1:
+                x[em.flow(i)] = flow
+                x[em.theta(i)] = self.est.initial_friction_parameter
+        x[em.string_flow] = flow
+        if flow > 0.0:
+            a = 0.5 * w.mud.density_kgm3 / w.bit_nozzle_coefficient_m2 ** 2
+            x[em.string_pressure] = y[2] + w.bha_loss_coefficient_pa_s_m3 * flow + a * flow ** 2
+        else:
+            x[em.string_pressure] = min(rho_g * (g.bit_depth_m - y[0]), y[2])
+        return x
+
+    # --------------------------------------------------------------- filtering
+    def predict(self, u) -> None:
+        """Time update over one plant step with inputs u = [u_r, q_c, q_bpp, p_in] (SI)."""
+        self._require_initialised()
+        u = np.asarray(u, dtype=float).reshape(4)
+        if not np.all(np.isfinite(u)):
+            raise ValueError(f"non-finite model input {u}")
+        observable = self.string_flow_observable
+        ukf = self._ukf
+        self._condition()
+        ukf.compute_process_sigmas(self.step_s, u=u)
+        self._absorb_repair()
+        if not np.all(np.isfinite(ukf.sigmas_f)):
+            # a sigma point left the model's domain: keep the mean, grow P by Q, count it
+            self.resets += 1
+            ukf.P = ukf.P + ukf.Q
+        else:
+            ukf.x, ukf.P = unscented_transform(ukf.sigmas_f, ukf.Wm, ukf.Wc, ukf.Q)
+        ukf.x_prior, ukf.P_prior = ukf.x.copy(), ukf.P.copy()
+        self._project()
+        self.string_flow_observable = observable
+        self.predictions += 1
+
+    def predict_frame(self, inputs) -> None:
+        """Time updates for every column of ``inputs`` [4 x N] (one plant step each)."""
+        inputs = np.asarray(inputs, dtype=float)
+        for k in range(inputs.shape[1]):
+            self.predict(inputs[:, k])
+
+    def update(self, y, circulating: bool) -> UpdateResult:
+        """Measurement update with y = [z1 m, choke dp Pa, BHP Pa, q_d m^3/s] (SI).
+
+        ``y`` may be a sequence or a mapping with the keys of MEASUREMENT_NAMES; while not
+        circulating the string-flow channel is ignored (it may be absent or NaN).
+        """
+        self._require_initialised()
+        m = 4 if circulating else 3
+        names = MEASUREMENT_NAMES[:m]
+        if isinstance(y, dict):
+            values = [y.get(name, np.nan) for name in names]
+        else:
+            values = list(np.asarray(y, dtype=float).ravel()[:m])
+        z = np.asarray(values + [np.nan] * (m - len(values)), dtype=float)
+        self.string_flow_observable = bool(circulating)
+        if not np.all(np.isfinite(z)):
+            self.rejected += 1
+            return UpdateResult(False, names, np.full(m, np.nan), float("nan"), m, bool(circulating))
+
+        ukf = self._ukf
+        self._condition()
+        ukf.sigmas_f = ukf.points_fn.sigma_points(ukf.x, ukf.P)   # sigma points of the prior
+        self._absorb_repair()
+        idx, offset, yscale = self._y_index[:m], self._y_offset[:m], self._y_scale[:m]
+        gain = self.scale[idx] / yscale
+        ukf.update((z - offset) / yscale, R=self._R[:m, :m],
+                   hx=lambda s: s[idx] * gain - offset / yscale)
+        innovation_scaled = np.asarray(ukf.y, dtype=float)
+        nis = float(innovation_scaled @ ukf.SI @ innovation_scaled)
+        self._project()
+        self.updates += 1
+
+        alarm = False
+        if np.isfinite(nis):
+            self._window.append((nis, m))
+        total = sum(v for v, _ in self._window)
+        dof = sum(d for _, d in self._window)
+        window_mean = total / dof if dof else float("nan")
+        if len(self._window) == self._window.maxlen and \
+                total > chi2.ppf(self.est.nis_alarm_probability, dof):
+            alarm = True
+            ukf.P = ukf.P * self.est.covariance_inflation
+            self.inflations += 1
+            self._window.clear()
+        return UpdateResult(True, names, innovation_scaled * yscale, nis, m, bool(circulating),
+                            alarm, window_mean)
+
+    # -------------------------------------------------------------- accessors
+    @property
+    def mean(self) -> np.ndarray:
+        """State mean [SI], in the order of ``state_names``."""
+        return self._ukf.x * self.scale
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """Full state covariance [SI^2]."""
+        return self._ukf.P * np.outer(self.scale, self.scale)
+
+    @property
+    def covariance_diagonal(self) -> np.ndarray:
+        """Variances of the states [SI^2]."""
+        return np.diag(self._ukf.P) * self.scale ** 2
+
+    @property
+    def state_names(self) -> list[str]:
+        return self.em.state_names()
+
+    @property
+    def theta(self) -> np.ndarray:
+        """Quadratic friction coefficients theta_2..theta_n [Pa s^2/m^2]."""
+        return self.mean[self._theta_index]
+
+    @property
+    def friction_pa(self) -> np.ndarray:
+        """Estimated annular friction of paths 2..n [Pa]."""
+        return friction_estimate(self.em, self.mean)
+
+    @property
+    def bhp_pa(self) -> float:
+        return float(self.mean[self.em.pressure(self.em.n)])
+
+    @property
+    def choke_dp_pa(self) -> float:
+        return float(self.mean[self.em.pressure(1)] - self.p0)
+
+    @property
+    def string_velocity_mps(self) -> float:
+        return float(self.mean[1])
+
+    @property
+    def bottom_influx_m3s(self) -> float:
+        return float(self.mean[self.em.disturbance]) if self.em.with_disturbance else 0.0
+
+    @property
+    def counters(self) -> dict[str, int]:
+        return {"rejected": self.rejected, "inflations": self.inflations, "repairs": self.repairs,
+                "resets": self.resets, "predictions": self.predictions, "updates": self.updates}
+
+    # ---------------------------------------------------------------- internals
+    def _require_initialised(self) -> None:
+        if not self.initialised:
+            raise RuntimeError("RigUkf.initialise() must be called first")
+
+    def _model_input(self, x, u):
+        """Model input [u_r, q_c, q_bpp, p_in] of one sigma point from the filter input ``u``.
+
+        block_input "block_position": u[0] is the drawworks output u_b; the reference that
+        makes the model's block controller command exactly u_b at this sigma point is
+        u_r = (u_b - s_0 + k_p z1 - k_i z3) / (1 + k_p) (held over the step).
+        choke_input "opening": u[1] is the choke opening; the choke flow is the valve law at
+        this sigma point's p_1 (held over the step).
+        """
+        em = self.em
+        u_r = u[0]
+        if self.block_input == "block_position":
+            u_r = (u[0] - em.wm.geometry.static_stretch_m + em.block_kp * x[0]
+                   - em.block_ki_per_s * x[2]) / (1.0 + em.block_kp)
+        q_c = u[1]
+        if self.choke_input == "opening":
+            q_c = hy.choke_flow(em.wm, u[1], x[em.pressure(1)] - self.p0)
+        return ca.vertcat(u_r, q_c, u[2], u[3])
+
+    def _propagate(self, sigmas, dt, u):
+        """All sigma points (rows, scaled) through one plant step of the model."""
+        return np.asarray(self._step_all(sigmas.T, u)).T
+
+    def _condition(self) -> None:
+        """Symmetrise P, reset non-finite values, cap each standard deviation."""
+        ukf = self._ukf
+        if not (np.all(np.isfinite(ukf.x)) and np.all(np.isfinite(ukf.P))):
+            self.resets += 1
+            ukf.x = self._x_good.copy()
+            ukf.P = self._P0.copy()
+            return
+        P = 0.5 * (ukf.P + ukf.P.T)
+        std = np.sqrt(np.maximum(np.diag(P), 0.0))
+        over = std > self._max_std
+        if np.any(over):
+            c = np.ones(self.n_x)
+            c[over] = self._max_std[over] / std[over]
+            P = P * np.outer(c, c)
+        ukf.P = P
+        self._x_good = ukf.x.copy()
+
+    def _factor(self, M: np.ndarray) -> np.ndarray:
+        """Upper factor U with U^T U = M; repairs an indefinite M and remembers the repair."""
+        try:
+            return np.linalg.cholesky(M).T
+        except np.linalg.LinAlgError:
+            pass
+        M = 0.5 * (M + M.T)
+        size = max(float(np.max(np.abs(np.diag(M)))), 1e-300)
+        eye = np.eye(M.shape[0])
+        for rel in _JITTER:
+            try:
+                root = np.linalg.cholesky(M + rel * size * eye).T
+                self._repaired = (root.T @ root, False)
+                return root
+            except np.linalg.LinAlgError:
+                continue
+        try:
+            w, V = np.linalg.eigh(M)
+            floor = 1e-9 * max(float(np.max(w)), 1e-300)
+            root = np.linalg.cholesky((V * np.maximum(w, floor)) @ V.T + 1e-12 * size * eye).T
+            self._repaired = (root.T @ root, False)
+            return root
+        except (np.linalg.LinAlgError, ValueError):
+            reset = self._lam_n * self._P0
+            self._repaired = (reset, True)
+            return np.sqrt(reset)                   # P0 is diagonal
+
+    def _absorb_repair(self) -> None:
+        """Replace P by the repaired covariance if the last square root needed one."""
+        if self._repaired is None:
+            return
+        M, reset = self._repaired
+        self._repaired = None
+        self._ukf.P = M / self._lam_n
+        if reset:
+            self.resets += 1
+        else:
+            self.repairs += 1
+
+    def _project(self) -> None:
+        """Keep theta >= 0 (mean only)."""
+        x = self._ukf.x
+        x[self._theta_index] = np.maximum(x[self._theta_index], 0.0)

@@ -1,0 +1,497 @@
+"""NMPC supervisor: the optimal control problem of paper eqs. 49-59 in CasADi (DESIGN section 6).
+
+Plain module (no rclpy). The prediction model is the shared estimation model
+(``drill_core.estimation_model.drift``, the same equations the UKF runs) with the
+friction parameters theta (and, for NMPC2, the bottom influx d) frozen over the
+horizon at their estimates.
+
+Transcription (docs/nmpc.md has the derivation and the measurements behind each choice):
+
+* **Multiple shooting**, one shooting interval per sample t_s, inputs held over it, M
+  classical RK4 sub-steps per interval (forward Euler with the paper's M = 10 is unstable
+  on the lightly damped hoisting/hydraulic modes, see docs/nmpc.md).
+* **Stage-wise layout for FATROP**: stage k holds its state s_k then its controls v_k;
+  the constraint vector holds, per stage, the gap s_{k+1} - Phi(s_k, v_k) first and then
+  that stage's path constraints. Stage 0 has no state (x_0 = x_hat is a parameter).
+* **Control horizon** N_c: the stage state carries the previous input u_{k-1}
+  (so Delta u is stage-local); stages k >= N_c have no input variables and apply
+  u_{k-1} (u_j = u_{j-1}, j >= N_c).
+* **Scaling**: x = x_hat + S_x x~ (S_x = em.state_scale(): bar, 10 L/s, ...), u = u_{-1} +
+  S_u u~ with S_u the slew limit per sample (so |Delta u~| <= 1), slacks in units of
+  0.01 m/s, 1 bar and 1e-3 m^3/s.
+* **Cost (49)/(55)**: w~_i ((y_i - y_ref,i)/y_span,i)^2 over stages 1..N_p (smoothed reference
+  of eq. 59 anchored at the estimated output), r~_i (Delta u_i/u_span,i)^2 and
+  r~r_i ((u_i - u_ref,i)/u_span,i)^2 over the control horizon, plus T (xi^2 + xi) per slack
+  (the linear term makes the penalty exact: a soft constraint holds whenever it can).
+* **Soft constraints (52)-(53)**: string velocity, BHP band, choke dp band, string pressure
+  above BHP + BHA loss (the annulus pressure at the moving bit), choke-flow capacity.
+  Hard: input bounds (variable bounds) and slew limits (linear rows).
+* **NMPC1** adds the integrated tracking error of the pressure outputs as states
+  (eq. 56): e_{j+1} = e_j + t_s (y_j - y_sp)/y_span, cost q~ w~ e^2; e_0 is carried between
+  solves from the estimated error. **NMPC2** adds the estimated bottom influx d (eqs.
+  57-58) held constant over the horizon.
+
+On a failed solve the problem is re-solved cold with the relaxed constraint set
+(velocity, string pressure, input bounds and slew only: paper Alg. 3); if that fails
+too the last input is held. Commands are always finite and inside the bounds.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from drill_core import hydraulics as hy
+from drill_core.backend import CASADI
+from drill_core.config import Nmpc, RigConfig
+from drill_core.estimation_model import EstimationModel, drift
+from drill_core.integrators import euler_step, rk4_step
+from drill_core.scenario import ActiveSetpoints
+
+OUTPUT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa")
+INPUT_NAMES = ("block_position_ref_m", "choke_flow_m3s", "bpp_flow_m3s", "spp_pa")
+SLACK_NAMES = ("velocity", "bhp_band", "choke_dp_band", "string_pressure", "choke_capacity")
+# Unit of each slack variable inside the OCP (its SI value = unit * scaled value).
+SLACK_UNITS = {"velocity": 0.01, "bhp_band": 1.0e5, "choke_dp_band": 1.0e5,
+               "string_pressure": 1.0e5, "choke_capacity": 1.0e-3}
+# Constraint kinds dropped in the relaxed retry (paper Alg. 3 keeps velocity, string
+# pressure and the input limits).
+RELAXED_DROPS = ("bhp_band", "choke_dp_band", "choke_capacity")
+_INTEGRAL_OUTPUTS = (1, 2)        # NMPC1 integrates the pressure outputs (see docs/nmpc.md)
+_INF = float("inf")
+
+
+@dataclass
+class SolveResult:
+    """Outcome of one supervisor step (SI units throughout)."""
+    u: np.ndarray                          # command to apply from t_k: [u_r m, q_c m^3/s, q_bpp m^3/s, p_in Pa]
+    success: bool                          # True when u comes from a converged solve
+    fallback: str                          # "none", "relaxed" or "hold"
+    status: str                            # solver return status (last attempt)
+    iterations: int                        # solver iterations (last attempt)
+    solve_time_s: float                    # wall time of the step, retries included
+    cost: float                            # optimal cost (NaN when holding)
+    slacks: dict = field(default_factory=dict)      # largest slack over the horizon per constraint, SI
+    predicted_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))   # 0, t_s, ..., N t_s
+    predicted: dict = field(default_factory=dict)   # name -> array over predicted_time_s
+    planned_inputs: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))  # N x 4, u_j
+    reference: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))       # (N+1) x 3, y_ref,j
+    integral: np.ndarray = field(default_factory=lambda: np.zeros(0))             # NMPC1 e_0 [span s]
+    configuration: str = ""
+
+
+# ----------------------------------------------------------------------------- model pieces
+def _dynamic_size(em: EstimationModel) -> int:
+    """Number of states that evolve (all but the random-walk theta and d)."""
+    return em.theta(2)
+
+
+def _prediction_function(em: EstimationModel, step_s: float, substeps: int, integrator: str
+                         ) -> ca.Function:
+    """F(x, u, par) -> x after one sample: x the dynamic states, par = [theta (, d)]."""
+    nd = _dynamic_size(em)
+    npar = em.size - nd
+    x = ca.SX.sym("x", nd)
+    u = ca.SX.sym("u", 4)
+    par = ca.SX.sym("par", npar)
+    uu = [u[i] for i in range(4)]
+    pp = [par[i] for i in range(npar)]
+
+    def f(s):
+        full = [s[i] for i in range(nd)] + pp
+        return ca.vertcat(*drift(CASADI, em, full, uu)[:nd])
+
+    h = step_s / substeps
+    xn = x
+    for _ in range(substeps):
+        xn = rk4_step(f, xn, h) if integrator == "rk4" else euler_step(f, xn, h)
+    return ca.Function("predict", [x, u, par], [xn], ["x", "u", "par"], ["x_next"])
+
+
+def full_state(em: EstimationModel, x_hat, disturbance=None) -> np.ndarray:
+    """Estimate as a state of ``em`` (adds/overrides the bottom influx d when ``em`` has it)."""
+    x = np.asarray(x_hat, dtype=float).ravel()
+    nd_theta = em.theta(em.n) + 1
+    out = np.zeros(em.size)
+    out[:nd_theta] = x[:nd_theta]
+    if em.with_disturbance:
+        if disturbance is not None:
+            out[em.disturbance] = float(disturbance)
+        elif x.size > nd_theta:
+            out[em.disturbance] = x[nd_theta]
+    return out
+
+
+def outputs(em: EstimationModel, x) -> list:
+    """Tracked outputs [block position, choke dp, BHP] of a state (numpy or CasADi)."""
+    p0 = em.wm.well.choke_downstream_pressure_pa
+    return [x[0], x[em.pressure(1)] - p0, x[em.pressure(em.n)]]
+
+
+def string_pressure_margin(em: EstimationModel, x):
+    """p_I - (p_n - rho g z1) - K_b q_d: string pressure above annulus-at-bit + BHA loss [Pa]."""
+    w = em.wm.well
+    rho_g = w.mud.density_kgm3 * w.gravity_mps2
+    return (x[em.string_pressure] - (x[em.pressure(em.n)] - rho_g * x[0])
+            - w.bha_loss_coefficient_pa_s_m3 * x[em.string_flow])
+
+
+def choke_capacity(em: EstimationModel, dp):
+    """Flow of the fully open choke at differential pressure dp [m^3/s] (eq. 53)."""
+    return hy.choke_flow(em.wm, 1.0, dp)
+
+
+# ----------------------------------------------------------------------------- the NLP
+@dataclass
+class _Stage:
+    """Index bookkeeping of one stage of the stage-ordered NLP."""
+    s: slice                  # state variables in z
+    u: slice | None           # input variables in z (stages < N_c)
+    slack: dict               # slack name -> index in z
+    gap: slice | None         # gap rows of this stage (to stage k+1)
+    rows: dict                # path row name -> list of row indices
+
+
+class NmpcProblem:
+    """The NLP of one configuration, built once; ``solve`` runs one instance of it."""
+
+    def __init__(self, cfg: Nmpc, em: EstimationModel, configuration: str | None = None,
+                 solver: str | None = None, jit: bool = False, substeps: int | None = None,
+                 integrator: str | None = None, solver_options: dict | None = None):
+        self.cfg = cfg
+        self.configuration = configuration or cfg.configuration
+        if self.configuration == "NMPC2" and not em.with_disturbance:
+            em = dataclasses.replace(em, with_disturbance=True)
+        if self.configuration != "NMPC2" and em.with_disturbance:
+            em = dataclasses.replace(em, with_disturbance=False)
+        self.em = em
+        self.solver_name = solver or cfg.solver
+        self.N = cfg.prediction_steps
+        self.Nc = cfg.control_steps
+        self.ts = cfg.sample_time_s
+        self.substeps = substeps or cfg.substeps
+        self.integrator = integrator or cfg.integrator
+        self.nd = _dynamic_size(em)
+        self.npar = em.size - self.nd
+        self.ne = len(_INTEGRAL_OUTPUTS) if self.configuration == "NMPC1" else 0
+        self.ns = self.nd + 4 + self.ne          # stage state: x~, u~_{k-1}, e
+        self.Sx = em.state_scale()[:self.nd]
+        self.Su = np.array(cfg.input_slew.as_tuple(), dtype=float)
+        self.u_span = np.array(cfg.input_span.as_tuple(), dtype=float)
+        self.y_span = np.array(cfg.output_span.as_tuple(), dtype=float)
+        self.F = _prediction_function(em, self.ts, self.substeps, self.integrator)
+        self._build(jit, solver_options or {})
+
+    # -- construction -------------------------------------------------------------------
+    def _stage_slacks(self, k: int) -> tuple[str, ...]:
+        names = []
+        if k >= 1:
+            names += ["velocity", "bhp_band", "choke_dp_band", "string_pressure"]
+        if k < self.N:
+            names.append("choke_capacity")
+        return tuple(names)
+
+    def _build(self, jit: bool, solver_options: dict) -> None:
+        em, cfg, N, Nc, nd = self.em, self.cfg, self.N, self.Nc, self.nd
+        w_y = np.array(cfg.output_weight.as_tuple(), dtype=float)
+        r_c = np.array(cfg.input_move_weight.as_tuple(), dtype=float)
+        r_r = np.array(cfg.input_reference_weight.as_tuple(), dtype=float)
+        q_e = cfg.integral_weight_factor * w_y[list(_INTEGRAL_OUTPUTS)]
+        t_w = {"velocity": cfg.slack_weight_velocity, "bhp_band": cfg.slack_weight_bhp,
+               "choke_dp_band": cfg.slack_weight_choke_dp,
+               "string_pressure": cfg.slack_weight_string_pressure,
+               "choke_capacity": cfg.slack_weight_choke_capacity}
+
+        # parameters: x_hat (full), u_{-1}, e_0, y_ref (N x 3, stages 1..N), y_sp, u_ref
+        P = ca.MX.sym("p", em.size + 4 + self.ne + 3 * N + 3 + 4)
+        off = 0
+        x_hat = P[off:off + em.size]; off += em.size
+        u_prev = P[off:off + 4]; off += 4
+        e0 = P[off:off + self.ne]; off += self.ne
+        y_ref = ca.reshape(P[off:off + 3 * N], 3, N); off += 3 * N
+        y_sp = P[off:off + 3]; off += 3
+        u_ref = P[off:off + 4]; off += 4
+        self.np_ = off
+        x0 = x_hat[:nd]
+        par = x_hat[nd:]
+        Sx = ca.DM(self.Sx)
+        Su = ca.DM(self.Su)
+
+        z_parts, g_parts = [], []
+        lbz, ubz, lbg, ubg, equality = [], [], [], [], []
+        nz = 0
+        ng = 0
+        stages: list[_Stage] = []
+        f = 0
+        nx_list, nu_list, ng_list = [], [], []
+
+        def new_var(name, n):
+            nonlocal nz
+            v = ca.MX.sym(name, n)
+            z_parts.append(v)
+            sl = slice(nz, nz + n)
+            nz += n
+            return v, sl
+
+        def add_rows(expr, lo, hi, eq=False):
+            nonlocal ng
+            n = expr.numel()
+            g_parts.append(expr)
+            lbg.extend([lo] * n if np.isscalar(lo) else list(lo))
+            ubg.extend([hi] * n if np.isscalar(hi) else list(hi))
+            equality.extend([eq] * n)
+            idx = list(range(ng, ng + n))
+            ng += n
+            return idx
+
+        # stage variables
+        s_vars, u_vars, xi_vars = [], [], []
+        for k in range(N + 1):
+            if k == 0:
+                s, s_sl = None, slice(nz, nz)
+            else:
+                s, s_sl = new_var(f"s{k}", self.ns)
+            u, u_sl = (new_var(f"u{k}", 4) if k < Nc else (None, None))
+            slack_names = self._stage_slacks(k)
+            xi, xi_sl = new_var(f"xi{k}", len(slack_names))
+            s_vars.append(s)
+            u_vars.append(u)
+            xi_vars.append(xi)
+            stages.append(_Stage(s_sl, u_sl, {n: xi_sl.start + i for i, n in enumerate(slack_names)},
+                                 None, {}))
+            nx_list.append(0 if k == 0 else self.ns)
+            nu_list.append((4 if k < Nc else 0) + len(slack_names))
+        self.nz = nz
+
+        # stage constraints: gap first, then the path rows of that stage
+        for k in range(N + 1):
+            st = stages[k]
+            if k == 0:
+                xs = ca.MX.zeros(nd)
+                up = ca.MX.zeros(4)
+                e = e0
+            else:
+                sk = s_vars[k]
+                xs, up, e = sk[:nd], sk[nd:nd + 4], sk[nd + 4:]
+            x_phys = x0 + Sx * xs
+            xi = xi_vars[k]
+            names = self._stage_slacks(k)
+            slack = {n: xi[i] for i, n in enumerate(names)}
+            u_scaled = u_vars[k] if k < Nc else up
+            u_phys = u_prev + Su * u_scaled
+            xl = [x_phys[i] for i in range(nd)] + [par[i] for i in range(self.npar)]
+            y = outputs(em, xl)
+            row_start = ng
+            if k < N:
+                x_next = self.F(x_phys, u_phys, par)
+                s_next = [(x_next - x0) / Sx, u_scaled]
+                if self.ne:
+                    err = ca.vertcat(*[(y[i] - y_sp[i]) / self.y_span[i] for i in _INTEGRAL_OUTPUTS])
+                    s_next.append(e + self.ts * err)
+                gap = s_vars[k + 1] - ca.vertcat(*s_next)
+                st.gap = slice(ng, ng + self.ns)
+                add_rows(gap, 0.0, 0.0, eq=True)
+            # path rows
+            if k < Nc:
+                st.rows["slew"] = add_rows(u_vars[k] - up, -1.0, 1.0)
+            if "choke_capacity" in slack:
+                cap = (choke_capacity(em, y[1]) - u_phys[1]) / SLACK_UNITS["choke_capacity"]
+                st.rows["choke_capacity"] = add_rows(cap + slack["choke_capacity"], 0.0, _INF)
+            if "velocity" in slack:
+                v = x_phys[1] / SLACK_UNITS["velocity"]
+                st.rows["velocity"] = add_rows(ca.vertcat(v + slack["velocity"], v - slack["velocity"]),
+                                               [-_INF, -_INF], [_INF, _INF])
+            if "bhp_band" in slack:
+                b = y[2] / SLACK_UNITS["bhp_band"]
+                st.rows["bhp_band"] = add_rows(ca.vertcat(b + slack["bhp_band"], b - slack["bhp_band"]),
+                                               [-_INF, -_INF], [_INF, _INF])
+            if "choke_dp_band" in slack:
+                d = y[1] / SLACK_UNITS["choke_dp_band"]
+                st.rows["choke_dp_band"] = add_rows(
+                    ca.vertcat(d + slack["choke_dp_band"], d - slack["choke_dp_band"]),
+                    [-_INF, -_INF], [_INF, _INF])
+            if "string_pressure" in slack:
+                m = string_pressure_margin(em, xl) / SLACK_UNITS["string_pressure"]
+                st.rows["string_pressure"] = add_rows(m + slack["string_pressure"], 0.0, _INF)
+            ng_list.append(ng - row_start - (self.ns if k < N else 0))
+
+            # cost
+            if k >= 1:
+                for i in range(3):
+                    if w_y[i] > 0.0:
+                        f = f + w_y[i] * ((y[i] - y_ref[i, k - 1]) / self.y_span[i]) ** 2
+                for j in range(self.ne):
+                    if q_e[j] > 0.0:
+                        f = f + q_e[j] * e[j] ** 2
+            if k < Nc:
+                du = Su * (u_vars[k] - up)
+                for i in range(4):
+                    if r_c[i] > 0.0:
+                        f = f + r_c[i] * (du[i] / self.u_span[i]) ** 2
+                    if r_r[i] > 0.0:
+                        f = f + r_r[i] * ((u_phys[i] - u_ref[i]) / self.u_span[i]) ** 2
+            for n, xv in slack.items():
+                f = f + t_w[n] * (xv ** 2 + xv)
+
+        self.stages = stages
+        self.ng = ng
+        self.equality = equality
+        self._lbg0 = np.array(lbg, dtype=float)
+        self._ubg0 = np.array(ubg, dtype=float)
+        z = ca.vertcat(*z_parts)
+        g = ca.vertcat(*g_parts)
+        self.structure = (nx_list, nu_list, ng_list)
+        nlp = {"x": z, "p": P, "f": f, "g": g}
+        self.nlp_functions = ca.Function("nlp", [z, P], [f, g])
+        self.solver = self._make_solver(nlp, jit, solver_options)
+
+    def _make_solver(self, nlp, jit: bool, extra: dict) -> ca.Function:
+        name = self.solver_name
+        opts: dict = {"error_on_fail": False}
+        if jit:
+            opts.update({"jit": True, "compiler": "shell",
+                         "jit_options": {"flags": ["-O2"], "verbose": False}})
+        max_iter = self.cfg.max_iterations
+        if name == "ipopt":
+            opts["ipopt"] = {"print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-6,
+                             "acceptable_tol": 1e-4, "acceptable_iter": 5,
+                             "warm_start_init_point": "yes", "warm_start_bound_push": 1e-6,
+                             "warm_start_mult_bound_push": 1e-6, "mu_init": 1e-3,
+                             "nlp_scaling_method": "none"}
+            opts["print_time"] = False
+        elif name == "fatrop":
+            nx, nu, ngs = self.structure
+            opts.update({"structure_detection": "manual", "N": self.N, "nx": nx, "nu": nu, "ng": ngs,
+                         "equality": self.equality,
+                         "fatrop": {"print_level": 0, "max_iter": max_iter, "tol": 1e-6,
+                                    "mu_init": 1e-2, "warm_start_init_point": True},
+                         "print_time": False})
+        elif name == "sqpmethod":
+            opts.update({"qpsol": "qrqp", "qpsol_options": {"print_iter": False, "print_header": False,
+                                                             "error_on_fail": False},
+                         "max_iter": max_iter, "print_header": False, "print_iteration": False,
+                         "print_status": False, "print_time": False,
+                         "convexify_strategy": "eigen-clip", "tol_pr": 1e-6, "tol_du": 1e-6})
+        else:
+            raise ValueError(f"unknown solver {name!r}")
+        for key, value in extra.items():
+            if isinstance(value, dict) and isinstance(opts.get(key), dict):
+                opts[key] = {**opts[key], **value}
+            else:
+                opts[key] = value
+        return ca.nlpsol("nmpc", name, nlp, opts)
+
+    # -- numeric data of one instance ---------------------------------------------------
+    def parameters(self, x_hat, u_prev, e0, y_ref, y_sp, u_ref) -> np.ndarray:
+        return np.concatenate([x_hat, u_prev, np.asarray(e0, dtype=float).ravel()[:self.ne],
+                               np.asarray(y_ref, dtype=float).ravel(), y_sp, u_ref])
+
+    def bounds(self, u_prev, velocity_limit, bhp_band, dp_band, string_pressure: bool,
+               relaxed: bool = False):
+        """Variable and row bounds: hard input limits, slew, soft-constraint levels."""
+        cfg = self.cfg
+        lbz = np.full(self.nz, -_INF)
+        ubz = np.full(self.nz, _INF)
+        u_lo = (np.array(cfg.input_min.as_tuple()) - u_prev) / self.Su
+        u_hi = (np.array(cfg.input_max.as_tuple()) - u_prev) / self.Su
+        lbg, ubg = self._lbg0.copy(), self._ubg0.copy()
+        levels = {"velocity": (-velocity_limit, velocity_limit), "bhp_band": bhp_band,
+                  "choke_dp_band": dp_band}
+        for st in self.stages:
+            if st.u is not None:
+                lbz[st.u], ubz[st.u] = u_lo, u_hi
+            for idx in st.slack.values():
+                lbz[idx] = 0.0
+            for name, rows in st.rows.items():
+                if relaxed and name in RELAXED_DROPS:
+                    lbg[rows], ubg[rows] = -_INF, _INF
+                elif name in levels:
+                    lo, hi = levels[name]
+                    lbg[rows[0]] = lo / SLACK_UNITS[name]
+                    ubg[rows[1]] = hi / SLACK_UNITS[name]
+                elif name == "string_pressure" and not string_pressure:
+                    lbg[rows], ubg[rows] = -_INF, _INF
+        return lbz, ubz, lbg, ubg
+
+    def pack(self, x_hat, u_prev, X, U, E, slacks) -> np.ndarray:
+        """Decision vector from physical trajectories X[(N+1) x nd], U[N x 4], E[(N+1) x ne]."""
+        z = np.zeros(self.nz)
+        x0 = x_hat[:self.nd]
+        for k, st in enumerate(self.stages):
+            if k >= 1:
+                s = [(X[k] - x0) / self.Sx, (U[k - 1] - u_prev) / self.Su]
+                if self.ne:
+                    s.append(E[k])
+                z[st.s] = np.concatenate(s)
+            if st.u is not None:
+                z[st.u] = (U[k] - u_prev) / self.Su
+            for name, idx in st.slack.items():
+                z[idx] = slacks.get(name, np.zeros(self.N + 1))[k]
+        return z
+
+    def unpack(self, z, x_hat, u_prev, e0):
+        """Physical trajectories (X, U, E, slacks in scaled units per stage) from z."""
+        N, nd = self.N, self.nd
+        X = np.zeros((N + 1, nd))
+        U = np.zeros((N, 4))
+        E = np.zeros((N + 1, self.ne))
+        X[0] = x_hat[:nd]
+        if self.ne:
+            E[0] = e0
+        slacks = {n: np.zeros(N + 1) for n in SLACK_NAMES}
+        for k, st in enumerate(self.stages):
+            if k >= 1:
+                s = z[st.s]
+                X[k] = x_hat[:nd] + self.Sx * s[:nd]
+                if self.ne:
+                    E[k] = s[nd + 4:]
+            if k < N:
+                U[k] = u_prev + self.Su * z[st.u] if st.u is not None else U[k - 1]
+            for name, idx in st.slack.items():
+                slacks[name][k] = z[idx]
+        return X, U, E, slacks
+
+    def simulate(self, x_hat, U) -> np.ndarray:
+        """Dynamic-state trajectory from x_hat under the inputs U[N x 4] (initial guesses)."""
+        X = np.zeros((self.N + 1, self.nd))
+        X[0] = x_hat[:self.nd]
+        par = x_hat[self.nd:]
+        for k in range(self.N):
+            X[k + 1] = np.array(self.F(X[k], U[k], par)).ravel()
+        return X
+
+    def shift_multipliers(self, lam_z, lam_g):
+        """Multipliers of the previous solution moved one stage earlier (stage k <- k+1)."""
+        new_z = np.zeros(self.nz)
+        new_g = np.zeros(self.ng)
+        for k in range(self.N + 1):
+            st = self.stages[k]
+            src = self.stages[min(k + 1, self.N)]
+            if st.gap is not None and src.gap is not None:
+                new_g[st.gap] = lam_g[src.gap]
+            for name, rows in st.rows.items():
+                if name in src.rows and len(src.rows[name]) == len(rows):
+                    new_g[rows] = lam_g[src.rows[name]]
+            if st.u is not None and src.u is not None:
+                new_z[st.u] = lam_z[src.u]
+            for name, idx in st.slack.items():
+                if name in src.slack:
+                    new_z[idx] = lam_z[src.slack[name]]
+        return new_z, new_g
+
+    def solve(self, p, z0, lbz, ubz, lbg, ubg, lam_z0=None, lam_g0=None) -> dict:
+        args = {"x0": z0, "p": p, "lbx": lbz, "ubx": ubz, "lbg": lbg, "ubg": ubg}
+        if lam_z0 is not None:
+            args["lam_x0"] = lam_z0
+        if lam_g0 is not None:
+            args["lam_g0"] = lam_g0
+        sol = self.solver(**args)
+        stats = self.solver.stats()
+        out = {"z": np.array(sol["x"]).ravel(), "lam_z": np.array(sol["lam_x"]).ravel(),
+               "lam_g": np.array(sol["lam_g"]).ravel(), "f": float(sol["f"]),
+               "g": np.array(sol["g"]).ravel(), "stats": stats}
+        return out

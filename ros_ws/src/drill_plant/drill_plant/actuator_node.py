@@ -1,0 +1,147 @@
+"""Actuator node (one process per actuator): drawworks, choke, bpp or mud_pump.
+
+On each measurement stamped t_k it publishes its output over the coming frame,
+stamped t_k. In fast mode, when a supervisor command is due at t_k (t_k a multiple
+of ``command_period_s``) it waits for the command stamped t_k first, so commands act
+from the sample they were computed at. If commands stop for longer than the
+watchdog timeout it holds a safe state (block held where it is, choke opening and
+pumps held) and says so on its status topic.
+"""
+from __future__ import annotations
+
+import sys
+
+from drill_msgs.msg import ActuatorFrame, RigCommand, RigMeasurement
+from rclpy.node import Node
+
+from drill_core.ros import topics
+from drill_core.ros.context import load_context
+from drill_core.ros.inbox import StampedInbox
+from drill_core.ros.runner import run
+from drill_core.ros.stamps import to_ns, seconds_to_ns
+from drill_core.ros.status import StatusReporter
+from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump, Watchdog
+from drill_plant.plant_model import steady_state
+
+UNITS = {"drawworks": "m", "choke": "1", "bpp": "m^3/s", "mud_pump": "Pa"}
+
+
+class ActuatorNode(Node):
+    def __init__(self):
+        super().__init__("actuator")
+        ctx = load_context(self)
+        self.ctx = ctx
+        self.exit_code = 0
+        self.actuator = self.declare_parameter("actuator", "drawworks").value
+        if self.actuator not in UNITS:
+            raise ValueError(f"parameter actuator: {self.actuator!r} is not one of {', '.join(UNITS)}")
+        default_period = ctx.config.nmpc.sample_time_s if ctx.scenario.controller != "open_loop" else 0.0
+        period = self.declare_parameter("command_period_s", default_period).value
+        self.command_period_ns = seconds_to_ns(period)
+        cfg = ctx.config
+        ini = ctx.scenario.initial
+        initial = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
+        u_b, opening, bpp, spp = (float(v) for v in initial.inputs)
+        self.model = {
+            "drawworks": lambda: Drawworks(cfg.actuators, ctx.well_model.geometry.static_stretch_m, u_b),
+            "choke": lambda: Choke(cfg.actuators, ctx.well_model, opening),
+            "bpp": lambda: Pump(cfg.actuators.bpp, bpp),
+            "mud_pump": lambda: Pump(cfg.actuators.mud_pump, spp),
+        }[self.actuator]()
+        self.held_command = {"drawworks": 0.0, "choke": initial.choke_flow_m3s, "bpp": bpp,
+                             "mud_pump": spp}[self.actuator]
+        self.step_s = cfg.plant.step_s
+        self.steps = cfg.plant.steps_per_frame
+        self.watchdog = Watchdog(cfg.actuators.watchdog_timeout_s)
+        self.safe_hold = None
+        self.command = None
+        self.inbox = StampedInbox(("measurement", "command"))
+        self.status = StatusReporter(self, ctx.mode)
+        self.pub = self.create_publisher(ActuatorFrame, topics.actuator_frame(self.actuator),
+                                         topics.RELIABLE)
+        self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
+                                 topics.RELIABLE)
+        self.create_subscription(RigCommand, topics.COMMAND, self._on_command, topics.RELIABLE)
+
+    def get_name(self) -> str:  # status topic and logs carry the actuator's name
+        return getattr(self, "actuator", None) or super().get_name()
+
+    def _on_command(self, msg: RigCommand) -> None:
+        self.inbox.put("command", msg)
+        if self.ctx.fast:
+            self._process_pending()
+        else:
+            self.command = msg
+            self.watchdog.feed(self.get_clock().now().nanoseconds)
+
+    def _on_measurement(self, msg: RigMeasurement) -> None:
+        self.inbox.put("measurement", msg)
+        if self.ctx.fast:
+            self._process_pending()
+        else:
+            self._act(msg, self.get_clock().now().nanoseconds)
+
+    def _process_pending(self) -> None:
+        msg = self.inbox.latest("measurement")
+        if msg is None:
+            return
+        stamp = to_ns(msg.header.stamp)
+        due = self.command_period_ns > 0 and stamp % self.command_period_ns == 0
+        if due and not self.inbox.has("command", stamp):
+            return
+        self.inbox.take("measurement", stamp)
+        if due:
+            self.command = self.inbox.take("command", stamp)
+            self.watchdog.feed(stamp)
+        self._act(msg, stamp)
+
+    def _act(self, measurement: RigMeasurement, now_ns: int) -> None:
+        tripped = self.watchdog.tripped(now_ns)
+        if tripped and self.safe_hold is None:
+            self.safe_hold = self._safe_command(measurement)
+            if self.command is not None:
+                self.status.error("command stream silent: holding the safe state")
+        elif not tripped:
+            self.safe_hold = None
+        target = self.safe_hold if tripped else self._command_value(self.command)
+        out = self._frame(target, measurement, hold=tripped)
+        frame = ActuatorFrame(actuator=self.actuator, unit=UNITS[self.actuator],
+                              command=float(out.command), output=[float(v) for v in out.output],
+                              sample_period_s=self.step_s, reference=float(out.reference),
+                              watchdog_active=tripped)
+        frame.header.stamp = measurement.header.stamp
+        self.pub.publish(frame)
+        self.status.mode = f"{self.ctx.mode}/{'watchdog' if tripped else 'commanded'}"
+        self.status.values = {"command": out.command, "output": float(out.output[-1])}
+        self.status.tick(now_ns)
+
+    def _command_value(self, cmd: RigCommand) -> float:
+        return {"drawworks": cmd.block_position_ref_m, "choke": cmd.choke_flow_ref_m3s,
+                "bpp": cmd.bpp_flow_m3s,
+                "mud_pump": cmd.spp_pa if cmd.mud_pump_on else 0.0}[self.actuator]
+
+    def _safe_command(self, measurement: RigMeasurement) -> float:
+        if self.actuator == "drawworks":
+            return self.model.safe_reference(measurement.block_position_m)
+        if self.command is None:
+            return self.held_command
+        return self._command_value(self.command)
+
+    def _frame(self, target: float, m: RigMeasurement, hold: bool) -> FrameOutput:
+        if self.actuator == "drawworks":
+            return self.model.frame(target, m.block_position_m, self.step_s, self.steps)
+        if self.actuator == "choke":
+            if hold:
+                opening = self.model.lag.value
+                return FrameOutput(opening, target, self.model.lag.advance(opening, self.step_s,
+                                                                           self.steps))
+            return self.model.frame(target, m.choke_dp_pa, self.step_s, self.steps)
+        return self.model.frame(target, self.step_s, self.steps)
+
+
+def main(args=None) -> None:
+    sys.exit(run(ActuatorNode, args))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,185 @@
+"""Plant node: integrates the truth plant and publishes sensors, truth, /clock and status.
+
+fast mode (lockstep on simulated time): publish /clock, measurement and truth stamped
+t_k, then wait for the four actuator frames stamped t_k, integrate the frame and go
+on with t_{k+1}. Before t_0 it waits until the graph named in ``wait_for`` is
+connected, so no message is published into the void. realtime mode: a wall timer at
+the sensor rate integrates each frame with the latest actuator frames.
+The node exits (code 0) when the scenario duration is reached.
+"""
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+import rclpy
+from drill_msgs.msg import ActuatorFrame, PlantTruth, RigMeasurement
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+
+from drill_core.ros import topics
+from drill_core.ros.context import load_context
+from drill_core.ros.inbox import StampedInbox
+from drill_core.ros.runner import run
+from drill_core.ros.stamps import from_ns, seconds_to_ns
+from drill_core.ros.status import StatusReporter
+from drill_plant.plant_model import PlantLayout, steady_state
+from drill_plant.simulator import PlantDiverged, PlantSimulator
+
+SETTLE_S = 0.5
+
+
+class PlantNode(Node):
+    def __init__(self):
+        super().__init__("plant")
+        ctx = load_context(self)
+        self.ctx = ctx
+        self.exit_code = 0
+        seed = self.declare_parameter("seed", ctx.scenario.seed).value
+        self.wait_for = self.declare_parameter("wait_for", [""]).value
+        ini = ctx.scenario.initial
+        initial = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
+        self.sim = PlantSimulator(ctx.config, initial, seed)
+        self.layout = PlantLayout(ctx.well_model.n)
+        self.frame_ns = seconds_to_ns(ctx.config.plant.sensor_period_s)
+        self.last_k = int(round(ctx.scenario.duration_s / ctx.config.plant.sensor_period_s))
+        self.k = 0
+        self.circulating = ini.circulation_m3s > 0.0
+        self.frames = StampedInbox(topics.ACTUATORS)
+        self.status = StatusReporter(self, ctx.mode)
+
+        self.pub_measurement = self.create_publisher(RigMeasurement, topics.MEASUREMENT, topics.RELIABLE)
+        self.pub_truth = self.create_publisher(PlantTruth, topics.TRUTH, topics.RELIABLE)
+        self.pub_clock = self.create_publisher(Clock, "/clock", topics.RELIABLE) if ctx.fast else None
+        for name in topics.ACTUATORS:
+            self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
+                                     lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
+        if ctx.fast:
+            self._ready_since = None
+            self._start_timer = self.create_timer(0.05, self._wait_for_graph)
+        else:
+            self.create_timer(ctx.config.plant.sensor_period_s, self._realtime_tick)
+            self._publish_sample()
+
+    # ------------------------------------------------------------------ fast mode
+    def _graph_ready(self) -> bool:
+        for spec in self.wait_for:
+            if not spec:
+                continue
+            topic, _, count = spec.rpartition(":")
+            kind, topic = topic.split("@", 1) if "@" in topic else ("sub", topic)
+            counter = self.count_subscribers if kind == "sub" else self.count_publishers
+            if counter(topic) < int(count):
+                return False
+        return True
+
+    def _wait_for_graph(self) -> None:
+        if not self._graph_ready():
+            self._ready_since = None
+            return
+        now = time.monotonic()
+        if self._ready_since is None:
+            self._ready_since = now
+        if now - self._ready_since >= SETTLE_S:
+            self._start_timer.cancel()
+            self.get_logger().info("graph connected; starting lockstep")
+            self._publish_sample()
+
+    def _on_frame(self, name: str, msg: ActuatorFrame) -> None:
+        self.frames.put(name, msg)
+        if self.ctx.fast:
+            self._try_advance()
+
+    def _try_advance(self) -> None:
+        stamp = self.k * self.frame_ns
+        if self.k >= self.last_k or not self.frames.ready(stamp):
+            return
+        frames = {name: self.frames.take(name, stamp) for name in topics.ACTUATORS}
+        self._advance(frames)
+
+    # -------------------------------------------------------------- realtime mode
+    def _realtime_tick(self) -> None:
+        frames = {name: self.frames.latest(name) for name in topics.ACTUATORS}
+        if any(f is None for f in frames.values()):
+            held = {name: np.full(self.sim.steps_per_frame, self.sim.inputs[i])
+                    for i, name in enumerate(topics.ACTUATORS)}
+            frames = {name: f if f is not None else held[name] for name, f in frames.items()}
+        self._advance(frames)
+
+    # --------------------------------------------------------------------- shared
+    def _inputs_from(self, frames) -> np.ndarray:
+        rows = []
+        for i, name in enumerate(topics.ACTUATORS):
+            f = frames[name]
+            samples = np.asarray(f.output if isinstance(f, ActuatorFrame) else f, dtype=float)
+            if samples.size != self.sim.steps_per_frame or not np.all(np.isfinite(samples)):
+                self.status.error(f"{name}: bad frame ({samples.size} samples); holding last input")
+                samples = np.full(self.sim.steps_per_frame, self.sim.inputs[i])
+            rows.append(samples)
+        pump = frames["mud_pump"]
+        self.circulating = (pump.command if isinstance(pump, ActuatorFrame) else pump[-1]) > 0.0
+        return np.vstack(rows)
+
+    def _advance(self, frames) -> None:
+        try:
+            self.sim.advance(self._inputs_from(frames))
+        except PlantDiverged as err:
+            self.status.error(str(err), fatal=True)
+            self.status.publish(self.k * self.frame_ns)
+            self.exit_code = 2
+            rclpy.try_shutdown()
+            return
+        self.k += 1
+        self._publish_sample()
+
+    def _publish_sample(self) -> None:
+        stamp_ns = self.k * self.frame_ns if self.ctx.fast else self.get_clock().now().nanoseconds
+        stamp = from_ns(stamp_ns)
+        if self.pub_clock is not None:
+            self.pub_clock.publish(Clock(clock=stamp))
+        m = self.sim.measure(self.circulating)
+        msg = RigMeasurement(block_position_m=m.block_position_m, choke_dp_pa=m.choke_dp_pa,
+                             bhp_pa=m.bhp_pa, string_flow_m3s=m.string_flow_m3s,
+                             string_flow_valid=m.string_flow_valid)
+        msg.header.stamp = stamp
+        self.pub_measurement.publish(msg)
+        self.pub_truth.publish(self._truth_msg(stamp))
+        self.status.values = {"sim_time_s": stamp_ns * 1e-9, "frame": float(self.k)}
+        self.status.tick(stamp_ns)
+        if self.ctx.fast and self.k >= self.last_k:
+            self.status.publish(stamp_ns)
+            self.get_logger().info(f"scenario finished at t = {stamp_ns * 1e-9:.1f} s")
+            rclpy.try_shutdown()
+        elif self.ctx.fast:
+            self._try_advance()
+
+    def _truth_msg(self, stamp) -> PlantTruth:
+        t = self.sim.truth()
+        lay, n, x = self.layout, self.sim.wm.n, t.state
+        msg = PlantTruth()
+        msg.header.stamp = stamp
+        msg.block_position_m = float(t.inputs[0])
+        msg.string_position_m = float(x[lay.position])
+        msg.string_velocity_mps = float(x[lay.velocity])
+        msg.annulus_pressure_pa = [float(x[lay.pressure(i)]) for i in range(1, n + 1)]
+        msg.annulus_flow_m3s = [t.choke_flow_m3s] + [float(x[lay.flow(i)]) for i in range(2, n + 1)]
+        msg.string_flow_m3s = float(x[lay.string_flow])
+        msg.string_bottom_pressure_pa = float(x[lay.string_pressure])
+        msg.bit_flow_m3s = t.bit_flow_m3s
+        msg.bhp_pa = float(x[lay.pressure(n)])
+        msg.ecd_kgm3 = t.ecd_kgm3
+        msg.annulus_friction_pa = [float(v) for v in t.annulus_friction_pa]
+        msg.string_friction_pa = t.string_friction_pa
+        msg.choke_opening = float(t.inputs[1])
+        msg.bpp_flow_m3s = float(t.inputs[2])
+        msg.spp_pa = float(t.inputs[3])
+        return msg
+
+
+def main(args=None) -> None:
+    sys.exit(run(PlantNode, args))
+
+
+if __name__ == "__main__":
+    main()
