@@ -330,10 +330,6 @@ class McapWriter:
     def __exit__(self, *_exc):
         self.close()
 
-    def has_topic(self, topic: str) -> bool:
-        """True once add_topic was called for this topic."""
-        return topic in self._topics
-
     def add_topic(self, topic: str, type_name: str, offers: Sequence[QosOffer] = (),
                   type_hash: str = "") -> None:
         """Register a topic: schema (once per type) and channel with QoS metadata."""

@@ -108,8 +108,7 @@ class Recorder(Node):
         offers = [offer_from_profile(i.qos_profile) for i in infos]
         try:
             msg_type = mcap_io.message_class(type_name)
-            if not self._writer.has_topic(topic):
-                self._writer.add_topic(topic, type_name, offers, str(infos[0].topic_type_hash))
+            self._writer.add_topic(topic, type_name, offers, str(infos[0].topic_type_hash))
         except (ImportError, AttributeError, OSError, ValueError, PackageNotFoundError) as exc:
             self._errors.append(f"cannot record {topic} [{type_name}]: {exc}")
             self.get_logger().warning(self._errors[-1])

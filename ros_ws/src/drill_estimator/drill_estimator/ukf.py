@@ -378,15 +378,17 @@ class RigUkf:
         """Model input [u_r, q_c, q_bpp, p_in] of one sigma point from the filter input ``u``.
 
         block_input "block_position": u[0] is the drawworks output u_b; the reference that
-        makes the model's block controller command exactly u_b at this sigma point is
-        u_r = (u_b - s_0 + k_p z1 - k_i z3) / (1 + k_p) (held over the step).
+        makes the model's block controller command u_b at this sigma point, on average over
+        the step (z1 taken at mid-step, z1 + z2 h/2, so the held reference adds no damping
+        to first order), is u_r = (u_b - s_0 + k_p (z1 + z2 h/2) - k_i z3) / (1 + k_p).
         choke_input "opening": u[1] is the choke opening; the choke flow is the valve law at
         this sigma point's p_1 (held over the step).
         """
         em = self.em
         u_r = u[0]
         if self.block_input == "block_position":
-            u_r = (u[0] - em.wm.geometry.static_stretch_m + em.block_kp * x[0]
+            u_r = (u[0] - em.wm.geometry.static_stretch_m
+                   + em.block_kp * (x[0] + 0.5 * self.step_s * x[1])
                    - em.block_ki_per_s * x[2]) / (1.0 + em.block_kp)
         q_c = u[1]
         if self.choke_input == "opening":

@@ -333,10 +333,13 @@ def test_fluid_mass_balance_while_tripping(cfg, wm, lay, frame):
     steel = (a_out - a_in) * dx[lay.position]
     assert dx[lay.position] > 25.0                                     # it really tripped
     residual = net_in - compression - steel
-    # trapezoid error bound h^2/12 * T * max|q''| from the sampled flows (+ rounding)
+    # The RK map conserves this linear invariant exactly (the balance holds stage by
+    # stage), so the residual is the error of integrating the 100 Hz flow samples by the
+    # trapezoid rule: below h^2/12 * T * max|q''| (a loose bound, ~1e-3 m^3, because of
+    # the choke-flow kink when the bpp starts) and in practice ~1e-7 m^3. 1e-5 of the
+    # volume pumped (18 mL of 1.8 m^3) is what we require.
     curvature = max(np.abs(np.diff(y, 2)).max() / h ** 2 for y in (q_d, q_c))
-    bound = h ** 2 / 12.0 * 60.0 * curvature + 1e-9
-    assert abs(residual) < bound
+    assert abs(residual) < h ** 2 / 12.0 * 60.0 * curvature + 1e-9
     assert abs(residual) < 1e-5 * trapezoid(q_d)
 
 
