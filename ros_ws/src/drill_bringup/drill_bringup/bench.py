@@ -1,0 +1,146 @@
+"""Benchmarks (scripts/bench): plant step cost, estimator and NMPC timings, and the
+real-time factor of the graph in fast mode. Results go to docs/benchmarks.md; all
+ratios in one file come from one run on one machine."""
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import statistics
+import sys
+import tempfile
+import time
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+
+from drill_bringup import cli, launcher
+from drill_core import hydraulics as hy
+from drill_core.scenario import load_scenario_config
+from drill_plant.plant_model import steady_state
+from drill_plant.simulator import PlantSimulator
+
+PAPER_SOLVE_S = 16.4
+
+
+def plant_frame_cost(repetitions: int = 2000) -> dict:
+    """Wall time of one 0.1 s plant frame (10 steps x 2 SRK substeps) in-process."""
+    _, config = load_scenario_config(cli.ROOT / "config/scenarios/case2.yaml", cli.ROOT / "config")
+    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
+                             config.plant.choke_regularisation_pa)
+    ss = steady_state(wm, 0.016667, 2.0e6, 0.0)
+    sim = PlantSimulator(config, ss, seed=1)
+    inputs = np.tile(ss.inputs[:, None], (1, sim.steps_per_frame))
+    times = []
+    for _ in range(repetitions):
+        start = time.perf_counter()
+        sim.advance(inputs)
+        times.append(time.perf_counter() - start)
+    frame_s = statistics.median(times)
+    return {"plant_frame_median_s": frame_s, "plant_step_median_s": frame_s / sim.steps_per_frame,
+            "plant_core_rtf": frame_s / config.plant.sensor_period_s}
+
+
+def graph_rtf(scenario: str, domain_id: int) -> dict:
+    """Wall time of a whole scenario through the process graph in fast mode."""
+    path = cli.scenario_path(scenario)
+    with tempfile.TemporaryDirectory() as tmp:
+        start = time.monotonic()
+        code, run_dir = cli.run_scenario(path, runs_dir=Path(tmp), domain_id=domain_id, quiet=True)
+        wall = time.monotonic() - start
+        if code != 0:
+            raise RuntimeError(f"{scenario} failed: {(run_dir / 'launch.json').read_text()}")
+    scenario_obj, _ = load_scenario_config(path, cli.ROOT / "config")
+    return {"scenario": scenario, "simulated_s": scenario_obj.duration_s, "wall_s": wall,
+            "rtf": wall / scenario_obj.duration_s}
+
+
+def plant_actuators_rtf(domain_id: int) -> dict:
+    """Plant + the four actuator processes alone (no estimator/controller) over Case 2's 600 s."""
+    path = cli.scenario_path("case2")
+    with tempfile.TemporaryDirectory() as tmp:
+        common = {"config_dir": str(cli.ROOT / "config"), "scenario": str(path), "mode": "fast"}
+        nodes = [launcher.NodeSpec(n, "drill_plant.actuator_node",
+                                   {"actuator": n, "command_period_s": 0.0})
+                 for n in launcher.ACTUATOR_NODES]
+        wait = [f"sub@/actuators/{n}/frame:1" for n in launcher.ACTUATOR_NODES] \
+            + [f"pub@/actuators/{n}/frame:1" for n in launcher.ACTUATOR_NODES] \
+            + ["sub@/rig/measurement:4", "sub@/clock:4"]
+        nodes.append(launcher.NodeSpec("plant", "drill_plant.plant_node", {"wait_for": wait}))
+        for node in nodes:
+            node.params.update(common)
+            node.params["use_sim_time"] = node.name != "plant"
+        launch = launcher.Launch(nodes, Path(tmp), domain_id)
+        start = time.monotonic()
+        launch.start()
+        ok, message = launch.watch(600)
+        wall = time.monotonic() - start
+        launch.stop()
+        if not ok:
+            raise RuntimeError(message)
+    return {"wall_s": wall, "rtf": wall / 600.0}
+
+
+def write_doc(results: dict, path: Path) -> None:
+    lines = [
+        "# Benchmarks",
+        "",
+        f"Measured by `scripts/bench` on {datetime.now():%Y-%m-%d %H:%M} "
+        f"({platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"Python {platform.python_version()}). One run; all ratios below come from it.",
+        "",
+        "## Plant",
+        "",
+        "| quantity | value |",
+        "| --- | --- |",
+        f"| one 0.1 s plant frame (10 steps x 2 SRK substeps, compiled CasADi) | "
+        f"{results['plant']['plant_frame_median_s'] * 1e3:.3f} ms |",
+        f"| one 0.01 s plant step | {results['plant']['plant_step_median_s'] * 1e6:.1f} us |",
+        f"| plant core alone, real-time factor | {results['plant']['plant_core_rtf']:.4f} |",
+        f"| plant + 4 actuator processes over DDS, 600 s Case 2 (fast mode) | "
+        f"{results['plant_actuators']['wall_s']:.1f} s wall, RTF {results['plant_actuators']['rtf']:.3f} "
+        "(target: < 10 s) |",
+        "",
+    ]
+    for key, title in (("estimator", "Estimator"), ("nmpc", "NMPC")):
+        if key in results:
+            lines += [f"## {title}", "", "| quantity | value |", "| --- | --- |"]
+            lines += [f"| {k} | {v:.6g} |" if isinstance(v, float) else f"| {k} | {v} |"
+                      for k, v in results[key].items()]
+            lines.append("")
+    if "graph" in results:
+        g = results["graph"]
+        lines += ["## Whole graph", "",
+                  f"{g['scenario']}: {g['simulated_s']:.0f} s simulated in {g['wall_s']:.1f} s wall "
+                  f"through all processes over DDS in fast mode: real-time factor {g['rtf']:.3f} "
+                  "(target: <= 0.1).", ""]
+    path.write_text("\n".join(lines))
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="bench", description=__doc__)
+    parser.add_argument("--output", type=Path, default=cli.ROOT / "docs" / "benchmarks.md")
+    parser.add_argument("--skip-graph", action="store_true", help="skip the 10-minute Case 2 run")
+    args = parser.parse_args(argv)
+    domain = launcher.default_domain_id()
+    results = {"plant": plant_frame_cost()}
+    print(f"[bench] plant frame {results['plant']['plant_frame_median_s'] * 1e3:.3f} ms", flush=True)
+    results["plant_actuators"] = plant_actuators_rtf(domain)
+    print(f"[bench] plant + actuators: {results['plant_actuators']['wall_s']:.1f} s", flush=True)
+    from drill_estimator import bench as estimator_bench
+    results["estimator"] = estimator_bench.run_benchmark()
+    print("[bench] estimator done", flush=True)
+    from drill_nmpc import bench as nmpc_bench
+    results["nmpc"] = nmpc_bench.run_benchmark()
+    print("[bench] nmpc done", flush=True)
+    if not args.skip_graph:
+        results["graph"] = graph_rtf("case2", domain)
+        print(f"[bench] case2 graph: {results['graph']['wall_s']:.1f} s", flush=True)
+    write_doc(results, args.output)
+    print(f"[bench] wrote {args.output}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
