@@ -197,6 +197,10 @@ class Estimator:
     initial_bottom_influx_std_m3s: float = param("m^3/s", 0.0, lo_open=True, default=1.0e-4)
     max_std_factor: float = param("1", 1.0, 1.0e6, default=10.0,
                                   doc="each state's std is capped at this times its initial std")
+    friction_parameter_motion_std: float = param(
+        "Pa s^2/m^2", 0.0, default=0.0,
+        doc="extra per-step std of theta while the string moves at motion_reference_speed_mps or faster")
+    motion_reference_speed_mps: float = param("m/s", 0.0, 10.0, lo_open=True, default=0.1)
     block_input: str = param(choices=("reference", "block_position"), default="reference",
                              doc="time-update input u[0]: drawworks reference u_r or its output u_b")
     choke_input: str = param(choices=("flow", "opening"), default="flow",

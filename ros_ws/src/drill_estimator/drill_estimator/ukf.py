@@ -180,6 +180,8 @@ class RigUkf:
                               fx=self._propagate, points=points)
         self._lam_n = est.alpha ** 2 * (self.n_x + points.kappa)   # n_x + lambda
         self._ukf.Q = self._Q.copy()
+        self._theta_motion_var = (est.friction_parameter_motion_std / self.scale[self._theta_index]) ** 2
+        self._theta_base_std = q_std[self._theta_index] / self.scale[self._theta_index]
         self._ukf.R = self._R.copy()
 
         self._window: deque = deque(maxlen=est.nis_window)
@@ -252,6 +254,7 @@ class RigUkf:
         observable = self.string_flow_observable
         ukf = self._ukf
         self._condition()
+        self._set_process_noise()
         ukf.compute_process_sigmas(self.step_s, u=u)
         self._absorb_repair()
         if not np.all(np.isfinite(ukf.sigmas_f)):
@@ -394,6 +397,17 @@ class RigUkf:
         if self.choke_input == "opening":
             q_c = hy.choke_flow(em.wm, u[1], x[em.pressure(1)] - self.p0)
         return ca.vertcat(u_r, q_c, u[2], u[3])
+
+    def _set_process_noise(self) -> None:
+        """theta random walk: base std plus friction_parameter_motion_std scaled by
+        min(1, |v_s| / motion_reference_speed_mps). The quadratic law's coefficient is a
+        property of the operating point; it moves fast only when the string moves."""
+        if not np.any(self._theta_motion_var):
+            return
+        speed = abs(float(self._ukf.x[1] * self.scale[1]))
+        w = min(1.0, speed / self.est.motion_reference_speed_mps)
+        std = self._theta_base_std + w * np.sqrt(self._theta_motion_var)
+        self._ukf.Q[self._theta_index, self._theta_index] = std ** 2
 
     def _propagate(self, sigmas, dt, u):
         """All sigma points (rows, scaled) through one plant step of the model."""

@@ -217,7 +217,7 @@ class NmpcProblem:
     def __init__(self, cfg: Nmpc, em: EstimationModel, configuration: str | None = None,
                  solver: str | None = None, jit: bool = False, substeps: int | None = None,
                  integrator: str | None = None, solver_options: dict | None = None,
-                 tabulate_string_friction: bool = True):
+                 tabulate_string_friction: bool = True, hessian: str = "exact"):
         self.cfg = cfg
         self.configuration = configuration or cfg.configuration
         if self.configuration == "NMPC2" and not em.with_disturbance:
@@ -226,6 +226,11 @@ class NmpcProblem:
             em = dataclasses.replace(em, with_disturbance=False)
         self.em = em
         self.solver_name = solver or cfg.solver
+        if hessian not in ("exact", "gauss-newton"):
+            raise ValueError(f"hessian {hessian!r} is not one of exact, gauss-newton")
+        if hessian == "gauss-newton" and self.solver_name == "fatrop":
+            raise ValueError("FATROP takes no user Hessian: use hessian='exact'")
+        self.hessian = hessian
         self.N = cfg.prediction_steps
         self.Nc = cfg.control_steps
         self.ts = cfg.sample_time_s
@@ -406,7 +411,18 @@ class NmpcProblem:
         self.structure = (nx_list, nu_list, ng_list)
         nlp = {"x": z, "p": P, "f": f, "g": g}
         self.nlp_functions = ca.Function("nlp", [z, P], [f, g])
-        self.solver = self._make_solver(nlp, jit, solver_options)
+        opts: dict = {}
+        if self.hessian == "gauss-newton":
+            # The cost is quadratic in z (outputs are linear in the states), so its Hessian
+            # is exact and constant; the curvature of the dynamics is left out.
+            lam_f = ca.MX.sym("lam_f")
+            lam_g = ca.MX.sym("lam_g", g.numel())
+            hess_f = ca.hessian(f, z)[0]
+            opts["hess_lag"] = ca.Function("nlp_hess_l", [z, P, lam_f, lam_g],
+                                           [ca.triu(lam_f * hess_f) if self.solver_name == "ipopt"
+                                            else lam_f * hess_f],
+                                           ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])
+        self.solver = self._make_solver(nlp, jit, {**opts, **solver_options})
 
     def _make_solver(self, nlp, jit: bool, extra: dict) -> ca.Function:
         name = self.solver_name
@@ -430,11 +446,20 @@ class NmpcProblem:
                                     "mu_init": 1e-2},
                          "print_time": False})
         elif name == "sqpmethod":
-            opts.update({"qpsol": "qrqp", "qpsol_options": {"print_iter": False, "print_header": False,
-                                                             "error_on_fail": False},
+            nx, nu, ngs = self.structure
+            qp = extra.pop("qpsol", "qrqp")
+            qp_opts = ({"print_iter": False, "print_header": False, "error_on_fail": False}
+                       if qp == "qrqp" else
+                       {"N": self.N, "nx": nx, "nu": nu, "ng": ngs, "error_on_fail": False,
+                        "hpipm": {"mode": "robust", "iter_max": 100}} if qp == "hpipm" else
+                       {"N": self.N, "nx": nx, "nu": nu, "ng": ngs, "structure_detection": "manual",
+                        "error_on_fail": False, "fatrop": {"print_level": 0}} if qp == "fatrop" else {})
+            opts.update({"qpsol": qp, "qpsol_options": qp_opts,
                          "max_iter": max_iter, "print_header": False, "print_iteration": False,
                          "print_status": False, "print_time": False,
-                         "convexify_strategy": "eigen-clip", "tol_pr": 1e-6, "tol_du": 1e-6})
+                         "tol_pr": 1e-6, "tol_du": 1e-6})
+            if self.hessian == "exact":
+                opts["convexify_strategy"] = "eigen-clip"
         else:
             raise ValueError(f"unknown solver {name!r}")
         for key, value in extra.items():
@@ -549,8 +574,214 @@ class NmpcProblem:
         if lam_g0 is not None:
             args["lam_g0"] = lam_g0
         sol = self.solver(**args)
-        stats = self.solver.stats()
+        try:
+            stats = dict(self.solver.stats())
+        except RuntimeError:          # sqpmethod: stats of a QP failure can be unreadable
+            stats = {"success": False, "return_status": "stats_unavailable", "iter_count": -1}
         out = {"z": np.array(sol["x"]).ravel(), "lam_z": np.array(sol["lam_x"]).ravel(),
                "lam_g": np.array(sol["lam_g"]).ravel(), "f": float(sol["f"]),
                "g": np.array(sol["g"]).ravel(), "stats": stats}
         return out
+
+
+# ----------------------------------------------------------------------------- supervisor
+_SUCCESS_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+def _succeeded(stats: dict) -> bool:
+    if stats.get("success"):
+        return True
+    return str(stats.get("return_status", "")) in _SUCCESS_STATUSES
+
+
+class Supervisor:
+    """NMPC supervisor: one solve per sample with warm start and the fallback policy.
+
+    ``config`` is the rig configuration (or its ``nmpc`` section); ``em`` the shared
+    estimation model. ``step`` takes the estimate x_hat (SI, the estimator's state layout;
+    NMPC2 reads d from it unless ``disturbance`` is given), the setpoints in force and the
+    previously applied input u_{-1}, and returns a :class:`SolveResult` whose ``u`` is
+    always finite and inside the input bounds and slew limits.
+    """
+
+    def __init__(self, config, em: EstimationModel, *, configuration: str | None = None,
+                 solver: str | None = None, hessian: str | None = None, jit: bool | None = None,
+                 substeps: int | None = None, integrator: str | None = None,
+                 solver_options: dict | None = None):
+        cfg: Nmpc = config.nmpc if isinstance(config, RigConfig) else config
+        self.cfg = cfg
+        solver = solver or cfg.solver
+        if hessian is None:
+            hessian = "exact" if solver == "fatrop" else "gauss-newton"
+        self.problem = NmpcProblem(cfg, em, configuration=configuration, solver=solver,
+                                   jit=cfg.jit if jit is None else jit, substeps=substeps,
+                                   integrator=integrator, solver_options=solver_options,
+                                   hessian=hessian)
+        self.em = self.problem.em
+        self.configuration = self.problem.configuration
+        self.u_min = np.array(cfg.input_min.as_tuple(), dtype=float)
+        self.u_max = np.array(cfg.input_max.as_tuple(), dtype=float)
+        self.slew = np.array(cfg.input_slew.as_tuple(), dtype=float)
+        self.alpha = np.array(cfg.reference_smoothing.as_tuple(), dtype=float)
+        self.fallback_count = 0
+        self.solve_count = 0
+        self.bhp_ref_default: float | None = None   # BHP of the first estimate (NaN setpoint)
+        self.spp_nominal: float | None = None       # input reference of the pump pressure
+        self.integral = np.zeros(self.problem.ne)
+        self._warm: dict | None = None
+
+    # -- helpers ------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Forget warm start and integral state (e.g. after a hand-back to manual)."""
+        self._warm = None
+        self.integral = np.zeros(self.problem.ne)
+
+    def safe_input(self, u_prev) -> np.ndarray:
+        """u_{-1} made finite and clipped into the input bounds."""
+        u = np.asarray(u_prev, dtype=float).ravel()[:4].copy()
+        bad = ~np.isfinite(u)
+        u[bad] = np.clip(0.0, self.u_min, self.u_max)[bad]
+        return np.clip(u, self.u_min, self.u_max)
+
+    def _limit(self, u, u_prev) -> np.ndarray:
+        """Clip a command into the bounds and the slew limits around u_prev; assert finite."""
+        u = np.where(np.isfinite(u), u, u_prev)
+        u = np.clip(u, u_prev - self.slew, u_prev + self.slew)
+        u = np.clip(u, self.u_min, self.u_max)
+        assert np.all(np.isfinite(u)), "NMPC command is not finite"
+        return u
+
+    def setpoint_vector(self, x, setpoints: ActiveSetpoints) -> np.ndarray:
+        bhp = setpoints.bhp_ref_pa
+        if not math.isfinite(bhp):
+            if self.bhp_ref_default is None:
+                self.bhp_ref_default = float(outputs(self.em, x)[2])
+            bhp = self.bhp_ref_default
+        return np.array([setpoints.block_position_target_m, setpoints.choke_dp_ref_pa, bhp])
+
+    def _levels(self, setpoints: ActiveSetpoints, y_sp):
+        cfg = self.cfg
+        vlim = cfg.velocity_limit_mps
+        if math.isfinite(setpoints.trip_speed_limit_mps) and setpoints.trip_speed_limit_mps > 0.0:
+            vlim = min(vlim, setpoints.trip_speed_limit_mps)
+        band = setpoints.bhp_band_pa if (math.isfinite(setpoints.bhp_band_pa)
+                                         and setpoints.bhp_band_pa > 0.0) else cfg.bhp_band_pa
+        dp_band = setpoints.choke_dp_band_pa if (math.isfinite(setpoints.choke_dp_band_pa)
+                                                 and setpoints.choke_dp_band_pa > 0.0) \
+            else cfg.choke_dp_band_pa
+        dp_lo = max(y_sp[1] - dp_band, cfg.choke_dp_min_pa)
+        dp_hi = max(y_sp[1] + dp_band, dp_lo)
+        return vlim, (y_sp[2] - band, y_sp[2] + band), (dp_lo, dp_hi)
+
+    def _initial_guess(self, x, u_prev):
+        pb = self.problem
+        U = np.tile(u_prev, (pb.N, 1))
+        X = pb.simulate(x, U)
+        if not np.all(np.isfinite(X)):
+            X = np.tile(x[:pb.nd], (pb.N + 1, 1))
+        E = np.tile(self.integral, (pb.N + 1, 1)) if pb.ne else None
+        return pb.pack(x, u_prev, X, U, E, {}), None, None
+
+    def _shifted_guess(self, x, u_prev):
+        """Previous solution shifted one sample, re-expressed around the new x_hat, u_{-1}."""
+        pb, w = self.problem, self._warm
+        N = pb.N
+        X = np.vstack([w["X"][1:], w["X"][-1:]])
+        X[0] = x[:pb.nd]
+        U = np.vstack([w["U"][1:], w["U"][-1:]])
+        E = np.vstack([w["E"][1:], w["E"][-1:]]) if pb.ne else None
+        if pb.ne:
+            E[0] = self.integral
+        slacks = {n: np.concatenate([v[1:], v[-1:]]) for n, v in w["slacks"].items()}
+        z = pb.pack(x, u_prev, X, U, E, slacks)
+        lam_z, lam_g = pb.shift_multipliers(w["lam_z"], w["lam_g"])
+        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(lam_z)) and np.all(np.isfinite(lam_g))):
+            return self._initial_guess(x, u_prev)
+        del N
+        return z, lam_z, lam_g
+
+    # -- one sample ---------------------------------------------------------------------
+    def step(self, x_hat, setpoints: ActiveSetpoints, u_prev, disturbance=None) -> SolveResult:
+        t0 = time.perf_counter()
+        pb = self.problem
+        em = self.em
+        u_prev = self.safe_input(u_prev)
+        x = full_state(em, x_hat, disturbance)
+        self.solve_count += 1
+        if not np.all(np.isfinite(x)):
+            return self._hold(u_prev, "invalid_estimate", t0)
+        if self.spp_nominal is None:
+            self.spp_nominal = float(u_prev[3])
+        y_now = np.array([float(v) for v in outputs(em, x)])
+        y_sp = self.setpoint_vector(x, setpoints)
+        y_ref = np.array([self.alpha ** j * y_now + (1.0 - self.alpha ** j) * y_sp
+                          for j in range(0, pb.N + 1)])
+        if pb.ne:
+            err = np.array([(y_now[i] - y_sp[i]) / pb.y_span[i] for i in _INTEGRAL_OUTPUTS])
+            self.integral = np.clip(self.integral + pb.ts * err, -self.cfg.integral_limit_s,
+                                    self.cfg.integral_limit_s)
+        u_ref = np.array([y_sp[0], u_prev[1], 0.0, self.spp_nominal])
+        p = pb.parameters(x, u_prev, self.integral, y_ref[1:], y_sp, u_ref)
+        vlim, bhp_band, dp_band = self._levels(setpoints, y_sp)
+        circulating = bool(setpoints.mud_pump_on)
+
+        attempts = []
+        for relaxed in (False, True):
+            if relaxed or self._warm is None:
+                z0, lam_z0, lam_g0 = self._initial_guess(x, u_prev)
+            else:
+                z0, lam_z0, lam_g0 = self._shifted_guess(x, u_prev)
+            lbz, ubz, lbg, ubg = pb.bounds(u_prev, vlim, bhp_band, dp_band, circulating, relaxed)
+            try:
+                sol = pb.solve(p, z0, lbz, ubz, lbg, ubg, lam_z0, lam_g0)
+            except RuntimeError as err:       # evaluation error inside the solver
+                sol = {"stats": {"success": False, "return_status": f"error: {err}"[:120],
+                                 "iter_count": -1}}
+            attempts.append(sol)
+            ok = _succeeded(sol["stats"]) and np.all(np.isfinite(sol["z"]))
+            if ok:
+                X, U, E, slacks = pb.unpack(sol["z"], x, u_prev, self.integral)
+                ok = bool(np.all(np.isfinite(U)) and np.all(np.isfinite(X)))
+            if ok:
+                if not relaxed:
+                    self._warm = {"X": X, "U": U, "E": E, "slacks": slacks,
+                                  "lam_z": sol["lam_z"], "lam_g": sol["lam_g"]}
+                else:
+                    self._warm = None
+                    self.fallback_count += 1
+                u = self._limit(U[0], u_prev)
+                return self._result(u, True, "relaxed" if relaxed else "none", sol, t0, x, X, U,
+                                     slacks, y_ref)
+        self._warm = None
+        last = attempts[-1]
+        return self._hold(u_prev, str(last["stats"].get("return_status", "failed")), t0,
+                          iterations=int(last["stats"].get("iter_count", -1)))
+
+    def _hold(self, u_prev, status: str, t0: float, iterations: int = -1) -> SolveResult:
+        self.fallback_count += 1
+        u = self._limit(u_prev.copy(), u_prev)
+        return SolveResult(u=u, success=False, fallback="hold", status=status, iterations=iterations,
+                           solve_time_s=time.perf_counter() - t0, cost=float("nan"),
+                           slacks={n: float("nan") for n in SLACK_NAMES},
+                           predicted_time_s=np.zeros(0), predicted={},
+                           planned_inputs=np.tile(u, (self.problem.N, 1)),
+                           reference=np.zeros((0, 3)), integral=self.integral.copy(),
+                           configuration=self.configuration)
+
+    def _result(self, u, success, fallback, sol, t0, x, X, U, slacks, y_ref) -> SolveResult:
+        pb, em = self.problem, self.em
+        full = np.hstack([X, np.tile(x[pb.nd:], (pb.N + 1, 1))])
+        Y = np.array([[float(v) for v in outputs(em, row)] for row in full])
+        predicted = {"block_position_m": Y[:, 0], "choke_dp_pa": Y[:, 1], "bhp_pa": Y[:, 2],
+                     "string_velocity_mps": X[:, 1],
+                     "string_pressure_margin_pa": np.array([float(string_pressure_margin(em, r))
+                                                            for r in full])}
+        slack_si = {n: float(np.max(v)) * SLACK_UNITS[n] for n, v in slacks.items()}
+        stats = sol["stats"]
+        return SolveResult(u=u, success=success, fallback=fallback,
+                           status=str(stats.get("return_status", "")),
+                           iterations=int(stats.get("iter_count", -1)),
+                           solve_time_s=time.perf_counter() - t0, cost=float(sol["f"]),
+                           slacks=slack_si, predicted_time_s=pb.ts * np.arange(pb.N + 1),
+                           predicted=predicted, planned_inputs=U.copy(), reference=y_ref,
+                           integral=self.integral.copy(), configuration=self.configuration)
