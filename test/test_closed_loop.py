@@ -17,7 +17,7 @@ from drill_core.ros import topics
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]
 SCENARIO = cli.ROOT / "config" / "scenarios" / "short_trip.yaml"
-COMPARED = (topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.COMMAND)
+COMPARED = (topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.COMMAND, topics.MACHINE_COMMAND)
 
 
 @pytest.fixture(scope="module")
@@ -53,6 +53,7 @@ def test_recording_complete_and_read_by_independent_reader(two_runs):
     counts = mcap_io.topics(path)
     assert counts[topics.MEASUREMENT].message_count == 451       # t = 0 .. 45 s at 10 Hz
     assert counts[topics.COMMAND].message_count == 45            # one per second, t = 0 .. 44 s
+    assert counts[topics.MACHINE_COMMAND].message_count == 45    # each passed through protection
     with AnyReader([path]) as reader:
         conns = [c for c in reader.connections if c.topic == topics.MEASUREMENT]
         decoded = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=conns)]

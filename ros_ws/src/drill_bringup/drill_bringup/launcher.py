@@ -54,17 +54,21 @@ def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -
         nodes.append(NodeSpec("nmpc", "drill_nmpc.nmpc_node"))
     elif scenario_controller == "baseline":
         nodes.append(NodeSpec("baseline", "drill_nmpc.baseline_node"))
-    sim_nodes = len(nodes)
     controller = scenario_controller in ("nmpc", "baseline")
+    if controller:
+        nodes.append(NodeSpec("protection", "drill_protection.protection_node"))
+    sim_nodes = len(nodes)
+    measurement_readers = len(ACTUATOR_NODES) + 2 + controller + (scenario_controller == "baseline")
     wait_for = [
-        f"sub@{topics.MEASUREMENT}:{len(ACTUATOR_NODES) + 2 + (scenario_controller == 'baseline')}",
+        f"sub@{topics.MEASUREMENT}:{measurement_readers}",
         f"sub@{topics.TRUTH}:1",
         f"sub@{topics.ESTIMATE}:{1 + (scenario_controller == 'nmpc')}",
         f"sub@/clock:{sim_nodes}" if fast else "",
     ]
     if controller:
-        wait_for.append(f"sub@{topics.COMMAND}:{len(ACTUATOR_NODES) + 1}")
-        wait_for.append(f"pub@{topics.COMMAND}:1")
+        wait_for += [f"sub@{topics.COMMAND}:2", f"pub@{topics.COMMAND}:1",
+                     f"sub@{topics.MACHINE_COMMAND}:{len(ACTUATOR_NODES) + 1}",
+                     f"pub@{topics.MACHINE_COMMAND}:1"]
     for name in ACTUATOR_NODES:
         wait_for.append(f"sub@{topics.actuator_frame(name)}:3")
         wait_for.append(f"pub@{topics.actuator_frame(name)}:1")

@@ -37,8 +37,8 @@ def _stamp_s(msg) -> float:
 
 def load_series(mcap_path: Path) -> Series:
     s = Series()
-    wanted = [topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.NMPC_STATUS, topics.COMMAND,
-              topics.SETPOINTS]
+    wanted = [topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.NMPC_STATUS,
+              topics.MACHINE_COMMAND, topics.SETPOINTS]
     for rec, msg in mcap_io.decoded_messages(mcap_path, wanted):
         t = _stamp_s(msg)
         if rec.topic == topics.TRUTH:
@@ -62,7 +62,7 @@ def load_series(mcap_path: Path) -> Series:
             s.add("solve_time", t, msg.solve_time_s)
             s.add("fallback", t, 0.0 if msg.fallback == "none" else 1.0)
             s.add("bhp_ref_smoothed", t, msg.bhp_ref_pa)
-        elif rec.topic == topics.COMMAND:
+        elif rec.topic == topics.MACHINE_COMMAND:
             s.add("cmd", t, [msg.block_position_ref_m, msg.choke_flow_ref_m3s, msg.bpp_flow_m3s,
                              msg.spp_pa])
         elif rec.topic == topics.SETPOINTS:

@@ -203,8 +203,10 @@ class Estimator:
     motion_reference_speed_mps: float = param("m/s", 0.0, 10.0, lo_open=True, default=0.1)
     block_input: str = param(choices=("reference", "block_position"), default="reference",
                              doc="time-update input u[0]: drawworks reference u_r or its output u_b")
-    choke_input: str = param(choices=("flow", "opening"), default="flow",
-                             doc="time-update input u[1]: virtual-meter choke flow or choke opening")
+    max_friction_parameter: float = param(
+        "Pa s^2/m^2", 0.0, lo_open=True, default=1.0e9,
+        doc="upper projection bound of theta (a quadratic law cannot hold a gelled, static "
+            "pressure difference, so with no flow theta would otherwise grow without bound)")
 
     def validate(self) -> None:
         for key in ("rig_process_std", "initial_rig_std"):
@@ -275,6 +277,10 @@ class Nmpc:
     integral_limit_s: float = param("s", 0.0, 1.0e4, lo_open=True, default=20.0,
                                     doc="NMPC1 anti-windup: |e_i| <= limit (e in output spans x s)")
     jit: bool = param(default=False, doc="compile the NLP functions with the C compiler (JIT)")
+    hessian: str = param(choices=("exact", "gauss-newton"), default="gauss-newton",
+                         doc="Lagrangian Hessian for ipopt/sqpmethod (fatrop: always exact)")
+    drawworks_lag_in_model: bool = param(default=True,
+                                         doc="predict the block with the drawworks lag (docs/nmpc.md)")
     pore_pressure_pa: float = param("Pa", 0.0, 5.0e8, default=6.5e7,
                                     doc="lower edge of the pressure window at the BHP sensor")
     fracture_pressure_pa: float = param("Pa", 0.0, 5.0e8, default=7.5e7,
@@ -306,6 +312,22 @@ class Nmpc:
         return int(round(self.control_horizon_s / self.sample_time_s))
 
 
+# --------------------------------------------------------------------- protection
+@dataclass(frozen=True)
+class Protection:
+    """Process protection between advisors and machines (DESIGN section 10)."""
+    pore_pressure_pa: float = param("Pa", 0.0, 5.0e8, doc="lower edge of the pressure window at the BHP depth")
+    fracture_pressure_pa: float = param("Pa", 0.0, 5.0e8, doc="upper edge of the pressure window")
+    pressure_margin_pa: float = param("Pa", 0.0, 1.0e7, doc="kept clear of pore and fracture pressure")
+    trip_speed_max_mps: float = param("m/s", 0.0, 5.0, lo_open=True, doc="machine limit")
+    trip_acceleration_max_mps2: float = param("m/s^2", 0.0, 5.0, lo_open=True)
+    command_period_s: float = param("s", 0.0, 10.0, lo_open=True, doc="advisor command period")
+
+    def validate(self) -> None:
+        if self.pore_pressure_pa + 2.0 * self.pressure_margin_pa >= self.fracture_pressure_pa:
+            raise ValueError("pore_pressure_pa + 2 pressure_margin_pa must stay below fracture_pressure_pa")
+
+
 # ----------------------------------------------------------------------- the whole
 @dataclass(frozen=True)
 class RigConfig:
@@ -315,10 +337,12 @@ class RigConfig:
     actuators: Actuators
     estimator: Estimator
     nmpc: Nmpc
+    protection: Protection
     directory: str
 
 
-_FILES = {"well": Well, "plant": Plant, "actuators": Actuators, "estimator": Estimator, "nmpc": Nmpc}
+_FILES = {"well": Well, "plant": Plant, "actuators": Actuators, "estimator": Estimator, "nmpc": Nmpc,
+          "protection": Protection}
 
 
 class _Loader(yaml.SafeLoader):
@@ -370,7 +394,7 @@ def load_section(cls: type, path: str | os.PathLike) -> object:
 
 
 def load_rig(directory: str | os.PathLike, overrides: dict[str, dict] | None = None) -> RigConfig:
-    """Load config/{well,plant,actuators,estimator,nmpc}.yaml from ``directory``.
+    """Load config/{well,plant,actuators,estimator,nmpc,protection}.yaml from ``directory``.
 
     ``overrides`` maps a file stem to a mapping merged (recursively) over its YAML,
     e.g. ``{"nmpc": {"configuration": "NMPC2"}}`` from a scenario file.
@@ -407,4 +431,4 @@ def replace(obj: object, **changes: object) -> object:
 
 __all__ = ["ConfigError", "RigConfig", "Well", "StringSection", "Mud", "Turbulence", "Plant",
            "MeasurementNoise", "Lag", "Actuators", "Estimator", "Nmpc", "InputVector",
-           "OutputVector", "load_rig", "load_section", "load_yaml", "merge", "replace"]
+           "OutputVector", "Protection", "load_rig", "load_section", "load_yaml", "merge", "replace"]

@@ -2,30 +2,45 @@
 
 Plain Python (no rclpy). The filter is filterpy's ``UnscentedKalmanFilter`` with
 ``MerweScaledSigmaPoints`` (the paper's alpha, beta and kappa = kappa_offset - n_x),
-specialised in four ways:
+specialised as follows.
 
 * **Vectorised time update.** All 2 n_x + 1 sigma points go through the shared
-  estimation model (drill_core.estimation_model, one RK4 step per plant step) in one
-  call of the CasADi-mapped discrete model, instead of filterpy's loop over points.
+  estimation model (drill_core.estimation_model, one RK4 step per 0.01 s plant step) in
+  one call of the CasADi-mapped discrete model (optionally JIT-compiled), instead of
+  filterpy's loop over points; sigma points and the cross covariance are vectorised too.
 * **Scaled coordinates.** The filter runs on s = x / em.state_scale() (bar, 10 L/s,
-  1e6 Pa s^2/m^2, ...) and measurements scaled the same way; everything the class
-  returns is SI.
+  1e6 Pa s^2/m^2, ...) with measurements scaled alike; everything returned is SI.
+* **Inputs.** u = [u0, q_c, q_bpp, p_in]. With ``block_input`` "block_position" (default
+  in config/estimator.yaml) u0 is the drawworks output u_b, mapped per sigma point to the
+  reference that makes the model's block controller command exactly that u_b, so the
+  hoisting sees the real drawworks including its 4 s lag; with "reference" u0 is the
+  drawworks reference u_r (the model's controller without the lag: during a trip the
+  model string leads the real one by about v T_dw / (1 + k_p)). q_c comes from a virtual
+  flow meter (valve law with the choke opening and the measured choke dp, see
+  :func:`frame_inputs`): the plant's choke flow is not measured.
 * **Measurement switching.** While circulating y = [z1, p_1 - p_0, p_n, q_d]; with the
   mud pump off the q_d row is dropped and ``string_flow_observable`` is False. q_d and
   p_I (and theta while nothing flows) are then unobservable; their covariance cannot
   explode because every state's standard deviation is capped at ``max_std_factor``
   times its initial value (rows/columns of P scaled down, which keeps P positive
   semi-definite), and the model's string dynamics are stable, so the mean stays bounded.
+* **Friction parameters.** theta_i is a random walk whose per-step std is
+  ``friction_parameter_process_std`` at rest plus ``friction_parameter_motion_std`` x
+  min(1, |v_s| / motion_reference_speed_mps): the quadratic law's coefficient belongs to
+  an operating point, and the truth's yield-dominated friction changes the fitted value
+  several-fold the moment the string moves (at rest theta settles; while tripping it
+  tracks, so the BHP estimate keeps following the measurement). The mean is projected
+  onto [0, max_friction_parameter] (a quadratic law cannot hold a gelled, static pressure
+  difference, so with no flow theta would otherwise grow without bound).
 * **Guards.** A measurement with a NaN/inf value is rejected (counted, no update, the
   prediction is kept). The normalised innovation squared (NIS) is summed over a window
   of ``nis_window`` accepted updates; when the sum exceeds the chi-square quantile
   ``nis_alarm_probability`` of its degrees of freedom the filter is judged overconfident
-  and P is multiplied by ``covariance_inflation`` (counted; the window restarts).
-  Covariance square roots never fail: P is symmetrised, a failed Cholesky is retried with
-  growing diagonal jitter, then with negative eigenvalues clipped (counted as
-  ``repairs``); a non-finite mean or covariance resets to the last finite mean and the
-  initial covariance (counted as ``resets``). theta_i is kept >= 0 (projection of the
-  mean; a negative quadratic friction coefficient is unphysical).
+  and P is multiplied by ``covariance_inflation`` (counted in ``inflations``; the window
+  restarts). Covariance square roots never fail: P is symmetrised, a failed Cholesky is
+  retried with growing diagonal jitter, then with negative eigenvalues clipped (counted
+  in ``repairs``); a non-finite mean or covariance resets to the last finite mean and the
+  initial covariance, and a numerically failed update keeps the prediction (``resets``).
 
 With the paper's alpha = 1 and kappa = 3 - n_x the centre weights are negative
 (w_m0 = (3 - n_x)/3), so a nonlinear propagation can return an indefinite P; the repair
@@ -33,6 +48,10 @@ path above handles it.
 """
 from __future__ import annotations
 
+import atexit
+import contextlib
+import shutil
+import tempfile
 from collections import deque
 from dataclasses import dataclass
 
@@ -47,7 +66,6 @@ from drill_core.estimation_model import (MEASUREMENT_NAMES, EstimationModel, bui
                                          build_estimation_model, friction_estimate)
 
 BLOCK_INPUTS = ("reference", "block_position")
-CHOKE_INPUTS = ("flow", "opening")
 _JITTER = (1e-12, 1e-10, 1e-8, 1e-6)     # relative to the largest diagonal entry (scaled P)
 
 
@@ -85,6 +103,19 @@ def frame_inputs(wm: hy.WellModel, block_reference_m, choke_opening, bpp_flow_m3
     return np.vstack([ref, hy.choke_flow(wm, opening, dp), bpp, pump])
 
 
+def _jit_function(name: str, inputs, outputs) -> ca.Function:
+    """CasADi function compiled with the shell compiler (C compiler needed).
+
+    CasADi writes its generated source and objects into the working directory, so the
+    compilation runs inside a private temporary directory (removed at exit)."""
+    workdir = tempfile.mkdtemp(prefix="drill_ukf_jit_")
+    atexit.register(shutil.rmtree, workdir, True)
+    opts = {"jit": True, "compiler": "shell", "jit_cleanup": False,
+            "jit_options": {"flags": ["-O1"], "verbose": False, "cleanup": False}}
+    with contextlib.chdir(workdir):
+        return ca.Function(name, inputs, outputs, opts)
+
+
 class _SigmaPoints(MerweScaledSigmaPoints):
     """Merwe's scaled sigma points, computed without a Python loop over the dimensions."""
 
@@ -108,20 +139,21 @@ class _BatchUkf(UnscentedKalmanFilter):
 class RigUkf:
     """UKF of the rig's estimation model: states, friction parameters (and bottom influx).
 
-    ``predict(u)`` advances one plant step with u = [u_r m, q_c m^3/s, q_bpp m^3/s, p_in Pa];
-    ``update(y, circulating)`` fuses one sensor sample. Properties return SI values.
+    ``initialise(initial_state(y, circulating))`` starts it from one measurement;
+    ``predict(u)`` advances one plant step with u = [u_b (or u_r) m, q_c m^3/s, q_bpp m^3/s,
+    p_in Pa]; ``update(y, circulating)`` fuses one sensor sample and returns an
+    :class:`UpdateResult`. Properties return SI values; counters: rejected, inflations,
+    repairs, resets, skipped_predictions.
     """
 
     def __init__(self, config: RigConfig, em: EstimationModel | None = None, jit: bool = False,
-                 block_input: str | None = None, choke_input: str | None = None):
+                 block_input: str | None = None):
         self.config = config
         est: Estimator = config.estimator
         self.est = est
         self.block_input = block_input or est.block_input
-        self.choke_input = choke_input or est.choke_input
-        if self.block_input not in BLOCK_INPUTS or self.choke_input not in CHOKE_INPUTS:
-            raise ValueError(f"block_input must be one of {BLOCK_INPUTS}, choke_input one of "
-                             f"{CHOKE_INPUTS}")
+        if self.block_input not in BLOCK_INPUTS:
+            raise ValueError(f"block_input must be one of {BLOCK_INPUTS}")
         self.em = em if em is not None else build_estimation_model(config, use_bottom_influx(config))
         em = self.em
         self.n_x = em.size
@@ -134,10 +166,12 @@ class RigUkf:
         F = build_discrete_model(em, self.step_s, 1, "rk4")
         s, u = ca.SX.sym("s", self.n_x), ca.SX.sym("u", 4)
         scale = ca.DM(self.scale)
-        opts = {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O1"], "verbose": False}} \
-            if jit else {}
         x = s * scale
-        step = ca.Function("ukf_step", [s, u], [F(x, self._model_input(x, u)) / scale], opts)
+        outputs = [F(x, self._model_input(x, u)) / scale]
+        if jit:
+            step = _jit_function("ukf_step", [s, u], outputs)
+        else:
+            step = ca.Function("ukf_step", [s, u], outputs)
         self._step_all = step.map("ukf_step_all", "serial", n_sigma, [1], [])
 
         # measurement model: channel -> state index; scaled like the state
@@ -173,6 +207,7 @@ class RigUkf:
         self._P0 = np.diag((p_std / self.scale) ** 2)
         self._max_std = est.max_std_factor * p_std / self.scale
         self._theta_index = np.array([em.theta(i) for i in range(2, em.n + 1)])
+        self._theta_max = est.max_friction_parameter / self.scale[self._theta_index]
 
         points = _SigmaPoints(self.n_x, est.alpha, est.beta, est.kappa_offset - self.n_x,
                               sqrt_method=self._factor)
@@ -194,6 +229,8 @@ class RigUkf:
         self.inflations = 0        # covariance inflations after an NIS alarm
         self.repairs = 0           # covariance square roots that needed jitter/eigenvalue clipping
         self.resets = 0            # non-finite mean/covariance reset to the last good mean and P0
+        self.skipped_predictions = 0   # a sigma point went non-finite: mean kept, P grown by Q
+        self._nis_bounds: dict[int, float] = {}
         self.predictions = 0
         self.updates = 0
 
@@ -246,12 +283,11 @@ class RigUkf:
 
     # --------------------------------------------------------------- filtering
     def predict(self, u) -> None:
-        """Time update over one plant step with inputs u = [u_r, q_c, q_bpp, p_in] (SI)."""
+        """Time update over one plant step with inputs u = [u_b or u_r, q_c, q_bpp, p_in] (SI)."""
         self._require_initialised()
         u = np.asarray(u, dtype=float).reshape(4)
         if not np.all(np.isfinite(u)):
             raise ValueError(f"non-finite model input {u}")
-        observable = self.string_flow_observable
         ukf = self._ukf
         self._condition()
         self._set_process_noise()
@@ -259,13 +295,12 @@ class RigUkf:
         self._absorb_repair()
         if not np.all(np.isfinite(ukf.sigmas_f)):
             # a sigma point left the model's domain: keep the mean, grow P by Q, count it
-            self.resets += 1
+            self.skipped_predictions += 1
             ukf.P = ukf.P + ukf.Q
         else:
             ukf.x, ukf.P = unscented_transform(ukf.sigmas_f, ukf.Wm, ukf.Wc, ukf.Q)
         ukf.x_prior, ukf.P_prior = ukf.x.copy(), ukf.P.copy()
         self._project()
-        self.string_flow_observable = observable
         self.predictions += 1
 
     def predict_frame(self, inputs) -> None:
@@ -299,25 +334,29 @@ class RigUkf:
         self._absorb_repair()
         idx, offset, yscale = self._y_index[:m], self._y_offset[:m], self._y_scale[:m]
         gain = self.scale[idx] / yscale
+        prior = ukf.x.copy(), ukf.P.copy()
         ukf.update((z - offset) / yscale, R=self._R[:m, :m],
                    hx=lambda s: s[idx] * gain - offset / yscale)
         innovation_scaled = np.asarray(ukf.y, dtype=float)
         nis = float(innovation_scaled @ ukf.SI @ innovation_scaled)
-        self._project()
+        if not (np.isfinite(nis) and np.all(np.isfinite(ukf.x)) and np.all(np.isfinite(ukf.P))):
+            ukf.x, ukf.P = prior                 # numerically failed update: keep the prediction
+            self.resets += 1
+            return UpdateResult(False, names, innovation_scaled * yscale, float("nan"), m,
+                                bool(circulating))
         self.updates += 1
 
         alarm = False
-        if np.isfinite(nis):
-            self._window.append((nis, m))
+        self._window.append((nis, m))
         total = sum(v for v, _ in self._window)
         dof = sum(d for _, d in self._window)
-        window_mean = total / dof if dof else float("nan")
-        if len(self._window) == self._window.maxlen and \
-                total > chi2.ppf(self.est.nis_alarm_probability, dof):
+        window_mean = total / dof
+        if len(self._window) == self._window.maxlen and total > self._nis_bound(dof):
             alarm = True
             ukf.P = ukf.P * self.est.covariance_inflation
             self.inflations += 1
             self._window.clear()
+        self._project()
         return UpdateResult(True, names, innovation_scaled * yscale, nis, m, bool(circulating),
                             alarm, window_mean)
 
@@ -370,7 +409,8 @@ class RigUkf:
     @property
     def counters(self) -> dict[str, int]:
         return {"rejected": self.rejected, "inflations": self.inflations, "repairs": self.repairs,
-                "resets": self.resets, "predictions": self.predictions, "updates": self.updates}
+                "resets": self.resets, "skipped_predictions": self.skipped_predictions,
+                "predictions": self.predictions, "updates": self.updates}
 
     # ---------------------------------------------------------------- internals
     def _require_initialised(self) -> None:
@@ -384,8 +424,8 @@ class RigUkf:
         makes the model's block controller command u_b at this sigma point, on average over
         the step (z1 taken at mid-step, z1 + z2 h/2, so the held reference adds no damping
         to first order), is u_r = (u_b - s_0 + k_p (z1 + z2 h/2) - k_i z3) / (1 + k_p).
-        choke_input "opening": u[1] is the choke opening; the choke flow is the valve law at
-        this sigma point's p_1 (held over the step).
+        Then the model's hoisting sees the real drawworks (lag and all) and z3 is only a
+        decaying auxiliary state.
         """
         em = self.em
         u_r = u[0]
@@ -393,10 +433,7 @@ class RigUkf:
             u_r = (u[0] - em.wm.geometry.static_stretch_m
                    + em.block_kp * (x[0] + 0.5 * self.step_s * x[1])
                    - em.block_ki_per_s * x[2]) / (1.0 + em.block_kp)
-        q_c = u[1]
-        if self.choke_input == "opening":
-            q_c = hy.choke_flow(em.wm, u[1], x[em.pressure(1)] - self.p0)
-        return ca.vertcat(u_r, q_c, u[2], u[3])
+        return ca.vertcat(u_r, u[1], u[2], u[3])
 
     def _set_process_noise(self) -> None:
         """theta random walk: base std plus friction_parameter_motion_std scaled by
@@ -421,15 +458,25 @@ class RigUkf:
             ukf.x = self._x_good.copy()
             ukf.P = self._P0.copy()
             return
-        P = 0.5 * (ukf.P + ukf.P.T)
+        ukf.P = self._capped(0.5 * (ukf.P + ukf.P.T))
+        self._x_good = ukf.x.copy()
+
+    def _nis_bound(self, dof: int) -> float:
+        bound = self._nis_bounds.get(dof)
+        if bound is None:
+            bound = self._nis_bounds[dof] = float(chi2.ppf(self.est.nis_alarm_probability, dof))
+        return bound
+
+    def _capped(self, P: np.ndarray) -> np.ndarray:
+        """P with row/column i scaled so that no standard deviation exceeds its cap (D P D,
+        D diagonal with entries <= 1, stays positive semi-definite)."""
         std = np.sqrt(np.maximum(np.diag(P), 0.0))
         over = std > self._max_std
         if np.any(over):
             c = np.ones(self.n_x)
             c[over] = self._max_std[over] / std[over]
             P = P * np.outer(c, c)
-        ukf.P = P
-        self._x_good = ukf.x.copy()
+        return P
 
     def _factor(self, M: np.ndarray) -> np.ndarray:
         """Upper factor U with U^T U = M; repairs an indefinite M and remembers the repair."""
@@ -471,6 +518,8 @@ class RigUkf:
             self.repairs += 1
 
     def _project(self) -> None:
-        """Keep theta >= 0 (mean only)."""
+        """Keep 0 <= theta <= max_friction_parameter (mean) and the standard deviations capped."""
         x = self._ukf.x
-        x[self._theta_index] = np.maximum(x[self._theta_index], 0.0)
+        x[self._theta_index] = np.clip(x[self._theta_index], 0.0, self._theta_max)
+        if np.all(np.isfinite(self._ukf.P)):
+            self._ukf.P = self._capped(self._ukf.P)

@@ -50,6 +50,7 @@ from drill_core import hydraulics as hy
 from drill_core.backend import CASADI, NUMPY
 from drill_core.config import Nmpc, RigConfig
 from drill_core.estimation_model import EstimationModel, drift
+from drill_core.block_control import block_command, integral_rate
 from drill_core.integrators import euler_step, rk4_step
 from drill_core.scenario import ActiveSetpoints
 
@@ -86,11 +87,6 @@ class SolveResult:
 
 
 # ----------------------------------------------------------------------------- model pieces
-def _dynamic_size(em: EstimationModel) -> int:
-    """Number of states that evolve (all but the random-walk theta and d)."""
-    return em.theta(2)
-
-
 class StringFrictionTable:
     """The shared model's string friction tabulated as a cubic B-spline of the relative flow.
 
@@ -143,28 +139,115 @@ def _tabulated_string_friction(table: StringFrictionTable | None):
         hy.string_friction = exact
 
 
-def _prediction_function(em: EstimationModel, step_s: float, substeps: int, integrator: str,
-                         table: StringFrictionTable | None = None) -> ca.Function:
-    """F(x, u, par) -> x after one sample: x the dynamic states, par = [theta (, d)]."""
-    nd = _dynamic_size(em)
-    npar = em.size - nd
-    x = ca.SX.sym("x", nd)
-    u = ca.SX.sym("u", 4)
-    par = ca.SX.sym("par", npar)
-    uu = [u[i] for i in range(4)]
-    pp = [par[i] for i in range(npar)]
+@dataclass(frozen=True)
+class DrawworksLag:
+    """First-order lag between the block-position controller and the block (DESIGN section 4)."""
+    time_constant_s: float
 
-    def f(s):
-        full = [s[i] for i in range(nd)] + pp
-        with _tabulated_string_friction(table):
-            rhs = drift(CASADI, em, full, uu)[:nd]
-        return ca.vertcat(*rhs)
 
-    h = step_s / substeps
-    xn = x
-    for _ in range(substeps):
-        xn = rk4_step(f, xn, h) if integrator == "rk4" else euler_step(f, xn, h)
-    return ca.Function("predict", [x, u, par], [xn], ["x", "u", "par"], ["x_next"])
+class PredictionModel:
+    """The NMPC's prediction model: the shared drift, optionally with the drawworks lag.
+
+    State x = [z1, z2, z3, p_1, q_2, ..., p_n, q_d, p_I (, b)] (the estimation model's
+    evolving states, plus the block position b when the drawworks lag is modelled);
+    par = [theta_2..theta_n (, d)] frozen over the horizon.
+
+    The shared estimation model puts the block at the block controller's output
+    instantly; the actuator (and the truth plant) lag it by T_dw = 4 s. Without the lag a
+    reference step of 0.5 m swings the lightly damped string (zeta ~ 0.05, 3.2 rad/s) by
+    +-1.5 m/s in the prediction, which the velocity constraint then forbids, so the
+    supervisor would trip ~10x slower than the plant allows (docs/nmpc.md). With the lag the
+    shared drift is evaluated unchanged at the *virtual* reference that makes its block
+    command equal the lagged block b (the controller law is affine in the reference), and
+    the controller integrator z3 still integrates the real reference.
+    """
+
+    def __init__(self, em: EstimationModel, lag: DrawworksLag | None = None,
+                 table: StringFrictionTable | None = None):
+        self.em = em
+        self.lag = lag
+        self.table = table
+        self.nd_model = em.theta(2)
+        self.nd = self.nd_model + (1 if lag else 0)
+        self.npar = em.size - self.nd_model
+        self.block = self.nd_model if lag else None
+        g = em.wm.geometry
+        self._stretch = g.static_stretch_m
+        self._slope = (block_command(1.0, 0.0, 0.0, self._stretch, em.block_kp, em.block_ki_per_s)
+                       - block_command(0.0, 0.0, 0.0, self._stretch, em.block_kp, em.block_ki_per_s))
+
+    def block_command(self, reference, z1, z3):
+        em = self.em
+        return block_command(reference, z1, z3, self._stretch, em.block_kp, em.block_ki_per_s)
+
+    def full(self, x, par) -> list:
+        """The estimation model's state (list) from a prediction state and par."""
+        return [x[i] for i in range(self.nd_model)] + [par[i] for i in range(self.npar)]
+
+    def rhs(self, x, u, par):
+        """Time derivative of the prediction state (list of expressions)."""
+        em = self.em
+        full = self.full(x, par)
+        uu = [u[i] for i in range(4)]
+        if self.lag is None:
+            with _tabulated_string_friction(self.table):
+                return drift(CASADI, em, full, uu)[:self.nd_model]
+        b = x[self.block]
+        virtual = (b - self.block_command(0.0, x[0], x[2])) / self._slope
+        with _tabulated_string_friction(self.table):
+            out = drift(CASADI, em, full, [virtual] + uu[1:])[:self.nd_model]
+        out[2] = integral_rate(uu[0], x[0])
+        out.append((self.block_command(uu[0], x[0], x[2]) - b) / self.lag.time_constant_s)
+        return out
+
+    def function(self, step_s: float, substeps: int, integrator: str) -> ca.Function:
+        """F(x, u, par) -> x after one sample (inputs held), ``substeps`` steps of RK4/Euler."""
+        x = ca.SX.sym("x", self.nd)
+        u = ca.SX.sym("u", 4)
+        par = ca.SX.sym("par", self.npar)
+
+        def f(s):
+            return ca.vertcat(*self.rhs([s[i] for i in range(self.nd)], u, par))
+
+        h = step_s / substeps
+        xn = x
+        for _ in range(substeps):
+            xn = rk4_step(f, xn, h) if integrator == "rk4" else euler_step(f, xn, h)
+        return ca.Function("predict", [x, u, par], [xn], ["x", "u", "par"], ["x_next"])
+
+    def initial_state(self, x_full) -> np.ndarray:
+        """Prediction state at an estimate; the block from the quasi-static hoisting balance
+        (string at rest relative to the block: b = z1 + s_0 + c_eq z2 / k_eq)."""
+        x0 = np.asarray(x_full, dtype=float)[:self.nd_model]
+        if self.lag is None:
+            return x0.copy()
+        w = self.em.wm.well
+        b = x0[0] + self._stretch + w.hoist_damping_n_s_m * x0[1] / w.hoist_stiffness_n_m
+        return np.append(x0, b)
+
+    def scale(self) -> np.ndarray:
+        s = self.em.state_scale()[:self.nd_model]
+        return np.append(s, 1.0) if self.lag else s
+
+    def check(self, rng_seed: int = 0) -> float:
+        """Largest relative mismatch of the hoisting acceleration against the shared law
+        (guards the virtual-reference construction); 0 when the lag is not modelled."""
+        if self.lag is None:
+            return 0.0
+        rng = np.random.default_rng(rng_seed)
+        xs = ca.SX.sym("x", self.nd)
+        us = ca.SX.sym("u", 4)
+        ps = ca.SX.sym("p", self.npar)
+        f = ca.Function("rhs", [xs, us, ps], [ca.vertcat(*self.rhs([xs[i] for i in range(self.nd)],
+                                                                    us, ps))])
+        worst = 0.0
+        for _ in range(3):
+            x = rng.normal(size=self.nd)
+            x[self.em.pressure(1)::2] = 0.0
+            acc = float(f(x, np.zeros(4), np.zeros(self.npar))[1])
+            ref = float(hy.hoisting_acceleration(self.em.wm, x[0], x[1], x[self.block]))
+            worst = max(worst, abs(acc - ref) / max(1.0, abs(ref)))
+        return worst
 
 
 def full_state(em: EstimationModel, x_hat, disturbance=None) -> np.ndarray:
@@ -217,7 +300,8 @@ class NmpcProblem:
     def __init__(self, cfg: Nmpc, em: EstimationModel, configuration: str | None = None,
                  solver: str | None = None, jit: bool = False, substeps: int | None = None,
                  integrator: str | None = None, solver_options: dict | None = None,
-                 tabulate_string_friction: bool = True, hessian: str = "exact"):
+                 tabulate_string_friction: bool = True, hessian: str = "exact",
+                 drawworks_lag: DrawworksLag | None = None, terminal_constraints: bool = False):
         self.cfg = cfg
         self.configuration = configuration or cfg.configuration
         if self.configuration == "NMPC2" and not em.with_disturbance:
@@ -231,29 +315,33 @@ class NmpcProblem:
         if hessian == "gauss-newton" and self.solver_name == "fatrop":
             raise ValueError("FATROP takes no user Hessian: use hessian='exact'")
         self.hessian = hessian
+        self.terminal_constraints = terminal_constraints
         self.N = cfg.prediction_steps
         self.Nc = cfg.control_steps
         self.ts = cfg.sample_time_s
         self.substeps = substeps or cfg.substeps
         self.integrator = integrator or cfg.integrator
-        self.nd = _dynamic_size(em)
-        self.npar = em.size - self.nd
+        table = StringFrictionTable(em.wm) if tabulate_string_friction else None
+        if table is not None and not table.applies():
+            table = None
+        self.model = PredictionModel(em, drawworks_lag, table)
+        if self.model.check() > 1e-9:
+            raise RuntimeError("drawworks-lag construction does not reproduce the hoisting law")
+        self.nd = self.model.nd
+        self.npar = self.model.npar
         self.ne = len(_INTEGRAL_OUTPUTS) if self.configuration == "NMPC1" else 0
         self.ns = self.nd + 4 + self.ne          # stage state: x~, u~_{k-1}, e
-        self.Sx = em.state_scale()[:self.nd]
+        self.Sx = self.model.scale()
         self.Su = np.array(cfg.input_slew.as_tuple(), dtype=float)
         self.u_span = np.array(cfg.input_span.as_tuple(), dtype=float)
         self.y_span = np.array(cfg.output_span.as_tuple(), dtype=float)
-        self.table = StringFrictionTable(em.wm) if tabulate_string_friction else None
-        if self.table is not None and not self.table.applies():
-            self.table = None
-        self.F = _prediction_function(em, self.ts, self.substeps, self.integrator, self.table)
+        self.F = self.model.function(self.ts, self.substeps, self.integrator)
         self._build(jit, solver_options or {})
 
     # -- construction -------------------------------------------------------------------
     def _stage_slacks(self, k: int) -> tuple[str, ...]:
         names = []
-        if k >= 1:
+        if 1 <= k < self.N or (k == self.N and self.terminal_constraints):
             names += ["velocity", "bhp_band", "choke_dp_band", "string_pressure"]
         if k < self.N:
             names.append("choke_capacity")
@@ -270,18 +358,17 @@ class NmpcProblem:
                "string_pressure": cfg.slack_weight_string_pressure,
                "choke_capacity": cfg.slack_weight_choke_capacity}
 
-        # parameters: x_hat (full), u_{-1}, e_0, y_ref (N x 3, stages 1..N), y_sp, u_ref
-        P = ca.MX.sym("p", em.size + 4 + self.ne + 3 * N + 3 + 4)
+        # parameters: x_0, par (theta, d), u_{-1}, e_0, y_ref (N x 3, stages 1..N), y_sp, u_ref
+        P = ca.MX.sym("p", nd + self.npar + 4 + self.ne + 3 * N + 3 + 4)
         off = 0
-        x_hat = P[off:off + em.size]; off += em.size
+        x0 = P[off:off + nd]; off += nd
+        par = P[off:off + self.npar]; off += self.npar
         u_prev = P[off:off + 4]; off += 4
         e0 = P[off:off + self.ne]; off += self.ne
         y_ref = ca.reshape(P[off:off + 3 * N], 3, N); off += 3 * N
         y_sp = P[off:off + 3]; off += 3
         u_ref = P[off:off + 4]; off += 4
         self.np_ = off
-        x0 = x_hat[:nd]
-        par = x_hat[nd:]
         Sx = ca.DM(self.Sx)
         Su = ca.DM(self.Su)
 
@@ -347,7 +434,7 @@ class NmpcProblem:
             slack = {n: xi[i] for i, n in enumerate(names)}
             u_scaled = u_vars[k] if k < Nc else up
             u_phys = u_prev + Su * u_scaled
-            xl = [x_phys[i] for i in range(nd)] + [par[i] for i in range(self.npar)]
+            xl = self.model.full(x_phys, par)
             y = outputs(em, xl)
             row_start = ng
             if k < N:
@@ -451,7 +538,7 @@ class NmpcProblem:
             qp_opts = ({"print_iter": False, "print_header": False, "error_on_fail": False}
                        if qp == "qrqp" else
                        {"N": self.N, "nx": nx, "nu": nu, "ng": ngs, "error_on_fail": False,
-                        "hpipm": {"mode": "robust", "iter_max": 100}} if qp == "hpipm" else
+                        "hpipm": {"mode": "speed", "iter_max": 100}} if qp == "hpipm" else
                        {"N": self.N, "nx": nx, "nu": nu, "ng": ngs, "structure_detection": "manual",
                         "error_on_fail": False, "fatrop": {"print_level": 0}} if qp == "fatrop" else {})
             opts.update({"qpsol": qp, "qpsol_options": qp_opts,
@@ -470,8 +557,9 @@ class NmpcProblem:
         return ca.nlpsol("nmpc", name, nlp, opts)
 
     # -- numeric data of one instance ---------------------------------------------------
-    def parameters(self, x_hat, u_prev, e0, y_ref, y_sp, u_ref) -> np.ndarray:
-        return np.concatenate([x_hat, u_prev, np.asarray(e0, dtype=float).ravel()[:self.ne],
+    def parameters(self, x0, par, u_prev, e0, y_ref, y_sp, u_ref) -> np.ndarray:
+        """Parameter vector: prediction state x_0, par = [theta (, d)], u_{-1}, e_0, y_ref[1..N], y_sp, u_ref."""
+        return np.concatenate([x0, par, u_prev, np.asarray(e0, dtype=float).ravel()[:self.ne],
                                np.asarray(y_ref, dtype=float).ravel(), y_sp, u_ref])
 
     def bounds(self, u_prev, velocity_limit, bhp_band, dp_band, string_pressure: bool,
@@ -501,10 +589,9 @@ class NmpcProblem:
                     lbg[rows], ubg[rows] = -_INF, _INF
         return lbz, ubz, lbg, ubg
 
-    def pack(self, x_hat, u_prev, X, U, E, slacks) -> np.ndarray:
+    def pack(self, x0, u_prev, X, U, E, slacks) -> np.ndarray:
         """Decision vector from physical trajectories X[(N+1) x nd], U[N x 4], E[(N+1) x ne]."""
         z = np.zeros(self.nz)
-        x0 = x_hat[:self.nd]
         for k, st in enumerate(self.stages):
             if k >= 1:
                 s = [(X[k] - x0) / self.Sx, (U[k - 1] - u_prev) / self.Su]
@@ -517,20 +604,20 @@ class NmpcProblem:
                 z[idx] = slacks.get(name, np.zeros(self.N + 1))[k]
         return z
 
-    def unpack(self, z, x_hat, u_prev, e0):
+    def unpack(self, z, x0, u_prev, e0):
         """Physical trajectories (X, U, E, slacks in scaled units per stage) from z."""
         N, nd = self.N, self.nd
         X = np.zeros((N + 1, nd))
         U = np.zeros((N, 4))
         E = np.zeros((N + 1, self.ne))
-        X[0] = x_hat[:nd]
+        X[0] = x0
         if self.ne:
             E[0] = e0
         slacks = {n: np.zeros(N + 1) for n in SLACK_NAMES}
         for k, st in enumerate(self.stages):
             if k >= 1:
                 s = z[st.s]
-                X[k] = x_hat[:nd] + self.Sx * s[:nd]
+                X[k] = x0 + self.Sx * s[:nd]
                 if self.ne:
                     E[k] = s[nd + 4:]
             if k < N:
@@ -539,11 +626,10 @@ class NmpcProblem:
                 slacks[name][k] = z[idx]
         return X, U, E, slacks
 
-    def simulate(self, x_hat, U) -> np.ndarray:
-        """Dynamic-state trajectory from x_hat under the inputs U[N x 4] (initial guesses)."""
+    def simulate(self, x0, par, U) -> np.ndarray:
+        """Prediction-state trajectory from x0 under the inputs U[N x 4] (initial guesses)."""
         X = np.zeros((self.N + 1, self.nd))
-        X[0] = x_hat[:self.nd]
-        par = x_hat[self.nd:]
+        X[0] = x0
         for k in range(self.N):
             X[k + 1] = np.array(self.F(X[k], U[k], par)).ravel()
         return X
@@ -567,6 +653,26 @@ class NmpcProblem:
                     new_z[idx] = lam_z[src.slack[name]]
         return new_z, new_g
 
+    def assess(self, sol: dict, lbz, ubz, lbg, ubg) -> tuple[bool, bool]:
+        """(usable, converged) for a solver answer: converged, or an iteration-limited
+        iterate meeting the linear hard constraints and (roughly) the dynamics."""
+        if "z" not in sol or not np.all(np.isfinite(sol["z"])) or not np.all(np.isfinite(sol["g"])):
+            return False, False
+        stats = sol["stats"]
+        if _succeeded(stats):
+            return True, True
+        if str(stats.get("return_status", "")) not in _ITERATION_LIMIT:
+            return False, False
+        z, g = sol["z"], sol["g"]
+        excess = np.maximum(np.maximum(lbg - g, g - ubg), 0.0)
+        bound = float(np.max(np.maximum(np.maximum(lbz - z, z - ubz), 0.0), initial=0.0))
+        slew = max((float(np.max(excess[st.rows["slew"]])) for st in self.stages if "slew" in st.rows),
+                   default=0.0)
+        gap = max((float(np.max(excess[st.gap])) for st in self.stages if st.gap is not None),
+                  default=0.0)
+        ok = max(bound, slew) <= LINEAR_TOLERANCE and gap <= GAP_TOLERANCE
+        return ok, False
+
     def solve(self, p, z0, lbz, ubz, lbg, ubg, lam_z0=None, lam_g0=None) -> dict:
         args = {"x0": z0, "p": p, "lbx": lbz, "ubx": ubz, "lbg": lbg, "ubg": ubg}
         if lam_z0 is not None:
@@ -588,6 +694,14 @@ class NmpcProblem:
 _SUCCESS_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
 
+_ITERATION_LIMIT = ("Maximum_Iterations_Exceeded", "SOLVER_RET_LIMITED")
+# An iteration-limited iterate is still used (real-time iteration) when it meets the
+# linear hard constraints (input bounds, slew rows) to LINEAR_TOLERANCE and the dynamics
+# (gap rows) to GAP_TOLERANCE, both in the OCP's scaled units (S_x: 1 bar, 10 L/s, ...).
+LINEAR_TOLERANCE = 1.0e-6
+GAP_TOLERANCE = 0.5
+
+
 def _succeeded(stats: dict) -> bool:
     if stats.get("success"):
         return True
@@ -597,27 +711,33 @@ def _succeeded(stats: dict) -> bool:
 class Supervisor:
     """NMPC supervisor: one solve per sample with warm start and the fallback policy.
 
-    ``config`` is the rig configuration (or its ``nmpc`` section); ``em`` the shared
-    estimation model. ``step`` takes the estimate x_hat (SI, the estimator's state layout;
-    NMPC2 reads d from it unless ``disturbance`` is given), the setpoints in force and the
-    previously applied input u_{-1}, and returns a :class:`SolveResult` whose ``u`` is
-    always finite and inside the input bounds and slew limits.
+    ``config`` is the rig configuration (its ``nmpc`` section, and the drawworks lag from
+    ``actuators``) or just the ``nmpc`` section (no drawworks lag then); ``em`` is the
+    shared estimation model. ``step`` takes the estimate x_hat (SI, the estimator's state
+    layout; NMPC2 reads the bottom influx d from it unless ``disturbance`` is given), the
+    setpoints in force and the previously applied input u_{-1}; it returns a
+    :class:`SolveResult` whose ``u`` is always finite, inside the input bounds and within
+    the slew limits of u_{-1}.
     """
 
     def __init__(self, config, em: EstimationModel, *, configuration: str | None = None,
                  solver: str | None = None, hessian: str | None = None, jit: bool | None = None,
                  substeps: int | None = None, integrator: str | None = None,
-                 solver_options: dict | None = None):
-        cfg: Nmpc = config.nmpc if isinstance(config, RigConfig) else config
+                 solver_options: dict | None = None, drawworks_lag: bool | None = None):
+        rig = config if isinstance(config, RigConfig) else None
+        cfg: Nmpc = rig.nmpc if rig is not None else config
         self.cfg = cfg
         solver = solver or cfg.solver
         if hessian is None:
-            hessian = "exact" if solver == "fatrop" else "gauss-newton"
+            hessian = "exact" if solver == "fatrop" else cfg.hessian
+        use_lag = cfg.drawworks_lag_in_model if drawworks_lag is None else drawworks_lag
+        lag = DrawworksLag(rig.actuators.drawworks.time_constant_s) if (use_lag and rig) else None
         self.problem = NmpcProblem(cfg, em, configuration=configuration, solver=solver,
                                    jit=cfg.jit if jit is None else jit, substeps=substeps,
                                    integrator=integrator, solver_options=solver_options,
-                                   hessian=hessian)
+                                   hessian=hessian, drawworks_lag=lag)
         self.em = self.problem.em
+        self.model = self.problem.model
         self.configuration = self.problem.configuration
         self.u_min = np.array(cfg.input_min.as_tuple(), dtype=float)
         self.u_max = np.array(cfg.input_max.as_tuple(), dtype=float)
@@ -643,23 +763,25 @@ class Supervisor:
         u[bad] = np.clip(0.0, self.u_min, self.u_max)[bad]
         return np.clip(u, self.u_min, self.u_max)
 
-    def _limit(self, u, u_prev) -> np.ndarray:
-        """Clip a command into the bounds and the slew limits around u_prev; assert finite."""
+    def limit(self, u, u_prev) -> np.ndarray:
+        """Clip a command into the slew limits around u_prev and the bounds; assert finite."""
         u = np.where(np.isfinite(u), u, u_prev)
         u = np.clip(u, u_prev - self.slew, u_prev + self.slew)
         u = np.clip(u, self.u_min, self.u_max)
         assert np.all(np.isfinite(u)), "NMPC command is not finite"
         return u
 
-    def setpoint_vector(self, x, setpoints: ActiveSetpoints) -> np.ndarray:
+    def setpoint_vector(self, x_full, setpoints: ActiveSetpoints) -> np.ndarray:
+        """y_sp = [block target, choke dp ref, BHP ref] (NaN BHP: the first estimate's BHP)."""
         bhp = setpoints.bhp_ref_pa
         if not math.isfinite(bhp):
             if self.bhp_ref_default is None:
-                self.bhp_ref_default = float(outputs(self.em, x)[2])
+                self.bhp_ref_default = float(outputs(self.em, x_full)[2])
             bhp = self.bhp_ref_default
         return np.array([setpoints.block_position_target_m, setpoints.choke_dp_ref_pa, bhp])
 
-    def _levels(self, setpoints: ActiveSetpoints, y_sp):
+    def levels(self, setpoints: ActiveSetpoints, y_sp):
+        """Soft-constraint levels: velocity limit, BHP band, choke dp band (SI)."""
         cfg = self.cfg
         vlim = cfg.velocity_limit_mps
         if math.isfinite(setpoints.trip_speed_limit_mps) and setpoints.trip_speed_limit_mps > 0.0:
@@ -673,38 +795,39 @@ class Supervisor:
         dp_hi = max(y_sp[1] + dp_band, dp_lo)
         return vlim, (y_sp[2] - band, y_sp[2] + band), (dp_lo, dp_hi)
 
-    def _initial_guess(self, x, u_prev):
+    def _initial_guess(self, x0, par, u_prev):
+        """Cold start: inputs held at u_{-1}, states simulated, slacks and multipliers zero."""
         pb = self.problem
         U = np.tile(u_prev, (pb.N, 1))
-        X = pb.simulate(x, U)
+        X = pb.simulate(x0, par, U)
         if not np.all(np.isfinite(X)):
-            X = np.tile(x[:pb.nd], (pb.N + 1, 1))
+            X = np.tile(x0, (pb.N + 1, 1))
         E = np.tile(self.integral, (pb.N + 1, 1)) if pb.ne else None
-        return pb.pack(x, u_prev, X, U, E, {}), None, None
+        return pb.pack(x0, u_prev, X, U, E, {}), None, None
 
-    def _shifted_guess(self, x, u_prev):
-        """Previous solution shifted one sample, re-expressed around the new x_hat, u_{-1}."""
+    def _shifted_guess(self, x0, par, u_prev):
+        """Previous solution shifted one sample (primal and multipliers), re-expressed
+        around the new x_0 and u_{-1}."""
         pb, w = self.problem, self._warm
-        N = pb.N
         X = np.vstack([w["X"][1:], w["X"][-1:]])
-        X[0] = x[:pb.nd]
+        X[0] = x0
         U = np.vstack([w["U"][1:], w["U"][-1:]])
-        E = np.vstack([w["E"][1:], w["E"][-1:]]) if pb.ne else None
+        E = None
         if pb.ne:
+            E = np.vstack([w["E"][1:], w["E"][-1:]])
             E[0] = self.integral
         slacks = {n: np.concatenate([v[1:], v[-1:]]) for n, v in w["slacks"].items()}
-        z = pb.pack(x, u_prev, X, U, E, slacks)
+        z = pb.pack(x0, u_prev, X, U, E, slacks)
         lam_z, lam_g = pb.shift_multipliers(w["lam_z"], w["lam_g"])
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(lam_z)) and np.all(np.isfinite(lam_g))):
-            return self._initial_guess(x, u_prev)
-        del N
+            return self._initial_guess(x0, par, u_prev)
         return z, lam_z, lam_g
 
     # -- one sample ---------------------------------------------------------------------
     def step(self, x_hat, setpoints: ActiveSetpoints, u_prev, disturbance=None) -> SolveResult:
+        """Solve the OCP at estimate ``x_hat`` and return the command to apply from now."""
         t0 = time.perf_counter()
-        pb = self.problem
-        em = self.em
+        pb, em = self.problem, self.em
         u_prev = self.safe_input(u_prev)
         x = full_state(em, x_hat, disturbance)
         self.solve_count += 1
@@ -712,74 +835,78 @@ class Supervisor:
             return self._hold(u_prev, "invalid_estimate", t0)
         if self.spp_nominal is None:
             self.spp_nominal = float(u_prev[3])
+        x0 = self.model.initial_state(x)
+        par = x[self.model.nd_model:]
         y_now = np.array([float(v) for v in outputs(em, x)])
         y_sp = self.setpoint_vector(x, setpoints)
+        # reference trajectory (59), anchored at the estimated output
         y_ref = np.array([self.alpha ** j * y_now + (1.0 - self.alpha ** j) * y_sp
-                          for j in range(0, pb.N + 1)])
-        if pb.ne:
+                          for j in range(pb.N + 1)])
+        if pb.ne:       # NMPC1: integrate the estimated tracking error (anti-windup clamp)
             err = np.array([(y_now[i] - y_sp[i]) / pb.y_span[i] for i in _INTEGRAL_OUTPUTS])
             self.integral = np.clip(self.integral + pb.ts * err, -self.cfg.integral_limit_s,
                                     self.cfg.integral_limit_s)
         u_ref = np.array([y_sp[0], u_prev[1], 0.0, self.spp_nominal])
-        p = pb.parameters(x, u_prev, self.integral, y_ref[1:], y_sp, u_ref)
-        vlim, bhp_band, dp_band = self._levels(setpoints, y_sp)
+        p = pb.parameters(x0, par, u_prev, self.integral, y_ref[1:], y_sp, u_ref)
+        vlim, bhp_band, dp_band = self.levels(setpoints, y_sp)
         circulating = bool(setpoints.mud_pump_on)
 
-        attempts = []
+        last = None
         for relaxed in (False, True):
             if relaxed or self._warm is None:
-                z0, lam_z0, lam_g0 = self._initial_guess(x, u_prev)
+                z0, lam_z0, lam_g0 = self._initial_guess(x0, par, u_prev)
             else:
-                z0, lam_z0, lam_g0 = self._shifted_guess(x, u_prev)
+                z0, lam_z0, lam_g0 = self._shifted_guess(x0, par, u_prev)
             lbz, ubz, lbg, ubg = pb.bounds(u_prev, vlim, bhp_band, dp_band, circulating, relaxed)
             try:
                 sol = pb.solve(p, z0, lbz, ubz, lbg, ubg, lam_z0, lam_g0)
             except RuntimeError as err:       # evaluation error inside the solver
                 sol = {"stats": {"success": False, "return_status": f"error: {err}"[:120],
                                  "iter_count": -1}}
-            attempts.append(sol)
-            ok = _succeeded(sol["stats"]) and np.all(np.isfinite(sol["z"]))
-            if ok:
-                X, U, E, slacks = pb.unpack(sol["z"], x, u_prev, self.integral)
-                ok = bool(np.all(np.isfinite(U)) and np.all(np.isfinite(X)))
-            if ok:
-                if not relaxed:
-                    self._warm = {"X": X, "U": U, "E": E, "slacks": slacks,
-                                  "lam_z": sol["lam_z"], "lam_g": sol["lam_g"]}
-                else:
-                    self._warm = None
-                    self.fallback_count += 1
-                u = self._limit(U[0], u_prev)
-                return self._result(u, True, "relaxed" if relaxed else "none", sol, t0, x, X, U,
-                                     slacks, y_ref)
+            last = sol
+            usable, converged = pb.assess(sol, lbz, ubz, lbg, ubg)
+            if not usable:
+                continue
+            X, U, E, slacks = pb.unpack(sol["z"], x0, u_prev, self.integral)
+            if not (np.all(np.isfinite(U)) and np.all(np.isfinite(X))):
+                continue
+            if relaxed:
+                self._warm = None
+                self.fallback_count += 1
+            else:
+                self._warm = {"X": X, "U": U, "E": E, "slacks": slacks,
+                              "lam_z": sol["lam_z"], "lam_g": sol["lam_g"]}
+            u = self.limit(U[0], u_prev)
+            return self._result(u, "relaxed" if relaxed else "none", sol, t0, par, X, U, slacks,
+                                y_ref, converged)
         self._warm = None
-        last = attempts[-1]
         return self._hold(u_prev, str(last["stats"].get("return_status", "failed")), t0,
                           iterations=int(last["stats"].get("iter_count", -1)))
 
     def _hold(self, u_prev, status: str, t0: float, iterations: int = -1) -> SolveResult:
         self.fallback_count += 1
-        u = self._limit(u_prev.copy(), u_prev)
+        u = self.limit(u_prev.copy(), u_prev)
         return SolveResult(u=u, success=False, fallback="hold", status=status, iterations=iterations,
                            solve_time_s=time.perf_counter() - t0, cost=float("nan"),
                            slacks={n: float("nan") for n in SLACK_NAMES},
-                           predicted_time_s=np.zeros(0), predicted={},
                            planned_inputs=np.tile(u, (self.problem.N, 1)),
-                           reference=np.zeros((0, 3)), integral=self.integral.copy(),
-                           configuration=self.configuration)
+                           integral=self.integral.copy(), configuration=self.configuration)
 
-    def _result(self, u, success, fallback, sol, t0, x, X, U, slacks, y_ref) -> SolveResult:
-        pb, em = self.problem, self.em
-        full = np.hstack([X, np.tile(x[pb.nd:], (pb.N + 1, 1))])
-        Y = np.array([[float(v) for v in outputs(em, row)] for row in full])
+    def _result(self, u, fallback, sol, t0, par, X, U, slacks, y_ref, converged) -> SolveResult:
+        pb, em, model = self.problem, self.em, self.model
+        rows = [model.full(row, par) for row in X]
+        Y = np.array([[float(v) for v in outputs(em, r)] for r in rows])
         predicted = {"block_position_m": Y[:, 0], "choke_dp_pa": Y[:, 1], "bhp_pa": Y[:, 2],
-                     "string_velocity_mps": X[:, 1],
+                     "string_velocity_mps": X[:, 1].copy(),
                      "string_pressure_margin_pa": np.array([float(string_pressure_margin(em, r))
-                                                            for r in full])}
+                                                            for r in rows])}
+        if model.block is not None:
+            predicted["block_m"] = X[:, model.block].copy()
         slack_si = {n: float(np.max(v)) * SLACK_UNITS[n] for n, v in slacks.items()}
         stats = sol["stats"]
-        return SolveResult(u=u, success=success, fallback=fallback,
-                           status=str(stats.get("return_status", "")),
+        status = str(stats.get("return_status", ""))
+        return SolveResult(u=u, success=True, fallback=fallback,
+                           status=status if converged else f"{status} (feasible iterate used)",
                            iterations=int(stats.get("iter_count", -1)),
                            solve_time_s=time.perf_counter() - t0, cost=float(sol["f"]),
                            slacks=slack_si, predicted_time_s=pb.ts * np.arange(pb.N + 1),

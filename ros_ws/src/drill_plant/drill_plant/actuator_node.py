@@ -61,7 +61,8 @@ class ActuatorNode(Node):
                                          topics.RELIABLE)
         self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
                                  topics.RELIABLE)
-        self.create_subscription(RigCommand, topics.COMMAND, self._on_command, topics.RELIABLE)
+        self.create_subscription(RigCommand, topics.MACHINE_COMMAND, self._on_command,
+                                 topics.RELIABLE)
 
     def get_name(self) -> str:  # status topic and logs carry the actuator's name
         return getattr(self, "actuator", None) or super().get_name()

@@ -7,7 +7,10 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 MEASUREMENT = "/rig/measurement"        # drill_msgs/RigMeasurement, plant -> estimator, actuators
 TRUTH = "/rig/truth"                    # drill_msgs/PlantTruth, evaluation only
-COMMAND = "/rig/command"                # drill_msgs/RigCommand, supervisor -> actuators
+COMMAND = "/supervisor/command"         # drill_msgs/RigCommand, advisor (nmpc, baseline) -> protection
+MACHINE_COMMAND = "/rig/command"        # drill_msgs/RigCommand, protection -> actuators
+EMERGENCY_STOP = "/operator/emergency_stop"  # std_msgs/Bool, latched
+PROTECTION_EVENTS = "/protection/events"     # drill_msgs/OperatorEvent: clamps and alarms
 ESTIMATE = "/estimator/estimate"        # drill_msgs/StateEstimate
 NMPC_STATUS = "/nmpc/status"            # drill_msgs/NmpcStatus
 SETPOINTS = "/setpoints"                # drill_msgs/Setpoints, latched

@@ -1,0 +1,99 @@
+"""Timing of the UKF: one time update (one plant step) and one measurement update.
+
+``run_benchmark()`` times the reference well (n = 4, 15 states) and the same well split
+into n = 8 segments (27 states), from a circulating steady state (1000 L/min, 20 bar choke
+dp), and reports medians over many repetitions in milliseconds plus the cost of one
+100 Hz tick (one time update + 1/steps_per_frame of a measurement update) as a fraction
+of the plant step. Target: under 10 % of real time.
+
+    python -m drill_estimator.bench [config_dir]
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from drill_core import hydraulics as hy
+from drill_core.config import RigConfig, load_rig, replace
+from drill_estimator.ukf import RigUkf
+
+CIRCULATION = 1000.0 / 60000.0      # 1000 L/min
+CHOKE_DP = 2.0e6                    # 20 bar
+
+
+def split_segments(lengths, parts: int) -> tuple[float, ...]:
+    """Every segment cut into ``parts`` equal pieces (same depth, n * parts segments)."""
+    return tuple(length / parts for length in lengths for _ in range(parts))
+
+
+def _default_config_dir() -> Path:
+    return Path(os.environ.get("RIG_ROOT", Path.cwd())) / "config"
+
+
+def _started_filter(config: RigConfig, jit: bool = False) -> tuple[RigUkf, np.ndarray, np.ndarray]:
+    ukf = RigUkf(config, jit=jit)
+    em, g, w = ukf.em, ukf.em.wm.geometry, ukf.em.wm.well
+    rho_g = w.mud.density_kgm3 * w.gravity_mps2
+    friction = 28.0e5 * CIRCULATION ** 2 / (1000.0 / 60000.0) ** 2   # about the reference well's
+    y = np.array([0.0, CHOKE_DP, w.choke_downstream_pressure_pa + CHOKE_DP + rho_g * g.node_depth_m[-1]
+                  + friction, CIRCULATION])
+    x0 = ukf.initial_state(y, True)
+    ukf.initialise(x0)
+    pump = x0[em.string_pressure] - rho_g * g.bit_depth_m \
+        + float(hy.string_friction(np, em.wm, CIRCULATION, 0.0))
+    block = g.static_stretch_m if ukf.block_input == "block_position" else 0.0
+    return ukf, np.array([block, CIRCULATION, 0.0, pump]), y
+
+
+def _median_ms(fn, repetitions: int) -> float:
+    times = np.empty(repetitions)
+    for i in range(repetitions):
+        start = time.perf_counter()
+        fn()
+        times[i] = time.perf_counter() - start
+    return float(np.median(times) * 1e3)
+
+
+def time_filter(config: RigConfig, repetitions: int = 300, jit: bool = False) -> dict[str, float]:
+    """Median times [ms] of one time update and one measurement update for ``config``."""
+    start = time.perf_counter()
+    ukf, u, y = _started_filter(config, jit)
+    build_ms = (time.perf_counter() - start) * 1e3
+    for _ in range(20):                    # warm up
+        ukf.predict(u)
+    predict_ms = _median_ms(lambda: ukf.predict(u), repetitions)
+    update_ms = _median_ms(lambda: (ukf.predict(u), ukf.update(y, True)), repetitions // 3) - predict_ms
+    steps = config.plant.steps_per_frame
+    tick_ms = predict_ms + update_ms / steps
+    return {"states": float(ukf.n_x), "build_ms": build_ms, "time_update_ms": predict_ms,
+            "measurement_update_ms": update_ms, "tick_ms": tick_ms,
+            "real_time_fraction": tick_ms * 1e-3 / config.plant.step_s,
+            "finite": float(np.all(np.isfinite(ukf.mean)))}
+
+
+def run_benchmark(config_dir: str | os.PathLike | None = None, repetitions: int = 300,
+                  jit: bool = False) -> dict:
+    """Timings for n = 4 and n = 8 (flat dict, keys prefixed ``ukf_n4_`` / ``ukf_n8_``).
+
+    ``jit`` compiles the mapped model with CasADi's shell compiler (needs a C compiler;
+    adds about a second of build time per filter)."""
+    config = load_rig(config_dir or _default_config_dir())
+    out: dict[str, float] = {}
+    for parts, tag in ((1, "n4"), (2, "n8")):
+        cfg = config
+        if parts > 1:
+            cfg = replace(config, well=replace(config.well, segment_lengths_m=split_segments(
+                config.well.segment_lengths_m, parts)))
+        n = len(cfg.well.segment_lengths_m)
+        for key, value in time_filter(cfg, repetitions, jit).items():
+            out[f"ukf_n{n}_{key}"] = value
+    return out
+
+
+if __name__ == "__main__":
+    print(json.dumps(run_benchmark(sys.argv[1] if len(sys.argv) > 1 else None), indent=2))

@@ -1,0 +1,238 @@
+"""Estimator node: the rig's UKF (drill_estimator.ukf) on topics (DESIGN sections 2 and 5).
+
+Subscribes /rig/measurement and /actuators/<name>/frame for the four actuators (never the
+truth topic); publishes drill_msgs/StateEstimate on /estimator/estimate stamped with the
+measurement it used, and NodeStatus on /estimator/status.
+
+fast mode (lockstep): the plant publishes the measurement stamped t_k after integrating
+the frame [t_{k-1}, t_k) that the actuator frames stamped t_{k-1} describe. On a
+measurement t_k the node waits (StampedInbox) until all four frames stamped t_{k-1} are
+in, runs one time update per plant step of that frame, fuses y(t_k) and publishes the
+estimate stamped t_k. The first measurement initialises the filter (no frames needed).
+Measurements and frames may arrive in any order across topics; every message is keyed by
+its stamp, so the result does not depend on timing.
+
+realtime mode: each measurement is processed on arrival with the latest frame of each
+actuator (inputs held when a frame is missing).
+
+Time-update inputs per plant step (RigUkf.predict): drawworks output u_b (estimator
+block_input block_position; the frame's reference u_r with block_input reference), choke
+flow from the valve law with the choke opening sample and the last accepted measured choke
+dp (a virtual flow meter: the choke flow is not measured), back-pressure pump flow and
+mud-pump pressure samples.
+
+Run: python -m drill_estimator.estimator_node --ros-args -p config_dir:=<dir> -p mode:=fast
+     -p use_sim_time:=true
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from drill_msgs.msg import ActuatorFrame, RigMeasurement, StateEstimate
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+
+from drill_core import hydraulics as hy
+from drill_core.ros import topics
+from drill_core.ros.context import load_context
+from drill_core.ros.inbox import StampedInbox
+from drill_core.ros.runner import run
+from drill_core.ros.stamps import to_ns
+from drill_core.ros.status import StatusReporter
+from drill_estimator.ukf import RigUkf, UpdateResult
+
+
+class EstimatorNode(Node):
+    def __init__(self):
+        super().__init__("estimator")
+        ctx = load_context(self)
+        self.ctx = ctx
+        jit = bool(self.declare_parameter("jit", False).value)
+        cfg = ctx.config
+        self.ukf = RigUkf(cfg, jit=jit)
+        self.wm = self.ukf.em.wm
+        self.steps = cfg.plant.steps_per_frame
+        self.step_ns = int(round(cfg.plant.step_s * 1e9))
+        self.status = StatusReporter(self, ctx.mode)
+
+        self.frames = StampedInbox(topics.ACTUATORS)           # fast mode
+        self.latest: dict[str, ActuatorFrame] = {}             # realtime mode
+        self.pending: dict[int, RigMeasurement] = {}           # fast mode, by stamp
+        self.previous_ns: int | None = None                    # stamp of the last measurement used
+        self.choke_dp_pa = 0.0                                 # last accepted measured choke dp
+        self.held = np.zeros(4)                                # last inputs (opening, not flow)
+        self.frame_ms = 0.0
+
+        self.pub = self.create_publisher(StateEstimate, topics.ESTIMATE, topics.RELIABLE)
+        self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
+                                 topics.RELIABLE)
+        for name in topics.ACTUATORS:
+            self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
+                                     lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
+        # a wall-clock heartbeat: without it a node that only reacts to messages blocks in
+        # the middle-ware wait and a Python-level SIGTERM handler never gets to run
+        self.create_timer(0.25, lambda: None, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.get_logger().info(
+            f"estimator ready: mode {ctx.mode}, {self.ukf.n_x} states, block input "
+            f"{self.ukf.block_input}")
+
+    # ------------------------------------------------------------------ inputs
+    def _on_measurement(self, msg: RigMeasurement) -> None:
+        if self.ctx.fast:
+            stamp = to_ns(msg.header.stamp)
+            if self.previous_ns is not None and stamp <= self.previous_ns:
+                self.status.error(f"measurement stamped {stamp} ns is not newer than the last one "
+                                  f"({self.previous_ns} ns); ignored")
+                return
+            self.pending[stamp] = msg
+            self._drain()
+        else:
+            self._process(msg, {name: self.latest.get(name) for name in topics.ACTUATORS})
+
+    def _on_frame(self, name: str, msg: ActuatorFrame) -> None:
+        if self.ctx.fast:
+            self.frames.put(name, msg)
+            self._drain()
+        else:
+            self.latest[name] = msg
+
+    def _drain(self) -> None:
+        """Process pending measurements in stamp order while their frames are in."""
+        while self.pending:
+            stamp = min(self.pending)
+            if self.previous_ns is not None:
+                if not self.frames.ready(self.previous_ns):
+                    return
+                frames = {name: self.frames.take(name, self.previous_ns) for name in topics.ACTUATORS}
+            else:
+                frames = {}
+            self._process(self.pending.pop(stamp), frames)
+
+    # -------------------------------------------------------------- filtering
+    def _process(self, msg: RigMeasurement, frames) -> None:
+        started = time.perf_counter()
+        stamp = to_ns(msg.header.stamp)
+        circulating = bool(msg.string_flow_valid)
+        y = np.array([msg.block_position_m, msg.choke_dp_pa, msg.bhp_pa,
+                      msg.string_flow_m3s if circulating else np.nan])
+        ukf = self.ukf
+        if not ukf.initialised:
+            if not np.all(np.isfinite(y[:3])) or (circulating and not np.isfinite(y[3])):
+                ukf.rejected += 1
+                self.status.error(f"cannot initialise from a non-finite measurement {y.tolist()}")
+                self.previous_ns = stamp
+                return
+            x0 = ukf.initial_state(y, circulating)
+            ukf.initialise(x0)
+            self.choke_dp_pa = float(y[1])
+            self.held = self._steady_inputs(x0)
+            self.previous_ns = stamp
+            self._publish(msg, None)
+            return
+
+        steps = self.steps
+        if self.previous_ns is not None and not self.ctx.fast:
+            steps = int(np.clip(round((stamp - self.previous_ns) / self.step_ns), 1, 10 * self.steps))
+        inputs = self._frame_inputs(frames, steps)
+        try:
+            ukf.predict_frame(inputs)
+        except ValueError as err:          # non-finite input slipped through: skip the frame
+            self.status.error(f"time update skipped: {err}")
+        result = ukf.update(y, circulating)
+        if result.accepted:
+            self.choke_dp_pa = float(y[1])
+        else:
+            self.status.error(f"measurement at {stamp} ns rejected: {y.tolist()}")
+        self.previous_ns = stamp
+        self.frame_ms = (time.perf_counter() - started) * 1e3
+        self._publish(msg, result)
+
+    def _frame_inputs(self, frames, steps: int) -> np.ndarray:
+        """Model inputs [4 x steps] from the actuator frames (held values where missing/bad)."""
+        rows = []
+        for i, name in enumerate(topics.ACTUATORS):
+            frame = frames.get(name)
+            samples = None
+            if frame is not None:
+                if name == "drawworks" and self.ukf.block_input == "reference":
+                    samples = np.full(max(len(frame.output), 1), float(frame.reference))
+                else:
+                    samples = np.asarray(frame.output, dtype=float)
+                if samples.size == 0 or not np.all(np.isfinite(samples)):
+                    self.status.error(f"{name}: bad frame ({samples.size} samples); holding input")
+                    samples = None
+            if samples is None:
+                samples = np.array([self.held[i]])
+            # hold the last sample if the frame is shorter than the interval
+            row = samples[np.minimum(np.arange(steps), samples.size - 1)]
+            self.held[i] = row[-1]
+            rows.append(row)
+        inputs = np.vstack(rows)
+        inputs[1] = hy.choke_flow(self.wm, inputs[1], self.choke_dp_pa)   # virtual flow meter
+        return inputs
+
+    def _steady_inputs(self, x0: np.ndarray) -> np.ndarray:
+        """Inputs that hold the initial steady state: [u_b or u_r, opening, q_bpp, p_in]."""
+        em, g, w = self.ukf.em, self.wm.geometry, self.wm.well
+        block = x0[0] + (g.static_stretch_m if self.ukf.block_input == "block_position" else 0.0)
+        flow = x0[em.string_flow]
+        per_opening = float(hy.choke_flow(self.wm, 1.0, self.choke_dp_pa))
+        opening = min(1.0, flow / per_opening) if flow > 0.0 and per_opening > 0.0 else 0.0
+        rho_g = w.mud.density_kgm3 * w.gravity_mps2
+        pump = 0.0
+        if flow > 0.0:
+            pump = x0[em.string_pressure] - rho_g * (g.bit_depth_m - x0[0]) \
+                + float(hy.string_friction(np, self.wm, flow, 0.0))
+        return np.array([block, opening, 0.0, pump])
+
+    # --------------------------------------------------------------- outputs
+    def _publish(self, measurement: RigMeasurement, result: UpdateResult | None) -> None:
+        ukf = self.ukf
+        msg = StateEstimate()
+        msg.header.stamp = measurement.header.stamp
+        msg.header.frame_id = measurement.header.frame_id
+        msg.state_names = list(ukf.state_names)
+        msg.mean = [float(v) for v in ukf.mean]
+        msg.covariance_diagonal = [float(v) for v in ukf.covariance_diagonal]
+        msg.friction_parameter = [float(v) for v in ukf.theta]
+        msg.friction_pa = [float(v) for v in ukf.friction_pa]
+        if result is not None and result.accepted:
+            msg.measurement_names = list(result.measurement_names)
+            msg.innovation = [float(v) for v in result.innovation]
+            msg.nis = float(result.nis)
+            msg.nis_dof = int(result.nis_dof)
+        else:                             # initialisation or rejected sample: nothing fused
+            msg.nis = 0.0
+            msg.nis_dof = 0
+        msg.string_flow_observable = bool(measurement.string_flow_valid)
+        msg.bhp_pa = ukf.bhp_pa
+        msg.choke_dp_pa = ukf.choke_dp_pa
+        msg.string_velocity_mps = ukf.string_velocity_mps
+        msg.bottom_influx_m3s = ukf.bottom_influx_m3s
+        msg.rejected_measurements = int(ukf.rejected)
+        msg.covariance_inflations = int(ukf.inflations)
+        self.pub.publish(msg)
+
+        stamp_ns = to_ns(measurement.header.stamp)
+        self.status.values = {
+            "nis": msg.nis,
+            "nis_dof": float(msg.nis_dof),
+            "nis_window_per_dof": float(result.window_nis_per_dof) if result is not None else 0.0,
+            "rejected": float(ukf.rejected),
+            "inflations": float(ukf.inflations),
+            "repairs": float(ukf.repairs),
+            "resets": float(ukf.resets),
+            "string_flow_observable": float(msg.string_flow_observable),
+            "frame_update_time_ms": self.frame_ms,
+            "bhp_pa": msg.bhp_pa,
+        }
+        self.status.tick(stamp_ns)
+
+
+def main(args=None) -> None:
+    raise SystemExit(run(EstimatorNode, args))
+
+
+if __name__ == "__main__":
+    main()

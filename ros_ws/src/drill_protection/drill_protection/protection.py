@@ -1,0 +1,136 @@
+"""Process protection (the D-WIS model, DESIGN section 10): whatever an advisor (the
+NMPC, the baseline controller or the operator) asks, the command that reaches the
+machines respects the most conservative of
+
+* machine limits: actuator ranges and rate limits,
+* operator limits: the trip-speed limit of the setpoints in force, the emergency stop,
+* model-derived surge/swab limits: the largest trip speed, each way, for which the
+  steady Herschel-Bulkley surge/swab model keeps the BHP inside the pore/fracture
+  window (with margin), and a limit on the change of trip speed (acceleration).
+
+Every clamp is reported with its reason. Plain Python; the node wires it to topics.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from drill_core import hydraulics as hy
+from drill_core.config import RigConfig
+
+INPUTS = ("block_position_ref_m", "choke_flow_ref_m3s", "bpp_flow_m3s", "spp_pa")
+_SPEED_GRID_POINTS = 61
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The command that goes to the machines and why it differs from the request."""
+    command: np.ndarray                 # [u_r m, q_c m^3/s, q_bpp m^3/s, p_spp Pa]
+    clamps: tuple[str, ...]             # one reason per limit that acted
+    trip_speed_limits_mps: tuple[float, float]  # allowed speed running in, pulling out
+
+
+def surge_swab_pa(wm: hy.WellModel, speeds_mps: np.ndarray, circulation_m3s: float) -> np.ndarray:
+    """Steady change of BHP [Pa] when the string moves at ``speeds_mps`` (positive up) with
+    a closed-end string, relative to the string at rest, at the given circulation."""
+    area = wm.geometry.string_outer_area_at_top_m2
+    speeds = np.asarray(speeds_mps, dtype=float)
+    flows = [circulation_m3s - area * speeds] * (wm.n - 1)
+    moving = np.sum(hy.annulus_friction(np, wm, flows, speeds), axis=0)
+    still = np.sum(hy.annulus_friction(np, wm, [np.full_like(speeds, circulation_m3s)] * (wm.n - 1),
+                                       np.zeros_like(speeds)), axis=0)
+    return moving - still
+
+
+class ProcessProtection:
+    """Stateful limiter: remembers the last applied command for rate limits."""
+
+    def __init__(self, config: RigConfig, wm: hy.WellModel, initial_command: np.ndarray):
+        self.config = config
+        self.wm = wm
+        self.previous = np.asarray(initial_command, dtype=float).copy()
+        self.previous_speed_mps = 0.0
+        self.emergency_stop = False
+        a, n = config.actuators, config.nmpc
+        self.lower = np.array([a.drawworks.minimum, 0.0, a.bpp.minimum, a.mud_pump.minimum])
+        self.upper = np.array([a.drawworks.maximum, n.input_max.choke_flow_m3s, a.bpp.maximum,
+                               a.mud_pump.maximum])
+        self.slew = np.array(n.input_slew.as_tuple())
+
+    def speed_limits(self, bhp_pa: float, string_velocity_mps: float, circulation_m3s: float,
+                     operator_limit_mps: float) -> tuple[tuple[float, str], tuple[float, str]]:
+        """Allowed trip speed [m/s] running in and pulling out, each with the limit that set it.
+
+        The measured BHP is first referred back to the string at rest with the model at
+        the measured string velocity, then the model predicts BHP at each candidate speed.
+        """
+        p = self.config.protection
+        machine = min(p.trip_speed_max_mps, self.config.actuators.drawworks.rate_limit_per_s)
+        cap, cap_reason = (operator_limit_mps, "operator trip-speed limit") \
+            if operator_limit_mps < machine else (machine, "drawworks machine limit")
+        grid = np.linspace(0.0, cap, _SPEED_GRID_POINTS)
+        current = surge_swab_pa(self.wm, np.array([string_velocity_mps]), circulation_m3s)[0]
+        static_bhp = bhp_pa - current
+        low, high = p.pore_pressure_pa + p.pressure_margin_pa, p.fracture_pressure_pa - p.pressure_margin_pa
+
+        def outside(bhp):
+            return np.maximum(low - bhp, 0.0) + np.maximum(bhp - high, 0.0)
+
+        limits = []
+        for sign, word in ((-1.0, "surge"), (1.0, "swab")):
+            bhp = static_bhp + surge_swab_pa(self.wm, sign * grid, circulation_m3s)
+            # a speed is acceptable if it keeps BHP in the window or moves it toward the window
+            ok = outside(bhp) <= outside(np.array([static_bhp]))[0]
+            if ok.all():
+                limits.append((float(cap), f"{cap_reason} {cap:.2f} m/s"))
+            else:
+                allowed = float(grid[max(int(np.argmin(ok)) - 1, 0)])
+                limits.append((allowed, f"{word} model keeps BHP inside {low / 1e5:.1f}-"
+                                        f"{high / 1e5:.1f} bar only up to {allowed:.2f} m/s"))
+        return limits[0], limits[1]
+
+    def apply(self, request, position_m: float, string_velocity_mps: float, bhp_pa: float,
+              circulation_m3s: float, operator_speed_limit_mps: float) -> Decision:
+        """Limit ``request`` [u_r, q_c, q_bpp, p_spp]; returns the command to send and why."""
+        p = self.config.protection
+        period = p.command_period_s
+        request = np.asarray(request, dtype=float)
+        clamps: list[str] = []
+        if not np.all(np.isfinite(request)):
+            clamps.append("non-finite request: holding the last command")
+            request = self.previous.copy()
+        if self.emergency_stop:
+            clamps.append("emergency stop: block held at rest, pressures held")
+            request = self.previous.copy()
+            request[0] = position_m
+        command = request.copy()
+
+        for i in (1, 2, 3):
+            limited = np.clip(command[i], self.previous[i] - self.slew[i], self.previous[i] + self.slew[i])
+            limited = float(np.clip(limited, self.lower[i], self.upper[i]))
+            if limited != command[i]:
+                clamps.append(f"{INPUTS[i]} {command[i]:.6g} -> {limited:.6g} (machine range/rate)")
+                command[i] = limited
+
+        (down, why_down), (up, why_up) = self.speed_limits(
+            bhp_pa, string_velocity_mps, circulation_m3s, operator_speed_limit_mps)
+        speed = (command[0] - self.previous[0]) / period
+        if self.emergency_stop:
+            limited_speed = speed
+        else:
+            accel = p.trip_acceleration_max_mps2 * period
+            lowest = max((-down, why_down), (self.previous_speed_mps - accel, "acceleration limit"))
+            highest = min((up, why_up), (self.previous_speed_mps + accel, "acceleration limit"))
+            limited_speed = float(np.clip(speed, lowest[0], max(lowest[0], highest[0])))
+            if limited_speed != speed:
+                why = lowest[1] if limited_speed == lowest[0] else highest[1]
+                clamps.append(f"block reference speed {speed:+.3f} -> {limited_speed:+.3f} m/s ({why})")
+        ref = self.previous[0] + limited_speed * period
+        ref = float(np.clip(ref, self.lower[0], self.upper[0]))
+        if ref != self.previous[0] + limited_speed * period:
+            clamps.append("block reference held inside the drawworks range")
+        command[0] = ref
+        self.previous_speed_mps = (ref - self.previous[0]) / period
+        self.previous = command.copy()
+        return Decision(command, tuple(clamps), (down, up))

@@ -1,0 +1,145 @@
+"""Protection node: advisor commands in (/supervisor/command), machine commands out
+(/rig/command), every clamp and alarm out as drill_msgs/OperatorEvent on
+/protection/events (so they are recorded) and counted on /protection/status.
+
+fast mode: the advisor command stamped t_k is limited with the measurement stamped
+t_k and published stamped t_k. realtime mode: each request is limited with the
+latest measurement. The latched /setpoints give the operator's trip-speed limit;
+the latched /operator/emergency_stop (std_msgs/Bool) stops the block and holds pressures.
+"""
+from __future__ import annotations
+
+import math
+import sys
+from collections import deque
+
+import numpy as np
+from drill_msgs.msg import OperatorEvent, RigCommand, RigMeasurement, Setpoints
+from rclpy.node import Node
+from std_msgs.msg import Bool
+
+from drill_core.ros import topics
+from drill_core.ros.context import load_context
+from drill_core.ros.inbox import StampedInbox
+from drill_core.ros.runner import run
+from drill_core.ros.stamps import to_ns
+from drill_core.ros.status import StatusReporter
+from drill_plant.plant_model import steady_state
+from drill_protection.protection import ProcessProtection
+
+VELOCITY_WINDOW_S = 1.0
+
+
+class ProtectionNode(Node):
+    def __init__(self):
+        super().__init__("protection")
+        ctx = load_context(self)
+        self.ctx = ctx
+        self.exit_code = 0
+        ini = ctx.scenario.initial
+        initial = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
+        start = np.array([0.0, initial.choke_flow_m3s, ini.bpp_flow_m3s, initial.inputs[3]])
+        self.protection = ProcessProtection(ctx.config, ctx.well_model, start)
+        self.operator_speed_limit = ctx.config.protection.trip_speed_max_mps
+        self.positions: deque = deque()
+        self.inbox = StampedInbox(("command", "measurement"))
+        self.clamp_count = 0
+        self.alarm_count = 0
+        self.in_window = True
+        self.status = StatusReporter(self, ctx.mode)
+        self.pub_command = self.create_publisher(RigCommand, topics.MACHINE_COMMAND, topics.RELIABLE)
+        self.pub_events = self.create_publisher(OperatorEvent, topics.PROTECTION_EVENTS, topics.RELIABLE)
+        self.create_subscription(RigCommand, topics.COMMAND, self._on_command, topics.RELIABLE)
+        self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
+                                 topics.RELIABLE)
+        self.create_subscription(Setpoints, topics.SETPOINTS, self._on_setpoints, topics.LATCHED)
+        self.create_subscription(Bool, topics.EMERGENCY_STOP, self._on_estop, topics.LATCHED)
+
+    def _on_setpoints(self, msg: Setpoints) -> None:
+        if math.isfinite(msg.trip_speed_limit_mps) and msg.trip_speed_limit_mps > 0.0:
+            self.operator_speed_limit = msg.trip_speed_limit_mps
+
+    def _on_estop(self, msg: Bool) -> None:
+        if msg.data != self.protection.emergency_stop:
+            self.protection.emergency_stop = msg.data
+            self._event("emergency_stop", "emergency stop " + ("engaged" if msg.data else "released"),
+                        self.get_clock().now().nanoseconds)
+
+    def _on_measurement(self, msg: RigMeasurement) -> None:
+        stamp = to_ns(msg.header.stamp)
+        self.positions.append((stamp, msg.block_position_m))
+        while self.positions and stamp - self.positions[0][0] > VELOCITY_WINDOW_S * 1e9:
+            self.positions.popleft()
+        self.inbox.put("measurement", msg)
+        self._process()
+
+    def _on_command(self, msg: RigCommand) -> None:
+        self.inbox.put("command", msg)
+        self._process()
+
+    def _process(self) -> None:
+        request = self.inbox.latest("command")
+        if request is None:
+            return
+        stamp = to_ns(request.header.stamp)
+        if self.ctx.fast:
+            if not self.inbox.has("measurement", stamp):
+                return
+            measurement = self.inbox.take("measurement", stamp)
+        else:
+            measurement = self.inbox.latest("measurement")
+            if measurement is None:
+                return
+        self.inbox.take("command", stamp)
+        self._limit(request, measurement, stamp)
+
+    def _velocity(self) -> float:
+        (t0, x0), (t1, x1) = self.positions[0], self.positions[-1]
+        return (x1 - x0) / ((t1 - t0) * 1e-9) if t1 > t0 else 0.0
+
+    def _limit(self, request: RigCommand, m: RigMeasurement, stamp: int) -> None:
+        circulation = m.string_flow_m3s if m.string_flow_valid and math.isfinite(m.string_flow_m3s) \
+            else 0.0
+        decision = self.protection.apply(
+            [request.block_position_ref_m, request.choke_flow_ref_m3s, request.bpp_flow_m3s,
+             request.spp_pa], m.block_position_m, self._velocity(), m.bhp_pa, max(circulation, 0.0),
+            self.operator_speed_limit)
+        out = RigCommand(block_position_ref_m=float(decision.command[0]),
+                         choke_flow_ref_m3s=float(decision.command[1]),
+                         bpp_flow_m3s=float(decision.command[2]), spp_pa=float(decision.command[3]),
+                         mud_pump_on=request.mud_pump_on, source=f"protection<{request.source}")
+        out.header.stamp = request.header.stamp
+        self.pub_command.publish(out)
+        for text in decision.clamps:
+            self.clamp_count += 1
+            self._event("clamp", text, stamp)
+        self._check_window(m.bhp_pa, stamp)
+        self.status.mode = f"{self.ctx.mode}/{'emergency_stop' if self.protection.emergency_stop else 'armed'}"
+        self.status.values = {"clamps": float(self.clamp_count), "alarms": float(self.alarm_count),
+                              "trip_speed_limit_in_mps": decision.trip_speed_limits_mps[0],
+                              "trip_speed_limit_out_mps": decision.trip_speed_limits_mps[1]}
+        self.status.tick(stamp)
+
+    def _check_window(self, bhp_pa: float, stamp: int) -> None:
+        p = self.ctx.config.protection
+        inside = p.pore_pressure_pa <= bhp_pa <= p.fracture_pressure_pa
+        if inside != self.in_window:
+            self.in_window = inside
+            if not inside:
+                self.alarm_count += 1
+            self._event("alarm", f"BHP {bhp_pa / 1e5:.1f} bar " + (
+                "back inside" if inside else "outside") + f" the pore/fracture window "
+                f"{p.pore_pressure_pa / 1e5:.0f}-{p.fracture_pressure_pa / 1e5:.0f} bar", stamp)
+
+    def _event(self, kind: str, text: str, stamp: int) -> None:
+        msg = OperatorEvent(kind=kind, text=text, accepted=kind != "alarm")
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
+        self.pub_events.publish(msg)
+
+
+def main(args=None) -> None:
+    sys.exit(run(ProtectionNode, args))
+
+
+if __name__ == "__main__":
+    main()

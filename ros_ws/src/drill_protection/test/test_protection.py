@@ -1,0 +1,96 @@
+"""Process protection: command it past each limit and check the limit holds and is reported."""
+import numpy as np
+import pytest
+
+from drill_core import hydraulics as hy
+from drill_core.config import load_rig
+from drill_protection.protection import ProcessProtection, surge_swab_pa
+
+from pathlib import Path
+
+CONFIG = Path(__file__).resolve().parents[4] / "config"
+CIRCULATION = 1000.0 / 60000.0          # 1000 L/min
+
+
+@pytest.fixture(scope="module")
+def setup():
+    config = load_rig(CONFIG)
+    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
+                             config.plant.choke_regularisation_pa)
+    return config, wm
+
+
+def fresh(setup, start=(0.0, CIRCULATION, 0.0, 1.06e7)):
+    config, wm = setup
+    return ProcessProtection(config, wm, np.array(start))
+
+
+def test_surge_swab_model_matches_the_yield_dominated_magnitudes(setup):
+    _, wm = setup
+    # DESIGN section 3: closed-end surge/swab at 0.5 m/s without circulation is about +-26 bar
+    change = surge_swab_pa(wm, np.array([-0.5, 0.5]), 0.0)
+    assert change[0] == pytest.approx(26e5, rel=0.05)
+    assert change[1] == pytest.approx(-26e5, rel=0.05)
+
+
+def test_machine_range_and_rate_limits(setup):
+    config, _ = setup
+    p = fresh(setup)
+    d = p.apply([0.0, CIRCULATION, 1.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
+    slew = config.nmpc.input_slew.bpp_flow_m3s
+    assert d.command[2] == pytest.approx(slew)           # rate limit from 0 toward 1 m^3/s
+    assert any("bpp_flow_m3s" in c for c in d.clamps)
+    for _ in range(200):
+        d = p.apply([0.0, CIRCULATION, 1.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
+    assert d.command[2] == pytest.approx(config.actuators.bpp.maximum)   # machine range
+    d = p.apply([0.0, CIRCULATION, 0.0, 5.0e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
+    assert d.command[3] == pytest.approx(1.06e7 + config.nmpc.input_slew.spp_pa)
+
+
+def test_operator_trip_speed_and_acceleration_limits(setup):
+    config, _ = setup
+    p = fresh(setup)
+    accel = config.protection.trip_acceleration_max_mps2 * config.protection.command_period_s
+    refs, speed = [], 0.0
+    for _ in range(15):
+        d = p.apply([28.0, CIRCULATION, 0.0, 1.06e7], refs[-1] if refs else 0.0, speed, 6.85e7,
+                    CIRCULATION, 0.3)
+        refs.append(d.command[0])
+    speeds = np.diff([0.0] + refs)
+    assert np.all(np.diff(speeds) <= accel + 1e-12)       # acceleration limit while speeding up
+    assert speeds.max() == pytest.approx(0.3)             # operator limit, below the machine's 0.6
+    assert any("operator trip-speed limit" in c for c in d.clamps)
+
+
+def test_model_derived_swab_limit_keeps_bhp_in_window(setup):
+    config, wm = setup
+    p = fresh(setup, start=(0.0, 0.0, 0.0, 0.0))
+    low = config.protection.pore_pressure_pa + config.protection.pressure_margin_pa
+    bhp_at_rest = low + 10e5                              # only 10 bar above the window edge
+    d = p.apply([28.0, 0.0, 0.0, 0.0], 0.0, 0.0, bhp_at_rest, 0.0, 0.5)
+    allowed_out = d.trip_speed_limits_mps[1]
+    # independent check: the gel-breaking swab alone (about 18.5 bar) exceeds the 10 bar margin
+    assert allowed_out < 0.05
+    assert bhp_at_rest + surge_swab_pa(wm, np.array([allowed_out]), 0.0)[0] >= low - 1e-6
+    assert any("swab model" in c for c in d.clamps)
+    # running in (surge) raises BHP, still well below fracture: allowed at full speed
+    assert d.trip_speed_limits_mps[0] == pytest.approx(0.5)
+
+
+def test_emergency_stop_holds_block_and_pressures(setup):
+    p = fresh(setup)
+    for _ in range(5):
+        p.apply([10.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
+    held = p.previous.copy()
+    p.emergency_stop = True
+    d = p.apply([20.0, 0.03, 0.02, 2.0e7], 1.2, 0.3, 6.85e7, CIRCULATION, 0.5)
+    assert d.command[0] == pytest.approx(1.2)             # block reference = where the string is
+    assert np.allclose(d.command[1:], held[1:])            # pumps and choke flow held
+    assert any("emergency stop" in c for c in d.clamps)
+
+
+def test_non_finite_request_is_refused(setup):
+    p = fresh(setup)
+    d = p.apply([float("nan"), CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
+    assert np.all(np.isfinite(d.command))
+    assert any("non-finite" in c for c in d.clamps)
