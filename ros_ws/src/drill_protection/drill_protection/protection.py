@@ -20,6 +20,7 @@ from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
 
 INPUTS = ("block_position_ref_m", "choke_flow_ref_m3s", "bpp_flow_m3s", "spp_pa")
+AUTOMATION_LEVELS = ("manual", "advisory", "closed_loop")
 _SPEED_GRID_POINTS = 61
 
 
@@ -52,6 +53,7 @@ class ProcessProtection:
         self.previous = np.asarray(initial_command, dtype=float).copy()
         self.previous_speed_mps = 0.0
         self.emergency_stop = False
+        self.automation_level = "closed_loop"
         a, n = config.actuators, config.nmpc
         self.lower = np.array([a.drawworks.minimum, 0.0, a.bpp.minimum, a.mud_pump.minimum])
         self.upper = np.array([a.drawworks.maximum, n.input_max.choke_flow_m3s, a.bpp.maximum,
@@ -100,10 +102,11 @@ class ProcessProtection:
         if not np.all(np.isfinite(request)):
             clamps.append("non-finite request: holding the last command")
             request = self.previous.copy()
-        if self.emergency_stop:
-            clamps.append("emergency stop: block held at rest, pressures held")
+        if self.emergency_stop or self.automation_level != "closed_loop":
+            why = "emergency stop" if self.emergency_stop else f"automation level {self.automation_level}"
+            clamps.append(f"{why}: advisor command not applied, block held at rest, pressures held")
             request = self.previous.copy()
-            request[0] = position_m
+            request[0] = position_m if self.emergency_stop else self.previous[0]
         command = request.copy()
 
         for i in (1, 2, 3):

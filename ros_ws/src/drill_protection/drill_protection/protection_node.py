@@ -5,7 +5,9 @@
 fast mode: the advisor command stamped t_k is limited with the measurement stamped
 t_k and published stamped t_k. realtime mode: each request is limited with the
 latest measurement. The latched /setpoints give the operator's trip-speed limit;
-the latched /operator/emergency_stop (std_msgs/Bool) stops the block and holds pressures.
+the latched /operator/emergency_stop (std_msgs/Bool) stops the block and holds pressures;
+the latched /operator/automation_level (std_msgs/String: manual, advisory, closed_loop)
+says whether advisor commands reach the machines (only in closed_loop).
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ from collections import deque
 import numpy as np
 from drill_msgs.msg import OperatorEvent, RigCommand, RigMeasurement, Setpoints
 from rclpy.node import Node
-from std_msgs.msg import Bool
+from std_msgs.msg import Bool, String
 
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
@@ -25,7 +27,7 @@ from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_core.ros.status import StatusReporter
 from drill_plant.plant_model import steady_state
-from drill_protection.protection import ProcessProtection
+from drill_protection.protection import AUTOMATION_LEVELS, ProcessProtection
 
 VELOCITY_WINDOW_S = 1.0
 
@@ -54,6 +56,7 @@ class ProtectionNode(Node):
                                  topics.RELIABLE)
         self.create_subscription(Setpoints, topics.SETPOINTS, self._on_setpoints, topics.LATCHED)
         self.create_subscription(Bool, topics.EMERGENCY_STOP, self._on_estop, topics.LATCHED)
+        self.create_subscription(String, topics.AUTOMATION_LEVEL, self._on_level, topics.LATCHED)
 
     def _on_setpoints(self, msg: Setpoints) -> None:
         if math.isfinite(msg.trip_speed_limit_mps) and msg.trip_speed_limit_mps > 0.0:
@@ -64,6 +67,16 @@ class ProtectionNode(Node):
             self.protection.emergency_stop = msg.data
             self._event("emergency_stop", "emergency stop " + ("engaged" if msg.data else "released"),
                         self.get_clock().now().nanoseconds)
+
+    def _on_level(self, msg: String) -> None:
+        now = self.get_clock().now().nanoseconds
+        if msg.data not in AUTOMATION_LEVELS:
+            self._event("refusal", f"automation level {msg.data!r} is not one of "
+                                   f"{', '.join(AUTOMATION_LEVELS)}", now)
+            return
+        if msg.data != self.protection.automation_level:
+            self.protection.automation_level = msg.data
+            self._event("mode", f"automation level {msg.data}", now)
 
     def _on_measurement(self, msg: RigMeasurement) -> None:
         stamp = to_ns(msg.header.stamp)
@@ -114,7 +127,8 @@ class ProtectionNode(Node):
             self.clamp_count += 1
             self._event("clamp", text, stamp)
         self._check_window(m.bhp_pa, stamp)
-        self.status.mode = f"{self.ctx.mode}/{'emergency_stop' if self.protection.emergency_stop else 'armed'}"
+        level = "emergency_stop" if self.protection.emergency_stop else self.protection.automation_level
+        self.status.mode = f"{self.ctx.mode}/{level}"
         self.status.values = {"clamps": float(self.clamp_count), "alarms": float(self.alarm_count),
                               "trip_speed_limit_in_mps": decision.trip_speed_limits_mps[0],
                               "trip_speed_limit_out_mps": decision.trip_speed_limits_mps[1]}

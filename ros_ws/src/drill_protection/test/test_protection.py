@@ -94,3 +94,13 @@ def test_non_finite_request_is_refused(setup):
     d = p.apply([float("nan"), CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
     assert np.all(np.isfinite(d.command))
     assert any("non-finite" in c for c in d.clamps)
+
+
+def test_manual_level_holds_everything(setup):
+    p = fresh(setup)
+    p.apply([3.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
+    held = p.previous.copy()
+    p.automation_level = "manual"
+    d = p.apply([20.0, 0.03, 0.02, 2.0e7], 0.5, 0.0, 6.85e7, CIRCULATION, 0.5)
+    assert np.allclose(d.command, held)
+    assert any("automation level manual" in c for c in d.clamps)

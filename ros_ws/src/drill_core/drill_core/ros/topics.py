@@ -10,6 +10,7 @@ TRUTH = "/rig/truth"                    # drill_msgs/PlantTruth, evaluation only
 COMMAND = "/supervisor/command"         # drill_msgs/RigCommand, advisor (nmpc, baseline) -> protection
 MACHINE_COMMAND = "/rig/command"        # drill_msgs/RigCommand, protection -> actuators
 EMERGENCY_STOP = "/operator/emergency_stop"  # std_msgs/Bool, latched
+AUTOMATION_LEVEL = "/operator/automation_level"  # std_msgs/String, latched: manual|advisory|closed_loop
 PROTECTION_EVENTS = "/protection/events"     # drill_msgs/OperatorEvent: clamps and alarms
 ESTIMATE = "/estimator/estimate"        # drill_msgs/StateEstimate
 NMPC_STATUS = "/nmpc/status"            # drill_msgs/NmpcStatus
