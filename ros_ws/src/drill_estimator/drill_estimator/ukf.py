@@ -87,16 +87,17 @@ def use_bottom_influx(config: RigConfig) -> bool:
     return bool(config.estimator.estimate_bottom_influx or config.nmpc.configuration == "NMPC2")
 
 
-def frame_inputs(wm: hy.WellModel, block_reference_m, choke_opening, bpp_flow_m3s, pump_pressure_pa,
+def frame_inputs(wm: hy.WellModel, block_m, choke_opening, bpp_flow_m3s, pump_pressure_pa,
                  choke_dp_pa) -> np.ndarray:
-    """Model inputs U [4 x N] for one sensor frame from the actuator outputs.
+    """Filter inputs U [4 x N] for one sensor frame from the actuator outputs.
 
-    The choke flow is not measured: it comes from the valve law with the choke opening and
-    a choke differential pressure (a virtual flow meter). Every argument may be a scalar
+    ``block_m`` is the drawworks output u_b (or its reference u_r, per block_input). The
+    choke flow is not measured: it comes from the valve law with the choke opening and a
+    choke differential pressure (a virtual flow meter). Every argument may be a scalar
     (held over the frame) or N samples.
     """
     cols = [np.atleast_1d(np.asarray(v, dtype=float)) for v in
-            (block_reference_m, choke_opening, bpp_flow_m3s, pump_pressure_pa, choke_dp_pa)]
+            (block_m, choke_opening, bpp_flow_m3s, pump_pressure_pa, choke_dp_pa)]
     steps = max(c.size for c in cols)
     cols = [np.broadcast_to(c, (steps,)) if c.size == 1 else c for c in cols]
     ref, opening, bpp, pump, dp = cols

@@ -27,18 +27,20 @@ FRAME_NS = 100_000_000
 CIRCULATION = 1000.0 / 60000.0
 
 
-@pytest.fixture
-def estimator_process():
+def _start_estimator(mode: str) -> subprocess.Popen:
     env = dict(os.environ)
     env.update(ROS_DOMAIN_ID=str(DOMAIN_ID), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                RMW_IMPLEMENTATION="rmw_fastrtps_cpp", PYTHONUNBUFFERED="1")
     env.pop("ROS_STATIC_PEERS", None)
     proc = subprocess.Popen(
         [sys.executable, "-m", "drill_estimator.estimator_node", "--ros-args",
-         "-p", f"config_dir:={CONFIG_DIR}", "-p", f"scenario:={SCENARIO}", "-p", "mode:=fast",
-         "-p", "use_sim_time:=true"],
+         "-p", f"config_dir:={CONFIG_DIR}", "-p", f"scenario:={SCENARIO}", "-p", f"mode:={mode}",
+         "-p", f"use_sim_time:={'true' if mode == 'fast' else 'false'}"],
         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    yield proc
+    return proc
+
+
+def _stop(proc: subprocess.Popen) -> None:
     if proc.poll() is None:
         proc.send_signal(signal.SIGTERM)
         try:
@@ -46,6 +48,20 @@ def estimator_process():
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait(timeout=5)
+
+
+@pytest.fixture
+def estimator_process():
+    proc = _start_estimator("fast")
+    yield proc
+    _stop(proc)
+
+
+@pytest.fixture
+def realtime_estimator_process():
+    proc = _start_estimator("realtime")
+    yield proc
+    _stop(proc)
 
 
 class Feeder:
@@ -132,7 +148,8 @@ def _finite(estimate) -> bool:
     return all(math.isfinite(v) for v in values)
 
 
-def test_estimator_node_lockstep_and_rejection(estimator_process, monkeypatch):
+def _operating_point():
+    """A circulating steady state: measurement and actuator outputs (value, reference)."""
     from drill_core import hydraulics as hy
     from drill_core.config import load_rig
     from drill_plant.plant_model import PlantLayout, steady_state
@@ -145,7 +162,11 @@ def test_estimator_node_lockstep_and_rejection(estimator_process, monkeypatch):
     y = np.array([0.0, 2.0e6, ss.state[lay.pressure(wm.n)], CIRCULATION])
     outputs = {"drawworks": (ss.inputs[0], 0.0), "choke": (ss.inputs[1], ss.choke_flow_m3s),
                "bpp": (0.0, 0.0), "mud_pump": (ss.inputs[3], ss.inputs[3])}
+    return y, outputs
 
+
+def test_estimator_node_lockstep_and_rejection(estimator_process, monkeypatch):
+    y, outputs = _operating_point()
     feeder = Feeder(monkeypatch)
     try:
         assert feeder.spin_until(feeder.connected, 30.0, estimator_process), "estimator not connected"
@@ -195,3 +216,28 @@ def test_estimator_node_lockstep_and_rejection(estimator_process, monkeypatch):
         feeder.close()
     estimator_process.send_signal(signal.SIGTERM)
     assert estimator_process.wait(timeout=15) == 0
+
+
+def test_estimator_node_realtime_uses_latest_frames(realtime_estimator_process, monkeypatch):
+    proc = realtime_estimator_process
+    y, outputs = _operating_point()
+    feeder = Feeder(monkeypatch)
+    try:
+        assert feeder.spin_until(feeder.connected, 30.0, proc), "estimator not connected"
+        feeder.spin_until(lambda: False, 0.5)
+        feeder.measurement(0, y)
+        assert feeder.spin_until(lambda: len(feeder.estimates) == 1, 20.0, proc)
+        # no waiting in realtime mode: a measurement without frames is processed at once
+        # (inputs held from the initial steady state), later ones with the latest frames
+        feeder.measurement(1, y)
+        assert feeder.spin_until(lambda: len(feeder.estimates) == 2, 20.0, proc)
+        feeder.frames(1, outputs)
+        feeder.spin_until(lambda: False, 0.3)
+        feeder.measurement(2, y)
+        assert feeder.spin_until(lambda: len(feeder.estimates) == 3, 20.0, proc)
+        assert _stamps(feeder.estimates) == [0, FRAME_NS, 2 * FRAME_NS]
+        for estimate in feeder.estimates:
+            assert _finite(estimate) and abs(estimate.bhp_pa - y[2]) < 2.0e5
+        assert [e.nis_dof for e in feeder.estimates] == [0, 4, 4]
+    finally:
+        feeder.close()

@@ -282,3 +282,16 @@ def test_bottom_influx_state(cfg):
         ukf.update(y, True)
     assert np.isfinite(ukf.bottom_influx_m3s) and abs(ukf.bottom_influx_m3s) < 1e-3
     assert ukf.covariance_diagonal.shape == (16,)
+
+
+def test_reference_block_input_runs(cfg):
+    """block_input "reference": u[0] is the drawworks reference u_r (model controller, no lag)."""
+    ukf, ss, y = _started(cfg, block_input="reference")
+    assert ukf.block_input == "reference"
+    u = [0.0, ss.choke_flow_m3s, 0.0, ss.inputs[3]]
+    for _ in range(5):
+        for _ in range(10):
+            ukf.predict(u)
+        result = ukf.update(y, True)
+    assert result.accepted and np.all(np.isfinite(ukf.mean))
+    assert abs(ukf.mean[0]) < 0.01 and abs(ukf.bhp_pa - y[2]) < 1e5

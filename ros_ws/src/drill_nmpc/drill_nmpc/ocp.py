@@ -213,7 +213,8 @@ class PredictionModel:
         xn = x
         for _ in range(substeps):
             xn = rk4_step(f, xn, h) if integrator == "rk4" else euler_step(f, xn, h)
-        return ca.Function("predict", [x, u, par], [xn], ["x", "u", "par"], ["x_next"])
+        return ca.Function("predict", [x, u, par], [xn], ["x", "u", "par"], ["x_next"],
+                           {"jac_penalty": 0})
 
     def initial_state(self, x_full) -> np.ndarray:
         """Prediction state at an estimate; the block from the quasi-static hoisting balance

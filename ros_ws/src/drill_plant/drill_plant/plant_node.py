@@ -5,7 +5,8 @@ t_k, then wait for the four actuator frames stamped t_k, integrate the frame and
 on with t_{k+1}. Before t_0 it waits until the graph named in ``wait_for`` is
 connected, so no message is published into the void. realtime mode: a wall timer at
 the sensor rate integrates each frame with the latest actuator frames.
-The node exits (code 0) when the scenario duration is reached.
+The node exits (code 0) once every node has acted on the last sample of the scenario
+(the actuator frames stamped t_end have arrived).
 """
 from __future__ import annotations
 
@@ -93,10 +94,18 @@ class PlantNode(Node):
 
     def _try_advance(self) -> None:
         stamp = self.k * self.frame_ns
-        if self.k >= self.last_k or not self.frames.ready(stamp):
+        if not self.frames.ready(stamp):
             return
         frames = {name: self.frames.take(name, stamp) for name in topics.ACTUATORS}
-        self._advance(frames)
+        if self.k < self.last_k:
+            self._advance(frames)
+            return
+        self._finish(stamp)     # the frames of the last sample: every node has acted on it
+
+    def _finish(self, stamp_ns: int) -> None:
+        self.status.publish(stamp_ns)
+        self.get_logger().info(f"scenario finished after {self.k} frames")
+        rclpy.try_shutdown()
 
     # -------------------------------------------------------------- realtime mode
     def _realtime_tick(self) -> None:
@@ -147,12 +156,10 @@ class PlantNode(Node):
         self.pub_truth.publish(self._truth_msg(stamp))
         self.status.values = {"sim_time_s": stamp_ns * 1e-9, "frame": float(self.k)}
         self.status.tick(stamp_ns)
-        if self.ctx.fast and self.k >= self.last_k:
-            self.status.publish(stamp_ns)
-            self.get_logger().info(f"scenario finished at t = {stamp_ns * 1e-9:.1f} s")
-            rclpy.try_shutdown()
-        elif self.ctx.fast:
+        if self.ctx.fast:
             self._try_advance()
+        elif self.k >= self.last_k:
+            self._finish(stamp_ns)
 
     def _truth_msg(self, stamp) -> PlantTruth:
         t = self.sim.truth()
