@@ -218,7 +218,8 @@ class EstimatorNode(Node):
         self.status.values = {
             "nis": msg.nis,
             "nis_dof": float(msg.nis_dof),
-            "nis_window_per_dof": float(result.window_nis_per_dof) if result is not None else 0.0,
+            "nis_window_per_dof": float(np.nan_to_num(result.window_nis_per_dof))
+            if result is not None else 0.0,
             "rejected": float(ukf.rejected),
             "inflations": float(ukf.inflations),
             "repairs": float(ukf.repairs),

@@ -213,8 +213,15 @@ class PredictionModel:
         xn = x
         for _ in range(substeps):
             xn = rk4_step(f, xn, h) if integrator == "rk4" else euler_step(f, xn, h)
+        # The explicit Jacobian (one SX function) makes every derivative the NLP needs a call
+        # of it per stage, instead of forward sweeps through the integrator in each direction.
+        out = ca.SX.sym("out", self.nd)
+        jac = ca.Function("jac_predict", [x, u, par, out],
+                          [ca.jacobian(xn, x), ca.jacobian(xn, u), ca.jacobian(xn, par)],
+                          ["x", "u", "par", "out_x_next"],
+                          ["jac_x_next_x", "jac_x_next_u", "jac_x_next_par"])
         return ca.Function("predict", [x, u, par], [xn], ["x", "u", "par"], ["x_next"],
-                           {"jac_penalty": 0})
+                           {"custom_jacobian": jac, "jac_penalty": 0})
 
     def initial_state(self, x_full) -> np.ndarray:
         """Prediction state at an estimate; the block from the quasi-static hoisting balance

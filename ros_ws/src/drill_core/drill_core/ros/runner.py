@@ -1,7 +1,6 @@
-"""Run a node until shutdown, turning SIGINT/SIGTERM into a clean exit."""
+"""Run a node until shutdown; SIGINT/SIGTERM give a clean exit."""
 from __future__ import annotations
 
-import signal
 import sys
 
 import rclpy
@@ -10,8 +9,7 @@ from rclpy.executors import ExternalShutdownException
 
 def run(node_factory, args=None) -> int:
     """Create the node with ``node_factory`` and spin it; returns the process exit code."""
-    rclpy.init(args=args)
-    signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
+    rclpy.init(args=args)   # rclpy's own handlers turn SIGINT and SIGTERM into a shutdown
     node = None
     code = 0
     try:
