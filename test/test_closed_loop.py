@@ -103,3 +103,26 @@ def test_killed_node_fails_launch_and_leaves_readable_recording(tmp_path):
     assert codes["recorder"] == 0
     recorded = list(mcap_io.read_messages(mcap_path, [topics.MEASUREMENT]))
     assert len(recorded) > 5
+
+
+def test_reestimate_replays_recording_into_a_retuned_estimator(two_runs, tmp_path):
+    import shutil
+
+    import yaml
+
+    from drill_bringup.reestimate import reestimate
+
+    same = reestimate(two_runs[0], cli.ROOT / "config", rate=5.0, domain_id=94)
+    assert same["estimates"] == same["measurements"] == 451
+    # the same tuning on the same recorded inputs gives the same estimates
+    assert same["new_bhp_estimate_rmse_pa"] == pytest.approx(same["recorded_bhp_estimate_rmse_pa"],
+                                                             rel=1e-9)
+    config = tmp_path / "config"
+    shutil.copytree(cli.ROOT / "config", config)
+    tuning = yaml.safe_load((config / "estimator.yaml").read_text())
+    tuning["measurement_noise"]["bhp_pa"] = 1.0e6      # trust the BHP sensor 10x less
+    (config / "estimator.yaml").write_text(yaml.safe_dump(tuning))
+    retuned = reestimate(two_runs[0], config, rate=5.0, domain_id=95)
+    assert retuned["estimates"] == 451
+    assert retuned["new_bhp_estimate_rmse_pa"] != pytest.approx(same["recorded_bhp_estimate_rmse_pa"],
+                                                                rel=1e-3)

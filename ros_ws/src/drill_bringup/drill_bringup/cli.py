@@ -4,6 +4,8 @@
   rig run SCENARIO [--realtime]    any scenario (name under config/scenarios or a path)
   rig report RUN_DIR               re-make the summary and plots of a run
   rig replay FILE [options]        republish a recording (see rig replay --help)
+  rig reestimate RUN_DIR [--config-dir DIR] [--rate R]
+                                   re-run the estimator with other tuning on a recorded run
 """
 from __future__ import annotations
 
@@ -60,7 +62,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     codes = launch.stop()
     wall = time.monotonic() - started
     (run_dir / "launch.json").write_text(json.dumps(
-        {"ok": ok, "message": message, "wall_time_s": wall, "exit_codes": codes}, indent=2))
+        {"ok": ok, "message": message, "wall_time_s": wall, "exit_codes": codes,
+         "scenario": str(path), "mode": mode}, indent=2))
     if not ok:
         print(f"[rig] FAILED: {message}", file=sys.stderr, flush=True)
         return 1, run_dir
@@ -86,6 +89,11 @@ def main(argv=None) -> int:
     rep = sub.add_parser("report", help="summary and plots of a run directory")
     rep.add_argument("run_dir", type=Path)
     sub.add_parser("replay", help="republish a recording", add_help=False)
+    rest_ = sub.add_parser("reestimate", help="re-run the estimator on a recorded run")
+    rest_.add_argument("run_dir", type=Path)
+    rest_.add_argument("--config-dir", type=Path, default=ROOT / "config",
+                       help="configuration with the new estimator tuning")
+    rest_.add_argument("--rate", type=float, default=5.0, help="replay rate factor")
     args, rest = parser.parse_known_args(argv)
     try:
         if args.command == "demo":
@@ -96,6 +104,14 @@ def main(argv=None) -> int:
             mcap = next(args.run_dir.glob("*.mcap"))
             _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name)
             print(table)
+            return 0
+        if args.command == "reestimate":
+            from drill_bringup.reestimate import reestimate
+            result = reestimate(args.run_dir, args.config_dir, args.rate, launcher.default_domain_id())
+            print(f"[rig] BHP estimate RMSE: recorded {result['recorded_bhp_estimate_rmse_pa'] / 1e5:.3f} bar, "
+                  f"re-run {result['new_bhp_estimate_rmse_pa'] / 1e5:.3f} bar "
+                  f"({result['estimates']} estimates for {result['measurements']} measurements); "
+                  f"{result['mcap']}")
             return 0
         from drill_bringup import replay
         return replay.main(rest) or 0

@@ -39,8 +39,13 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import hashlib
 import math
+import os
+import subprocess
+import tempfile
 import time
+from pathlib import Path
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -291,6 +296,47 @@ def choke_capacity(em: EstimationModel, dp):
     return hy.choke_flow(em.wm, 1.0, dp)
 
 
+# ----------------------------------------------------------------------------- compilation
+# Derivative oracles each plugin evaluates every iteration: (user option, oracle name).
+_COMPILABLE = {
+    "sqpmethod": (("jac_fg", "nlp_jac_fg"),),
+    "ipopt": (("jac_g", "nlp_jac_g"), ("grad_f", "nlp_grad_f")),
+}
+COMPILER_FLAGS = ("-O1", "-fPIC", "-shared")
+
+
+def default_cache_dir() -> Path:
+    """Where compiled NLP derivatives are kept ($DRILL_NMPC_CACHE or ~/.cache/drill_nmpc)."""
+    env = os.environ.get("DRILL_NMPC_CACHE")
+    return Path(env) if env else Path.home() / ".cache" / "drill_nmpc"
+
+
+def compiled_function(fn: ca.Function, cache_dir: str | os.PathLike | None = None) -> ca.Function:
+    """``fn`` generated as C, compiled with the system C compiler and loaded as an external.
+
+    The shared library is cached under a hash of the generated source, the flags and the
+    CasADi version, so only the first use of a configuration pays the compilation (~10-20 s);
+    concurrent builders write to temporary names and rename atomically.
+    """
+    directory = Path(cache_dir) if cache_dir else default_cache_dir()
+    directory.mkdir(parents=True, exist_ok=True)
+    name = fn.name()
+    gen = ca.CodeGenerator(f"{name}.c", {"with_header": False})
+    gen.add(fn)
+    source = gen.dump()
+    key = hashlib.sha256("\n".join([source, " ".join(COMPILER_FLAGS), ca.__version__]).encode())
+    library = directory / f"{name}_{key.hexdigest()[:20]}.so"
+    if not library.exists():
+        with tempfile.TemporaryDirectory(dir=directory) as tmp:
+            src = Path(tmp) / f"{name}.c"
+            src.write_text(source)
+            out = Path(tmp) / "lib.so"
+            subprocess.run([os.environ.get("CC", "gcc"), *COMPILER_FLAGS, "-o", str(out), str(src),
+                            "-lm"], check=True, capture_output=True)
+            os.replace(out, library)
+    return ca.external(name, str(library))
+
+
 # ----------------------------------------------------------------------------- the NLP
 @dataclass
 class _Stage:
@@ -309,7 +355,8 @@ class NmpcProblem:
                  solver: str | None = None, jit: bool = False, substeps: int | None = None,
                  integrator: str | None = None, solver_options: dict | None = None,
                  tabulate_string_friction: bool = True, hessian: str = "exact",
-                 drawworks_lag: DrawworksLag | None = None, terminal_constraints: bool = False):
+                 drawworks_lag: DrawworksLag | None = None, terminal_constraints: bool = False,
+                 compile: bool = False, cache_dir: str | None = None):
         self.cfg = cfg
         self.configuration = configuration or cfg.configuration
         if self.configuration == "NMPC2" and not em.with_disturbance:
@@ -324,6 +371,8 @@ class NmpcProblem:
             raise ValueError("FATROP takes no user Hessian: use hessian='exact'")
         self.hessian = hessian
         self.terminal_constraints = terminal_constraints
+        self.compile = compile
+        self.cache_dir = cache_dir
         self.N = cfg.prediction_steps
         self.Nc = cfg.control_steps
         self.ts = cfg.sample_time_s
@@ -522,9 +571,10 @@ class NmpcProblem:
     def _make_solver(self, nlp, jit: bool, extra: dict) -> ca.Function:
         name = self.solver_name
         opts: dict = {"error_on_fail": False}
-        if jit:
+        if jit:     # CasADi's own JIT (fatrop): compiled at every start, in the temp dir
             opts.update({"jit": True, "compiler": "shell",
-                         "jit_options": {"flags": ["-O2"], "verbose": False}})
+                         "jit_options": {"flags": ["-O1"], "verbose": False,
+                                         "directory": tempfile.gettempdir() + os.sep}})
         max_iter = self.cfg.max_iterations
         if name == "ipopt":
             opts["ipopt"] = {"print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-6,
@@ -542,13 +592,15 @@ class NmpcProblem:
                          "print_time": False})
         elif name == "sqpmethod":
             nx, nu, ngs = self.structure
-            qp = extra.pop("qpsol", "qrqp")
-            qp_opts = ({"print_iter": False, "print_header": False, "error_on_fail": False}
-                       if qp == "qrqp" else
-                       {"N": self.N, "nx": nx, "nu": nu, "ng": ngs, "error_on_fail": False,
-                        "hpipm": {"mode": "speed", "iter_max": 100}} if qp == "hpipm" else
-                       {"N": self.N, "nx": nx, "nu": nu, "ng": ngs, "structure_detection": "manual",
-                        "error_on_fail": False, "fatrop": {"print_level": 0}} if qp == "fatrop" else {})
+            qp = extra.pop("qpsol", "hpipm")
+            if qp == "hpipm":       # structure-exploiting interior-point QP (Riccati)
+                qp_opts = {"N": self.N, "nx": nx, "nu": nu, "ng": ngs, "error_on_fail": False,
+                           "hpipm": {"mode": "speed", "iter_max": 20, "res_g_max": 1e-6,
+                                     "res_b_max": 1e-6, "res_d_max": 1e-6, "res_m_max": 1e-6}}
+            elif qp == "qrqp":
+                qp_opts = {"print_iter": False, "print_header": False, "error_on_fail": False}
+            else:
+                qp_opts = {"error_on_fail": False}
             opts.update({"qpsol": qp, "qpsol_options": qp_opts,
                          "max_iter": max_iter, "print_header": False, "print_iteration": False,
                          "print_status": False, "print_time": False,
@@ -562,7 +614,16 @@ class NmpcProblem:
                 opts[key] = {**opts[key], **value}
             else:
                 opts[key] = value
-        return ca.nlpsol("nmpc", name, nlp, opts)
+        solver = ca.nlpsol("nmpc", name, nlp, opts)
+        if self.compile and name in _COMPILABLE:
+            # Compile the derivative oracles the plugin calls every iteration (cached on disk)
+            # and hand them back as user functions of a new solver instance.
+            for option, oracle in _COMPILABLE[name]:
+                if option in opts:
+                    continue
+                opts[option] = compiled_function(solver.get_function(oracle), self.cache_dir)
+            solver = ca.nlpsol("nmpc", name, nlp, opts)
+        return solver
 
     # -- numeric data of one instance ---------------------------------------------------
     def parameters(self, x0, par, u_prev, e0, y_ref, y_sp, u_ref) -> np.ndarray:
@@ -731,7 +792,8 @@ class Supervisor:
     def __init__(self, config, em: EstimationModel, *, configuration: str | None = None,
                  solver: str | None = None, hessian: str | None = None, jit: bool | None = None,
                  substeps: int | None = None, integrator: str | None = None,
-                 solver_options: dict | None = None, drawworks_lag: bool | None = None):
+                 solver_options: dict | None = None, drawworks_lag: bool | None = None,
+                 cache_dir: str | None = None):
         rig = config if isinstance(config, RigConfig) else None
         cfg: Nmpc = rig.nmpc if rig is not None else config
         self.cfg = cfg
@@ -740,10 +802,13 @@ class Supervisor:
             hessian = "exact" if solver == "fatrop" else cfg.hessian
         use_lag = cfg.drawworks_lag_in_model if drawworks_lag is None else drawworks_lag
         lag = DrawworksLag(rig.actuators.drawworks.time_constant_s) if (use_lag and rig) else None
+        jit = cfg.jit if jit is None else jit
+        cached = solver in _COMPILABLE     # compile our own, cached; fatrop: CasADi's JIT
         self.problem = NmpcProblem(cfg, em, configuration=configuration, solver=solver,
-                                   jit=cfg.jit if jit is None else jit, substeps=substeps,
-                                   integrator=integrator, solver_options=solver_options,
-                                   hessian=hessian, drawworks_lag=lag)
+                                   jit=jit and not cached, compile=jit and cached,
+                                   cache_dir=cache_dir, substeps=substeps, integrator=integrator,
+                                   solver_options=solver_options, hessian=hessian,
+                                   drawworks_lag=lag)
         self.em = self.problem.em
         self.model = self.problem.model
         self.configuration = self.problem.configuration
@@ -890,6 +955,11 @@ class Supervisor:
         self._warm = None
         return self._hold(u_prev, str(last["stats"].get("return_status", "failed")), t0,
                           iterations=int(last["stats"].get("iter_count", -1)))
+
+    def hold(self, u_prev, status: str) -> SolveResult:
+        """Hold the last input (e.g. the estimate was unusable); counted as a fallback."""
+        self._warm = None
+        return self._hold(self.safe_input(u_prev), status, time.perf_counter())
 
     def _hold(self, u_prev, status: str, t0: float, iterations: int = -1) -> SolveResult:
         self.fallback_count += 1

@@ -9,10 +9,12 @@ from drill_core.ros import topics
 class StatusReporter:
     """Counts loop iterations and errors; publishes NodeStatus once per second of node time."""
 
-    def __init__(self, node, mode: str, period_s: float = 1.0):
+    def __init__(self, node, mode: str, period_s: float = 1.0, topic: str | None = None):
         self._node = node
         self.mode = mode
-        self._pub = node.create_publisher(NodeStatus, topics.status(node.get_name()), topics.RELIABLE)
+        # ``topic`` overrides /<node>/status (the nmpc node: /nmpc/status carries NmpcStatus)
+        self._pub = node.create_publisher(NodeStatus, topic or topics.status(node.get_name()),
+                                          topics.RELIABLE)
         self._period_ns = int(period_s * 1e9)
         self._last_ns = None
         self._ticks = 0

@@ -14,6 +14,7 @@ AUTOMATION_LEVEL = "/operator/automation_level"  # std_msgs/String, latched: man
 PROTECTION_EVENTS = "/protection/events"     # drill_msgs/OperatorEvent: clamps and alarms
 ESTIMATE = "/estimator/estimate"        # drill_msgs/StateEstimate
 NMPC_STATUS = "/nmpc/status"            # drill_msgs/NmpcStatus
+NMPC_NODE_STATUS = "/nmpc/node_status"  # drill_msgs/NodeStatus of the nmpc node (/nmpc/status is taken)
 SETPOINTS = "/setpoints"                # drill_msgs/Setpoints, latched
 SET_SETPOINTS = "/set_setpoints"        # drill_msgs/srv/SetSetpoints, validating
 OPERATOR_EVENTS = "/operator/events"    # drill_msgs/OperatorEvent

@@ -1,0 +1,445 @@
+"""Plain-Python state of the operator console (no rclpy here, so it is unit-testable).
+
+* unit conversion at the display edge: the rig is SI throughout; bar and L/min exist
+  only in the page and in the form fields the operator types into;
+* setpoint requests built from form input: the operator's fields (display units)
+  replace the matching fields of the setpoints in force, after a syntactic check
+  (numbers, signs). Whether the request is *acceptable* (actuator envelope, pressure
+  window) is decided by the supervisor's /set_setpoints service, whose reason the
+  console shows — the console never second-guesses it;
+* trend buffers with a global sequence number, so the page fetches only new points;
+* the latest value of every source, the recent events (operator and protection) with
+  acknowledgement, the automation level requested and in force.
+
+Everything is guarded by one lock: the rclpy callbacks write, the HTTP threads read.
+"""
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+
+PA_PER_BAR = 1.0e5
+M3S_PER_LPM = 1.0e-3 / 60.0
+AUTOMATION_LEVELS = ("manual", "advisory", "closed_loop")
+STAND_LENGTH_M = 28.0          # one stand of drill pipe (DESIGN section 8: ~28 m)
+TREND_POINTS = 1500            # per series: 150 s at the 10 Hz sensor rate
+EVENT_HISTORY = 200
+STALE_AFTER_S = 3.0
+# events from these kinds, coming from the protection layer, wait for an acknowledgement
+ACK_KINDS = ("alarm", "clamp", "refusal")
+
+
+def bar_to_pa(bar: float) -> float:
+    return float(bar) * PA_PER_BAR
+
+
+def pa_to_bar(pa: float) -> float:
+    return float(pa) / PA_PER_BAR
+
+
+def lpm_to_m3s(lpm: float) -> float:
+    return float(lpm) * M3S_PER_LPM
+
+
+def m3s_to_lpm(m3s: float) -> float:
+    return float(m3s) / M3S_PER_LPM
+
+
+# --------------------------------------------------------------------------- form input
+SETPOINT_FIELDS = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
+                   "block_position_target_m", "trip_speed_limit_mps", "controller_enabled",
+                   "mud_pump_on")
+
+
+@dataclass(frozen=True)
+class FormField:
+    setpoint: str          # drill_msgs/Setpoints field (SI)
+    to_si: object          # display unit -> SI
+    label: str             # as shown on the page, with the display unit
+    minimum: float         # smallest acceptable value (display unit)
+    strictly_above: bool   # True: the value must be > minimum
+
+
+FORM_FIELDS = {
+    "bhp_bar": FormField("bhp_ref_pa", bar_to_pa, "BHP setpoint [bar]", 0.0, False),
+    "bhp_band_bar": FormField("bhp_band_pa", bar_to_pa, "BHP band [bar]", 0.0, True),
+    "dp_bar": FormField("choke_dp_ref_pa", bar_to_pa, "choke dp setpoint [bar]", 0.0, False),
+    "dp_band_bar": FormField("choke_dp_band_pa", bar_to_pa, "choke dp band [bar]", 0.0, True),
+    "target_m": FormField("block_position_target_m", float, "trip target position [m]",
+                          -math.inf, False),
+    "speed_mps": FormField("trip_speed_limit_mps", float, "trip speed limit [m/s]", 0.0, True),
+}
+BOOL_FIELDS = ("controller_enabled", "mud_pump_on")
+
+
+class FormError(ValueError):
+    """Form input that cannot become a setpoint request; the message says why."""
+
+
+def parse_number(value, label: str) -> float | None:
+    """A number typed by the operator; None for an empty field (= unchanged)."""
+    if value is None:
+        return None
+    if isinstance(value, bool):
+        raise FormError(f"{label}: expected a number, got {value!r}")
+    if isinstance(value, (int, float)):
+        number = float(value)
+    else:
+        text = str(value).strip().replace(",", ".")
+        if not text:
+            return None
+        try:
+            number = float(text)
+        except ValueError:
+            raise FormError(f"{label}: {value!r} is not a number") from None
+    if not math.isfinite(number):
+        raise FormError(f"{label}: {value!r} is not a finite number")
+    return number
+
+
+def parse_bool(value, label: str) -> bool | None:
+    if value is None or value == "":
+        return None
+    if isinstance(value, bool):
+        return value
+    text = str(value).strip().lower()
+    if text in ("1", "true", "on", "yes", "enabled"):
+        return True
+    if text in ("0", "false", "off", "no", "disabled"):
+        return False
+    raise FormError(f"{label}: {value!r} is not on/off")
+
+
+def build_request(active: dict | None, form: dict, source: str = "operator") -> dict:
+    """SI setpoints to request: ``active`` with the form's fields replaced.
+
+    ``form`` holds display-unit keys of FORM_FIELDS and/or BOOL_FIELDS; empty or absent
+    fields keep the value in force. Raises FormError on unknown keys, non-numbers,
+    wrong signs, when no setpoints are known yet, or when nothing would change.
+    """
+    if active is None:
+        raise FormError("no setpoints in force yet (waiting for /setpoints from the supervisor)")
+    unknown = sorted(set(form) - set(FORM_FIELDS) - set(BOOL_FIELDS))
+    if unknown:
+        raise FormError(f"unknown field(s) {', '.join(unknown)}; expected "
+                        f"{', '.join(list(FORM_FIELDS) + list(BOOL_FIELDS))}")
+    request = {name: active.get(name, math.nan) for name in SETPOINT_FIELDS}
+    changed = False
+    for key, spec in FORM_FIELDS.items():
+        number = parse_number(form.get(key), spec.label)
+        if number is None:
+            continue
+        if number < spec.minimum or (spec.strictly_above and number <= spec.minimum):
+            relation = ">" if spec.strictly_above else ">="
+            raise FormError(f"{spec.label}: {number:g} must be {relation} {spec.minimum:g}")
+        request[spec.setpoint] = spec.to_si(number)
+        changed |= not _same(request[spec.setpoint], active.get(spec.setpoint))
+    for key in BOOL_FIELDS:
+        flag = parse_bool(form.get(key), key)
+        if flag is None:
+            continue
+        request[key] = flag
+        changed |= flag != bool(active.get(key))
+    if not changed:
+        raise FormError("nothing to change: the requested values are the ones in force")
+    request["controller_enabled"] = bool(request["controller_enabled"])
+    request["mud_pump_on"] = bool(request["mud_pump_on"])
+    request["source"] = source
+    return request
+
+
+def _same(a, b) -> bool:
+    if a is None or b is None:
+        return a is b
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return a == b
+
+
+def stand_target(active: dict | None, direction: str, stand_length_m: float = STAND_LENGTH_M) -> float:
+    """Trip plan target one stand above ("out": pull out) or below ("in": run in) the
+    target in force."""
+    if active is None:
+        raise FormError("no setpoints in force yet (waiting for /setpoints from the supervisor)")
+    if direction not in ("out", "in"):
+        raise FormError(f"trip direction {direction!r}: expected 'out' (pull out) or 'in' (run in)")
+    target = active.get("block_position_target_m", math.nan)
+    if not math.isfinite(target):
+        target = 0.0
+    return target + (stand_length_m if direction == "out" else -stand_length_m)
+
+
+def describe_changes(active: dict | None, request: dict) -> str:
+    """Human-readable summary (display units) of what a request changes."""
+    active = active or {}
+    parts = []
+    for key, spec in FORM_FIELDS.items():
+        new, old = request.get(spec.setpoint), active.get(spec.setpoint)
+        if new is None or _same(new, old):
+            continue
+        unit = spec.label.rsplit("[", 1)[-1].rstrip("]")
+        name = spec.label.rsplit(" [", 1)[0]
+        scale = PA_PER_BAR if unit == "bar" else 1.0
+        parts.append(f"{name} {_fmt(old, scale)} -> {_fmt(new, scale)} {unit}")
+    for key in BOOL_FIELDS:
+        if key in request and bool(request[key]) != bool(active.get(key)):
+            parts.append(f"{key} {'on' if request[key] else 'off'}")
+    return ", ".join(parts) or "no change"
+
+
+def _fmt(value, scale: float) -> str:
+    if value is None or not math.isfinite(value):
+        return "hold"
+    return f"{value / scale:.2f}".rstrip("0").rstrip(".")
+
+
+def level_or_error(level: str) -> str:
+    if level not in AUTOMATION_LEVELS:
+        raise FormError(f"automation level {level!r}: expected one of {', '.join(AUTOMATION_LEVELS)}")
+    return level
+
+
+# --------------------------------------------------------------------------- JSON helper
+def clean(value):
+    """JSON-safe copy: NaN/inf become None (JSON has no NaN), tuples become lists."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, deque)):
+        return [clean(v) for v in value]
+    return value
+
+
+def _round(value: float, digits: int = 9) -> float | None:
+    if value is None or not math.isfinite(value):
+        return None
+    return float(f"{value:.{digits}g}")
+
+
+# --------------------------------------------------------------------------- the state
+@dataclass(frozen=True)
+class Window:
+    """Pressure window at the BHP sensor (config/protection.yaml), SI."""
+    pore_pressure_pa: float
+    fracture_pressure_pa: float
+    pressure_margin_pa: float = 0.0
+    trip_speed_max_mps: float = math.inf
+
+
+class ConsoleState:
+    """Everything the page shows. Writers: rclpy callbacks; readers: HTTP threads."""
+
+    def __init__(self, window: Window, trend_points: int = TREND_POINTS, clock=time.monotonic,
+                 stand_length_m: float = STAND_LENGTH_M):
+        self.window = window
+        self.stand_length_m = stand_length_m
+        self._clock = clock
+        self._lock = threading.RLock()
+        self._trend_points = trend_points
+        self._seq = 0
+        self._trends: dict[str, deque] = {}
+        self._latest: dict[str, dict] = {}
+        self._received: dict[str, float] = {}
+        self._actuators: dict[str, dict] = {}
+        self._nodes: dict[str, dict] = {}
+        self._events: deque = deque(maxlen=EVENT_HISTORY)
+        self._event_id = 0
+        self.requested_level: str | None = None     # latched /operator/automation_level
+        self.estop: bool | None = None              # latched /operator/emergency_stop
+        self._result: dict | None = None            # last operator action and its outcome
+
+    # ---------------------------------------------------------------- trends
+    def add_point(self, series: str, t: float, value: float) -> None:
+        if value is None or not math.isfinite(value) or not math.isfinite(t):
+            return
+        with self._lock:
+            self._seq += 1
+            buf = self._trends.get(series)
+            if buf is None:
+                buf = self._trends[series] = deque(maxlen=self._trend_points)
+            buf.append((self._seq, round(t, 3), _round(value)))
+
+    def trend(self, series: str) -> list[tuple[float, float]]:
+        with self._lock:
+            return [(t, v) for _, t, v in self._trends.get(series, ())]
+
+    def trends_since(self, since: int) -> dict[str, list]:
+        with self._lock:
+            out = {}
+            for name, buf in self._trends.items():
+                if buf and buf[-1][0] > since:
+                    out[name] = [[t, v] for seq, t, v in buf if seq > since]
+            return out
+
+    # ---------------------------------------------------------------- sources
+    def _touch(self, source: str, values: dict) -> None:
+        self._latest[source] = values
+        self._received[source] = self._clock()
+
+    def on_measurement(self, t: float, m: dict) -> None:
+        with self._lock:
+            self._touch("measurement", dict(m, t=t))
+            self.add_point("bhp_measured", t, m["bhp_pa"])
+            self.add_point("dp_measured", t, m["choke_dp_pa"])
+            self.add_point("position_measured", t, m["block_position_m"])
+            if m.get("string_flow_valid"):
+                self.add_point("flow_measured", t, m["string_flow_m3s"])
+
+    def on_truth(self, t: float, m: dict) -> None:
+        with self._lock:
+            self._touch("truth", dict(m, t=t))
+            self.add_point("bhp_truth", t, m["bhp_pa"])
+            self.add_point("velocity_truth", t, m["string_velocity_mps"])
+            self.add_point("position_truth", t, m["string_position_m"])
+
+    def on_estimate(self, t: float, m: dict) -> None:
+        with self._lock:
+            self._touch("estimate", dict(m, t=t))
+            self.add_point("bhp_estimate", t, m["bhp_pa"])
+            self.add_point("dp_estimate", t, m["choke_dp_pa"])
+            self.add_point("velocity_estimate", t, m["string_velocity_mps"])
+            if m.get("string_position_m") is not None:
+                self.add_point("position_estimate", t, m["string_position_m"])
+            if m.get("nis_dof"):
+                self.add_point("nis", t, m["nis"])
+
+    def on_nmpc(self, t: float, m: dict) -> None:
+        with self._lock:
+            self._touch("nmpc", dict(m, t=t))
+            self.add_point("solve_time", t, m["solve_time_s"])
+            self.add_point("bhp_reference", t, m["bhp_ref_pa"])
+
+    def on_setpoints(self, m: dict) -> None:
+        with self._lock:
+            self._touch("setpoints", dict(m))
+
+    def on_frame(self, name: str, t: float, m: dict) -> None:
+        with self._lock:
+            self._actuators[name] = dict(m, t=t)
+            self._received[f"actuator/{name}"] = self._clock()
+            self.add_point(f"{name}_command", t, m["command"])
+            if m.get("output"):
+                self.add_point(f"{name}_output", t, m["output"][-1])
+
+    def on_status(self, name: str, m: dict) -> None:
+        with self._lock:
+            self._nodes[name] = dict(m)
+            self._received[f"node/{name}"] = self._clock()
+
+    def on_level(self, level: str) -> None:
+        with self._lock:
+            self.requested_level = level
+
+    def on_estop(self, engaged: bool) -> None:
+        with self._lock:
+            self.estop = bool(engaged)
+
+    def active_setpoints(self) -> dict | None:
+        with self._lock:
+            sp = self._latest.get("setpoints")
+            return dict(sp) if sp is not None else None
+
+    def latest(self, source: str) -> dict | None:
+        with self._lock:
+            value = self._latest.get(source)
+            return dict(value) if value is not None else None
+
+    # ---------------------------------------------------------------- events
+    def on_event(self, source: str, t: float, kind: str, text: str, accepted: bool) -> dict:
+        """Add an event (or count a repeat of the newest identical one); returns it."""
+        with self._lock:
+            newest = self._events[-1] if self._events else None
+            if newest and (newest["source"], newest["kind"], newest["text"]) == (source, kind, text):
+                newest["count"] += 1
+                newest["t"] = t
+                newest["wall"] = time.time()
+                return dict(newest)
+            self._event_id += 1
+            event = {"id": self._event_id, "t": t, "wall": time.time(), "source": source,
+                     "kind": kind, "text": text, "accepted": bool(accepted), "count": 1,
+                     "needs_ack": source == "protection" and kind in ACK_KINDS, "acked": False}
+            self._events.append(event)
+            return dict(event)
+
+    def acknowledge(self, event_id: int | None = None) -> list[dict]:
+        """Acknowledge one event (by id) or, with None, every unacknowledged one."""
+        with self._lock:
+            done = []
+            for event in self._events:
+                if event["needs_ack"] and not event["acked"] and event_id in (None, event["id"]):
+                    event["acked"] = True
+                    done.append(dict(event))
+            if event_id is not None and not done:
+                known = any(e["id"] == event_id for e in self._events)
+                raise FormError(f"event #{event_id} " + ("needs no acknowledgement or is already acknowledged"
+                                                         if known else "is not in the recent events"))
+            return done
+
+    def events(self) -> list[dict]:
+        with self._lock:
+            return [dict(e) for e in self._events]
+
+    def unacknowledged(self) -> int:
+        with self._lock:
+            return sum(1 for e in self._events if e["needs_ack"] and not e["acked"])
+
+    # ---------------------------------------------------------------- actions
+    def set_result(self, action: str, accepted: bool, reason: str = "", detail: str = "") -> dict:
+        with self._lock:
+            self._result = {"action": action, "accepted": bool(accepted), "reason": reason,
+                            "detail": detail, "wall": time.time()}
+            return dict(self._result)
+
+    # ---------------------------------------------------------------- level
+    def level_in_force(self) -> dict:
+        """The automation level in force: the protection layer's own status when it is
+        fresh (it is the one applying it), else the latched request, else its default."""
+        with self._lock:
+            now = self._clock()
+            status = self._nodes.get("protection")
+            fresh = status is not None and now - self._received.get("node/protection", -1e9) < STALE_AFTER_S
+            suffix = status["mode"].rsplit("/", 1)[-1] if status else ""
+            estop = bool(self.estop) or (fresh and suffix == "emergency_stop")
+            if fresh and suffix in AUTOMATION_LEVELS:
+                level, source = suffix, "protection status"
+            elif self.requested_level in AUTOMATION_LEVELS:
+                level, source = self.requested_level, "latched request"
+            else:
+                level, source = "closed_loop", "protection default (no request yet)"
+            return {"level": level, "source": source, "requested": self.requested_level,
+                    "emergency_stop": estop, "emergency_stop_requested": self.estop}
+
+    # ---------------------------------------------------------------- snapshot
+    def snapshot(self, since: int = 0) -> dict:
+        """JSON-safe view for GET /api/state: trends with sequence number > ``since``."""
+        with self._lock:
+            now = self._clock()
+            ages = {k: round(now - v, 2) for k, v in self._received.items()}
+            out = {
+                "seq": self._seq,
+                "trends": self.trends_since(since),
+                "measurement": self._latest.get("measurement"),
+                "truth": self._latest.get("truth"),
+                "estimate": self._latest.get("estimate"),
+                "nmpc": self._latest.get("nmpc"),
+                "setpoints": self._latest.get("setpoints"),
+                "actuators": self._actuators,
+                "nodes": self._nodes,
+                "ages_s": ages,
+                "stale_after_s": STALE_AFTER_S,
+                "window": {"pore_pressure_pa": self.window.pore_pressure_pa,
+                           "fracture_pressure_pa": self.window.fracture_pressure_pa,
+                           "pressure_margin_pa": self.window.pressure_margin_pa,
+                           "trip_speed_max_mps": self.window.trip_speed_max_mps},
+                "stand_length_m": self.stand_length_m,
+                "automation": self.level_in_force(),
+                "levels": list(AUTOMATION_LEVELS),
+                "events": [dict(e) for e in list(self._events)[-50:]],
+                "unacknowledged": sum(1 for e in self._events if e["needs_ack"] and not e["acked"]),
+                "result": self._result,
+            }
+            return clean(out)

@@ -1,0 +1,227 @@
+"""In-process closed loop of the NMPC supervisor and its solve-time benchmark (no ROS).
+
+The "plant" here is the shared estimation model itself (exact Herschel-Bulkley string
+friction, RK4 with 20 steps per sample) plus the drawworks lag, optionally with a friction
+mismatch (theta scaled) and a bottom influx, and the supervisor sees its exact state: a
+test bed for the optimiser, not a substitute for the ROS graph with the truth plant, the
+actuators and the UKF.
+
+    python -m drill_nmpc.bench [--samples 150] [--solver sqpmethod] [--no-jit]
+
+prints the solve-time distribution per configuration (median, p95, p99, max) and the
+ratio to the 16.4 s per solve of the paper's MATLAB implementation.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from drill_core import hydraulics as hy
+from drill_core.config import RigConfig, load_rig
+from drill_core.estimation_model import EstimationModel, build_estimation_model
+from drill_core.scenario import ActiveSetpoints, Initial
+from drill_nmpc.ocp import DrawworksLag, PredictionModel, Supervisor, outputs
+
+PAPER_SOLVE_TIME_S = 16.4          # Tengesdal & Holden 2020, sec. 6.3.4 (MATLAB fmincon, NMPC0)
+TRIP_DISTANCE_M = 28.0
+
+
+def default_config_dir() -> Path:
+    return Path(os.environ.get("RIG_ROOT", Path(__file__).resolve().parents[4])) / "config"
+
+
+def steady_estimate(em: EstimationModel, initial: Initial) -> tuple[np.ndarray, np.ndarray]:
+    """Estimation-model state and inputs u_{-1} at a scenario's steady operating point.
+
+    Design knowledge, not truth: the closed-form steady circulation of the well
+    (drill_plant.plant_model.steady_state) mapped to the estimation layout, with
+    theta_i = F_i / v_i^2 from the Herschel-Bulkley friction at that flow.
+    """
+    from drill_plant.plant_model import steady_state   # design knowledge of the well
+    wm = em.wm
+    ss = steady_state(wm, initial.circulation_m3s, initial.choke_dp_pa, initial.bpp_flow_m3s)
+    x = np.zeros(em.size)
+    x[0:2] = ss.state[0:2]
+    x[3:3 + 2 * wm.n + 1] = ss.state[2:]
+    q = initial.circulation_m3s
+    friction = hy.annulus_friction(np, wm, np.array([q] * (wm.n - 1)), 0.0)
+    for k, i in enumerate(range(2, wm.n + 1)):
+        v = q / wm.geometry.main_flow_area_m2[k]
+        x[em.theta(i)] = float(friction[k]) / v ** 2 if v > 0.0 else 0.0
+    u = np.array([0.0, ss.choke_flow_m3s, initial.bpp_flow_m3s, ss.inputs[3]])
+    return x, u
+
+
+class ModelPlant:
+    """The estimation model (+ drawworks lag) as a deterministic plant, one sample per call."""
+
+    def __init__(self, config: RigConfig, em: EstimationModel, x0: np.ndarray,
+                 friction_factor: float = 1.0, substeps: int = 20):
+        em_d = dataclasses.replace(em, with_disturbance=True)
+        self.em = em_d
+        self.model = PredictionModel(em_d, DrawworksLag(config.actuators.drawworks.time_constant_s))
+        self.step_fn = self.model.function(config.nmpc.sample_time_s, substeps, "rk4")
+        full = np.zeros(em_d.size)
+        full[:em.theta(em.n) + 1] = np.asarray(x0)[:em.theta(em.n) + 1]
+        self.par = full[self.model.nd_model:].copy()
+        self.par[:em.n - 1] *= friction_factor
+        self.x = self.model.initial_state(full)
+
+    @property
+    def influx_m3s(self) -> float:
+        return float(self.par[-1])
+
+    @influx_m3s.setter
+    def influx_m3s(self, value: float) -> None:
+        self.par[-1] = value
+
+    def state(self, em: EstimationModel) -> np.ndarray:
+        """The plant state in the layout of ``em`` (what a perfect estimator would report)."""
+        full = np.array(self.model.full(self.x, self.par), dtype=float)
+        out = np.zeros(em.size)
+        n = em.theta(em.n) + 1
+        out[:n] = full[:n]
+        if em.with_disturbance:
+            out[em.disturbance] = full[self.em.disturbance]
+        return out
+
+    def advance(self, u) -> None:
+        self.x = np.asarray(self.step_fn(self.x, u, self.par), dtype=float).ravel()
+
+
+@dataclass
+class LoopLog:
+    """Closed-loop record, one row per sample (SI)."""
+    time_s: list = field(default_factory=list)
+    block_position_m: list = field(default_factory=list)
+    velocity_mps: list = field(default_factory=list)
+    bhp_pa: list = field(default_factory=list)
+    bhp_ref_pa: list = field(default_factory=list)
+    choke_dp_pa: list = field(default_factory=list)
+    inputs: list = field(default_factory=list)
+    solve_time_s: list = field(default_factory=list)
+    iterations: list = field(default_factory=list)
+    fallback: list = field(default_factory=list)
+    status: list = field(default_factory=list)
+
+    def arrays(self) -> dict:
+        return {k: np.asarray(v) for k, v in dataclasses.asdict(self).items()}
+
+
+def trip_setpoints(t: float, out_at: float, in_at: float, bhp_ref: float = math.nan
+                   ) -> ActiveSetpoints:
+    """Case 1-3 style schedule: pull a stand out at ``out_at``, run it back in at ``in_at``."""
+    target = TRIP_DISTANCE_M if out_at <= t < in_at else 0.0
+    return ActiveSetpoints(bhp_ref_pa=bhp_ref, bhp_band_pa=2.0e5, choke_dp_ref_pa=2.0e6,
+                           choke_dp_band_pa=5.0e5, block_position_target_m=target,
+                           trip_speed_limit_mps=0.5, controller_enabled=True, mud_pump_on=True)
+
+
+def closed_loop(config: RigConfig, configuration: str, samples: int, *, out_at: float = 5.0,
+                in_at: float | None = None, supervisor: Supervisor | None = None,
+                friction_factor: float = 1.0, influx_m3s: float = 0.0,
+                solver: str | None = None, jit: bool | None = None,
+                initial: Initial | None = None) -> tuple[LoopLog, Supervisor]:
+    """Run ``samples`` supervisor steps on the model plant (perfect state feedback)."""
+    initial = initial or Initial(circulation_m3s=1000.0 / 60000.0, choke_dp_pa=2.0e6,
+                                 bpp_flow_m3s=0.0)
+    em = build_estimation_model(config, with_disturbance=(configuration == "NMPC2"))
+    x0, u = steady_estimate(em, initial)
+    sup = supervisor or Supervisor(config, em, configuration=configuration, solver=solver, jit=jit)
+    plant = ModelPlant(config, em, x0, friction_factor=friction_factor)
+    plant.influx_m3s = influx_m3s
+    ts = config.nmpc.sample_time_s
+    in_at = in_at if in_at is not None else 0.6 * samples * ts
+    log = LoopLog()
+    bhp_ref = float(outputs(em, x0)[2])
+    for k in range(samples):
+        t = k * ts
+        x = plant.state(em)
+        sp = trip_setpoints(t, out_at, in_at, bhp_ref)
+        res = sup.step(x, sp, u)
+        y = outputs(em, x)
+        log.time_s.append(t)
+        log.block_position_m.append(float(y[0]))
+        log.velocity_mps.append(float(x[1]))
+        log.bhp_pa.append(float(y[2]))
+        log.bhp_ref_pa.append(bhp_ref)
+        log.choke_dp_pa.append(float(y[1]))
+        log.inputs.append(res.u.copy())
+        log.solve_time_s.append(res.solve_time_s)
+        log.iterations.append(res.iterations)
+        log.fallback.append(res.fallback)
+        log.status.append(res.status)
+        u = res.u
+        plant.advance(u)
+    return log, sup
+
+
+def distribution(times) -> dict:
+    t = np.asarray(times, dtype=float)
+    return {"median_s": float(np.median(t)), "p95_s": float(np.percentile(t, 95)),
+            "p99_s": float(np.percentile(t, 99)), "max_s": float(np.max(t)),
+            "mean_s": float(np.mean(t)), "samples": int(t.size)}
+
+
+def run_benchmark(samples: int = 150, configurations=("NMPC0", "NMPC1", "NMPC2"),
+                  solver: str | None = None, jit: bool | None = True,
+                  config_dir: str | os.PathLike | None = None) -> dict:
+    """Solve-time distribution per configuration on the Case 1 trip (in-process loop).
+
+    ``jit`` compiles the derivative oracles (cached on disk, see ocp.compiled_function);
+    the build time is reported separately and not counted in the solve times.
+    """
+    config = load_rig(config_dir or default_config_dir())
+    out = {"paper_solve_time_s": PAPER_SOLVE_TIME_S, "sample_time_s": config.nmpc.sample_time_s,
+           "samples": samples, "solver": solver or config.nmpc.solver,
+           "max_iterations": config.nmpc.max_iterations, "configurations": {}}
+    for conf in configurations:
+        em = build_estimation_model(config, with_disturbance=(conf == "NMPC2"))
+        t0 = time.perf_counter()
+        sup = Supervisor(config, em, configuration=conf, solver=solver, jit=jit)
+        build_s = time.perf_counter() - t0
+        log, sup = closed_loop(config, conf, samples, supervisor=sup,
+                               friction_factor=1.1 if conf != "NMPC0" else 1.0)
+        arr = log.arrays()
+        dist = distribution(arr["solve_time_s"])
+        err = arr["bhp_pa"] - arr["bhp_ref_pa"]
+        out["configurations"][conf] = {
+            **dist,
+            "build_s": build_s,
+            "ratio_to_paper": PAPER_SOLVE_TIME_S / dist["median_s"],
+            "real_time_factor": dist["mean_s"] / config.nmpc.sample_time_s,
+            "mean_iterations": float(np.mean(arr["iterations"])),
+            "fallbacks": int(np.sum(arr["fallback"] != "none")),
+            "bhp_rmse_pa": float(np.sqrt(np.mean(err ** 2))),
+            "max_speed_mps": float(np.max(np.abs(arr["velocity_mps"]))),
+            "block_travel_m": float(np.max(arr["block_position_m"])),
+            "targets_met": bool(dist["median_s"] <= 0.020 and dist["p99_s"] <= 0.100
+                                and dist["max_s"] < 1.0),
+        }
+    return out
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--samples", type=int, default=150)
+    parser.add_argument("--solver", default=None, choices=("ipopt", "fatrop", "sqpmethod"))
+    parser.add_argument("--no-jit", action="store_true")
+    parser.add_argument("--configurations", default="NMPC0,NMPC1,NMPC2")
+    parser.add_argument("--config-dir", default=None)
+    args = parser.parse_args(argv)
+    result = run_benchmark(args.samples, tuple(args.configurations.split(",")), args.solver,
+                           jit=not args.no_jit, config_dir=args.config_dir)
+    print(json.dumps(result, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,322 @@
+"""NMPC supervisor node ``nmpc`` (DESIGN sections 2 and 6).
+
+    python -m drill_nmpc.nmpc_node --ros-args -p config_dir:=... -p scenario:=.../case2.yaml \
+        -p mode:=fast -p use_sim_time:=true
+
+Subscribes /estimator/estimate only (never /rig/truth). On the estimate stamped t_k with
+t_k a multiple of the sample time t_s (fast mode; realtime: the first estimate of each new
+sample period) it solves the OCP and publishes drill_msgs/RigCommand stamped t_k (acts
+from t_k) and drill_msgs/NmpcStatus. Every due estimate is answered with a command, also
+when the solve fails (the last input is held) or the estimate is unusable, so the fast-mode
+lockstep never stalls.
+
+Setpoints: the scenario schedule is applied by time (each entry once, when its time is
+reached, over the setpoints in force); operator requests come through the validating
+service /set_setpoints. Refusals say why and change nothing; every accepted or refused
+request (and every schedule change) goes out as drill_msgs/OperatorEvent on
+/operator/events, and the setpoints in force are published latched on /setpoints whenever
+they change. ``controller_enabled: false`` hands back to a safe manual state: the block
+reference holds the estimated string position and the other inputs hold their last values.
+
+Initial u_{-1} (first estimate): u_r = z1 (hold the string), q_c = q_2 + q_bpp (the choke
+passes what arrives from below plus the back-pressure pump at steady state; q_bpp from the
+scenario's initial operating point), p_in = the stand-pipe pressure that keeps the
+estimated string flow steady, p_I - rho g (D_bit - z1) + string friction(q_d, z2) (the
+string momentum balance with dq_d/dt = 0), clipped into the input bounds.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+
+import numpy as np
+from drill_msgs.msg import NmpcStatus, OperatorEvent, RigCommand, Setpoints, StateEstimate
+from drill_msgs.srv import SetSetpoints
+from rclpy.node import Node
+
+from drill_core import hydraulics as hy
+from drill_core.backend import NUMPY
+from drill_core.estimation_model import build_estimation_model
+from drill_core.ros import topics
+from drill_core.ros.context import load_context
+from drill_core.ros.runner import run
+from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
+from drill_core.ros.status import StatusReporter
+from drill_core.scenario import ActiveSetpoints
+from drill_nmpc.ocp import SLACK_NAMES, SolveResult, Supervisor
+from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
+
+_NUMERIC = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
+            "block_position_target_m", "trip_speed_limit_mps")
+
+
+def initial_setpoints(ctx) -> ActiveSetpoints:
+    """What is in force before the schedule's first entry (config defaults, initial point)."""
+    n = ctx.config.nmpc
+    ini = ctx.scenario.initial
+    return ActiveSetpoints(bhp_ref_pa=math.nan, bhp_band_pa=n.bhp_band_pa,
+                           choke_dp_ref_pa=ini.choke_dp_pa, choke_dp_band_pa=n.choke_dp_band_pa,
+                           block_position_target_m=0.0, trip_speed_limit_mps=n.velocity_limit_mps,
+                           controller_enabled=True, mud_pump_on=ini.circulation_m3s > 0.0)
+
+
+def merge_request(active: ActiveSetpoints, msg: Setpoints) -> ActiveSetpoints:
+    """Requested setpoints over the ones in force: a NaN numeric field keeps its value."""
+    changes = {}
+    for name in _NUMERIC:
+        value = float(getattr(msg, name))
+        if not math.isnan(value):
+            changes[name] = value
+    changes["controller_enabled"] = bool(msg.controller_enabled)
+    changes["mud_pump_on"] = bool(msg.mud_pump_on)
+    return dataclasses.replace(active, **changes)
+
+
+def to_msg(sp: ActiveSetpoints, stamp_ns: int, source: str) -> Setpoints:
+    msg = Setpoints()
+    msg.header.stamp = from_ns(stamp_ns)
+    for name in _NUMERIC:
+        setattr(msg, name, float(getattr(sp, name)))
+    msg.controller_enabled = bool(sp.controller_enabled)
+    msg.mud_pump_on = bool(sp.mud_pump_on)
+    msg.source = source
+    return msg
+
+
+def describe(sp: ActiveSetpoints) -> str:
+    return (f"BHP {sp.bhp_ref_pa / 1e5:.2f} +- {sp.bhp_band_pa / 1e5:.2f} bar, choke dp "
+            f"{sp.choke_dp_ref_pa / 1e5:.2f} +- {sp.choke_dp_band_pa / 1e5:.2f} bar, block target "
+            f"{sp.block_position_target_m:g} m, trip speed <= {sp.trip_speed_limit_mps:g} m/s, "
+            f"controller {'on' if sp.controller_enabled else 'off (manual)'}, mud pump "
+            f"{'on' if sp.mud_pump_on else 'off'}")
+
+
+class NmpcNode(Node):
+    def __init__(self):
+        super().__init__("nmpc")
+        ctx = load_context(self)
+        self.ctx = ctx
+        self.exit_code = 0
+        cfg = ctx.config
+        self.em = build_estimation_model(cfg, with_disturbance=cfg.nmpc.configuration == "NMPC2")
+        # Build (and, with jit, compile) the solver before any subscription exists, so the
+        # graph's lockstep starts only once the supervisor can answer.
+        self.supervisor = Supervisor(cfg, self.em)
+        self.envelope = Envelope.from_config(cfg, self.em.wm.geometry)
+        self.sample_ns = seconds_to_ns(cfg.nmpc.sample_time_s)
+        self.status = StatusReporter(self, ctx.mode, topic=topics.NMPC_NODE_STATUS)
+        self.start = initial_setpoints(ctx)
+        self.active = self.start
+        self.applied_entries = 0
+        self.bhp_resolved = False
+        self.u_prev: np.ndarray | None = None
+        self.last_sample: int | None = None
+        self.last_estimate_ns: int | None = None
+        self.commands = 0
+
+        self.cmd_pub = self.create_publisher(RigCommand, topics.COMMAND, topics.RELIABLE)
+        self.status_pub = self.create_publisher(NmpcStatus, topics.NMPC_STATUS, topics.RELIABLE)
+        self.sp_pub = self.create_publisher(Setpoints, topics.SETPOINTS, topics.LATCHED)
+        self.event_pub = self.create_publisher(OperatorEvent, topics.OPERATOR_EVENTS, topics.RELIABLE)
+        self.create_service(SetSetpoints, topics.SET_SETPOINTS, self._on_set_setpoints)
+        self.create_subscription(StateEstimate, topics.ESTIMATE, self._on_estimate, topics.RELIABLE)
+        self._publish_setpoints(0, "scenario")
+        self.get_logger().info(f"nmpc ready: {self.supervisor.configuration}, solver "
+                               f"{self.supervisor.problem.solver_name}, mode {ctx.mode}")
+
+    # ------------------------------------------------------------------ setpoints
+    def _event(self, stamp_ns: int, kind: str, text: str, accepted: bool) -> None:
+        msg = OperatorEvent(kind=kind, text=text, accepted=accepted)
+        msg.header.stamp = from_ns(stamp_ns)
+        self.event_pub.publish(msg)
+
+    def _publish_setpoints(self, stamp_ns: int, source: str) -> None:
+        self.sp_pub.publish(to_msg(self.active, stamp_ns, source))
+
+    def _apply_schedule(self, t_ns: int) -> None:
+        """Apply every schedule entry that has become due, in order, over the setpoints in force."""
+        schedule = self.ctx.scenario.schedule
+        t = t_ns * 1e-9
+        changed = False
+        while self.applied_entries < len(schedule) and schedule[self.applied_entries].time_s <= t + 1e-9:
+            entry = schedule[self.applied_entries]
+            self.applied_entries += 1
+            updates = {f.name: getattr(entry, f.name) for f in dataclasses.fields(ActiveSetpoints)}
+            updates = {k: v for k, v in updates.items() if not (isinstance(v, float) and math.isnan(v))}
+            candidate = dataclasses.replace(self.active, **updates)
+            if math.isfinite(candidate.bhp_ref_pa):
+                ok, reason = validate_setpoints(candidate, self.envelope)
+                if not ok:
+                    self._event(t_ns, "refusal", f"scenario entry at {entry.time_s:g} s refused: {reason}",
+                                False)
+                    self.status.error(f"scenario setpoints refused: {reason}")
+                    continue
+            self.active = candidate
+            changed = True
+        if changed:
+            if self.bhp_resolved:
+                self._event(t_ns, "setpoint", f"scenario: {describe(self.active)}", True)
+                self._publish_setpoints(t_ns, "scenario")
+
+    def _resolve_bhp(self, x, t_ns: int) -> None:
+        """A NaN BHP target means: the BHP of the first estimate."""
+        if not self.bhp_resolved:
+            if not math.isfinite(self.active.bhp_ref_pa):
+                bhp = float(x[self.em.pressure(self.em.n)])
+                self.active = dataclasses.replace(self.active, bhp_ref_pa=bhp)
+            self.bhp_resolved = True
+            self._event(t_ns, "setpoint", f"scenario: {describe(self.active)}", True)
+            self._publish_setpoints(t_ns, "scenario")
+
+    def _on_set_setpoints(self, request, response):
+        now_ns = self.last_estimate_ns if self.last_estimate_ns is not None else \
+            self.get_clock().now().nanoseconds
+        source = request.setpoints.source or "operator"
+        candidate = merge_request(self.active, request.setpoints)
+        if not math.isfinite(candidate.bhp_ref_pa):
+            ok, reason = False, "bhp_ref_pa is not set yet (no estimate received): give a value"
+        else:
+            ok, reason = validate_setpoints(candidate, self.envelope)
+        if ok:
+            self.active = candidate
+            self.bhp_resolved = True
+            self._publish_setpoints(now_ns, source)
+            self._event(now_ns, "setpoint", f"{source}: {describe(candidate)}", True)
+        else:
+            self._event(now_ns, "refusal", f"{source}: refused: {reason}", False)
+        response.accepted = ok
+        response.reason = reason
+        response.active = to_msg(self.active, now_ns, "active")
+        return response
+
+    # ------------------------------------------------------------------ estimates
+    def _state(self, msg: StateEstimate) -> np.ndarray | None:
+        """The estimate in the supervisor model's layout (by state name), or None."""
+        names = list(msg.state_names)
+        mean = list(msg.mean)
+        if len(names) != len(mean):
+            return None
+        index = {n: i for i, n in enumerate(names)}
+        x = np.zeros(self.em.size)
+        for i, name in enumerate(self.em.state_names()):
+            if name in index:
+                x[i] = mean[index[name]]
+            elif self.em.with_disturbance and i == self.em.disturbance:
+                x[i] = msg.bottom_influx_m3s if math.isfinite(msg.bottom_influx_m3s) else 0.0
+            else:
+                return None
+        return x if np.all(np.isfinite(x)) else None
+
+    def _initial_input(self, x) -> np.ndarray:
+        em, wm = self.em, self.em.wm
+        g, w = wm.geometry, wm.well
+        ini = self.ctx.scenario.initial
+        rho_g = w.mud.density_kgm3 * w.gravity_mps2
+        q_d, z1, z2 = x[em.string_flow], x[0], x[1]
+        spp = x[em.string_pressure] - rho_g * (g.bit_depth_m - z1) \
+            + float(hy.string_friction(NUMPY, wm, q_d, z2))
+        u = np.array([z1, x[em.flow(2)] + ini.bpp_flow_m3s, ini.bpp_flow_m3s, spp])
+        return self.supervisor.safe_input(u)
+
+    def _on_estimate(self, msg: StateEstimate) -> None:
+        stamp = to_ns(msg.header.stamp)
+        self.last_estimate_ns = stamp
+        if self.ctx.fast and stamp % self.sample_ns != 0:
+            return          # lockstep: commands are due on sample times only
+        sample = stamp // self.sample_ns
+        if self.last_sample is not None and sample <= self.last_sample:
+            return          # realtime: not a new sample period yet (fast: duplicate stamp)
+        self.last_sample = sample
+        self._act(msg, stamp)
+
+    def _act(self, msg: StateEstimate, stamp: int) -> None:
+        x = self._state(msg)
+        self._apply_schedule(stamp)
+        if x is None:
+            self.status.error(f"estimate at {stamp * 1e-9:.3f} s unusable (missing states or "
+                              "non-finite values): holding the last command")
+            u = self.u_prev if self.u_prev is not None else None
+            if u is None:
+                return              # nothing to hold yet; the actuators keep their safe state
+            result = self.supervisor.hold(u, "invalid_estimate")
+        else:
+            self._resolve_bhp(x, stamp)
+            if self.u_prev is None:
+                self.u_prev = self._initial_input(x)
+            if self.active.controller_enabled:
+                result = self.supervisor.step(x, self.active, self.u_prev)
+            else:
+                result = self._manual(x)
+        self.u_prev = result.u
+        self._publish(stamp, result)
+
+    def _manual(self, x) -> SolveResult:
+        """Hand-back to manual: hold the string where it is, the other inputs as they were."""
+        self.supervisor.reset()
+        u = self.u_prev.copy()
+        u[0] = float(np.clip(x[0], self.supervisor.u_min[0], self.supervisor.u_max[0]))
+        u = np.where(np.isfinite(u), u, self.u_prev)
+        return SolveResult(u=u, success=False, fallback="none", status="manual", iterations=0,
+                           solve_time_s=0.0, cost=float("nan"),
+                           slacks={n: float("nan") for n in SLACK_NAMES},
+                           planned_inputs=np.tile(u, (self.supervisor.problem.N, 1)),
+                           configuration=self.supervisor.configuration)
+
+    # ------------------------------------------------------------------ outputs
+    def _publish(self, stamp: int, r: SolveResult) -> None:
+        u = np.asarray(r.u, dtype=float)
+        assert np.all(np.isfinite(u)), "refusing to publish a non-finite command"
+        cmd = RigCommand(block_position_ref_m=float(u[0]), choke_flow_ref_m3s=float(u[1]),
+                         bpp_flow_m3s=float(u[2]), spp_pa=float(u[3]),
+                         mud_pump_on=bool(self.active.mud_pump_on), source="nmpc")
+        cmd.header.stamp = from_ns(stamp)
+        self.cmd_pub.publish(cmd)
+        self.commands += 1
+
+        st = NmpcStatus()
+        st.header.stamp = from_ns(stamp)
+        st.configuration = self.supervisor.configuration
+        st.solve_time_s = float(r.solve_time_s)
+        st.iterations = int(r.iterations)
+        st.solver_status = str(r.status)
+        st.success = bool(r.success)
+        st.fallback = str(r.fallback)
+        st.fallback_count = int(self.supervisor.fallback_count)
+        st.cost = float(r.cost)
+        st.slack_names = list(SLACK_NAMES)
+        st.slack_max = [float(r.slacks.get(n, math.nan)) for n in SLACK_NAMES]
+        pred = r.predicted
+        st.predicted_time_s = [float(v) for v in r.predicted_time_s]
+        st.predicted_bhp_pa = [float(v) for v in pred.get("bhp_pa", [])]
+        st.predicted_choke_dp_pa = [float(v) for v in pred.get("choke_dp_pa", [])]
+        st.predicted_block_position_m = [float(v) for v in pred.get("block_position_m", [])]
+        st.predicted_string_velocity_mps = [float(v) for v in pred.get("string_velocity_mps", [])]
+        plan = np.asarray(r.planned_inputs, dtype=float).reshape(-1, 4)
+        st.planned_block_position_ref_m = [float(v) for v in plan[:, 0]]
+        st.planned_choke_flow_m3s = [float(v) for v in plan[:, 1]]
+        st.planned_bpp_flow_m3s = [float(v) for v in plan[:, 2]]
+        st.planned_spp_pa = [float(v) for v in plan[:, 3]]
+        ref = np.asarray(r.reference, dtype=float)
+        st.bhp_ref_pa = float(ref[1, 2]) if ref.shape[0] > 1 else float(self.active.bhp_ref_pa)
+        st.block_position_ref_m = float(self.active.block_position_target_m)
+        self.status_pub.publish(st)
+
+        if r.fallback != "none":
+            self.status.error(f"solve at {stamp * 1e-9:.3f} s: fallback {r.fallback} "
+                              f"({r.status})")
+        mode = "manual" if not self.active.controller_enabled else self.supervisor.configuration
+        self.status.mode = f"{self.ctx.mode}/{mode}"
+        self.status.values = {"solve_time_s": float(r.solve_time_s),
+                              "iterations": float(r.iterations),
+                              "fallback_count": float(self.supervisor.fallback_count),
+                              "commands": float(self.commands)}
+        self.status.tick(stamp)
+
+
+def main(args=None) -> None:
+    sys.exit(run(NmpcNode, args))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,93 @@
+"""Validation of operator setpoints against the actuator envelope and the pressure window.
+
+Plain module (no rclpy). The supervisor's /set_setpoints service adopts a request only
+when :func:`validate_setpoints` accepts it; a refusal names the field, the requested value
+and the allowed range (SI, with drilling units in brackets for the operator).
+
+Pressure window (config/nmpc.yaml ``pore_pressure_pa``, ``fracture_pressure_pa``) is the
+pore/fracture window at the BHP sensor depth. A BHP target is accepted when its whole band
+lies inside the window and the target is above the static mud column (the BHP can only be
+raised above hydrostatic by friction and choke back-pressure, never lowered below it).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from drill_core.config import RigConfig
+from drill_core.well import WellGeometry
+
+
+def _bar(pa: float) -> str:
+    return f"{pa:.6g} Pa ({pa / 1e5:.2f} bar)"
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """What a setpoint may ask for (SI)."""
+    bhp_min_pa: float              # lowest BHP target (window floor, hydrostatic)
+    bhp_max_pa: float              # highest BHP target (fracture)
+    pore_pressure_pa: float
+    fracture_pressure_pa: float
+    hydrostatic_pa: float          # static mud column at the BHP sensor depth
+    choke_dp_max_pa: float         # choke back-pressure that keeps a static BHP below fracture
+    block_min_m: float
+    block_max_m: float
+    speed_max_mps: float
+
+    @classmethod
+    def from_config(cls, config: RigConfig, geometry: WellGeometry) -> "Envelope":
+        n = config.nmpc
+        w = config.well
+        hydrostatic = w.mud.density_kgm3 * w.gravity_mps2 * geometry.node_depth_m[-1]
+        dw = config.actuators.drawworks
+        return cls(
+            bhp_min_pa=max(n.pore_pressure_pa, hydrostatic),
+            bhp_max_pa=n.fracture_pressure_pa,
+            pore_pressure_pa=n.pore_pressure_pa,
+            fracture_pressure_pa=n.fracture_pressure_pa,
+            hydrostatic_pa=hydrostatic,
+            choke_dp_max_pa=max(n.fracture_pressure_pa - hydrostatic, 0.0),
+            block_min_m=max(n.input_min.block_position_m, dw.minimum),
+            block_max_m=min(n.input_max.block_position_m, dw.maximum),
+            speed_max_mps=n.velocity_limit_mps,
+        )
+
+
+_NUMERIC = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
+            "block_position_target_m", "trip_speed_limit_mps")
+
+
+def validate_setpoints(sp, envelope: Envelope) -> tuple[bool, str]:
+    """(ok, reason): ``sp`` has the fields of drill_msgs/Setpoints / ActiveSetpoints (SI).
+
+    Every numeric field must be finite (resolve "keep the value in force" before calling).
+    """
+    for name in _NUMERIC:
+        value = getattr(sp, name)
+        if not isinstance(value, (int, float)) or not math.isfinite(float(value)):
+            return False, f"{name} = {value!r} is not a finite number"
+    e = envelope
+    if sp.bhp_band_pa <= 0.0:
+        return False, f"bhp_band_pa = {_bar(sp.bhp_band_pa)} must be positive"
+    if sp.choke_dp_band_pa <= 0.0:
+        return False, f"choke_dp_band_pa = {_bar(sp.choke_dp_band_pa)} must be positive"
+    if sp.bhp_ref_pa < e.hydrostatic_pa:
+        return False, (f"bhp_ref_pa = {_bar(sp.bhp_ref_pa)} is below the static mud column "
+                       f"{_bar(e.hydrostatic_pa)}: unreachable (BHP can only be raised above it)")
+    if sp.bhp_ref_pa - sp.bhp_band_pa < e.pore_pressure_pa:
+        return False, (f"BHP band bottom bhp_ref_pa - bhp_band_pa = {_bar(sp.bhp_ref_pa - sp.bhp_band_pa)}"
+                       f" is below the pore pressure {_bar(e.pore_pressure_pa)} (influx risk)")
+    if sp.bhp_ref_pa + sp.bhp_band_pa > e.fracture_pressure_pa:
+        return False, (f"BHP band top bhp_ref_pa + bhp_band_pa = {_bar(sp.bhp_ref_pa + sp.bhp_band_pa)}"
+                       f" is above the fracture pressure {_bar(e.fracture_pressure_pa)} (losses risk)")
+    if not 0.0 <= sp.choke_dp_ref_pa <= e.choke_dp_max_pa:
+        return False, (f"choke_dp_ref_pa = {_bar(sp.choke_dp_ref_pa)} is outside [0, "
+                       f"{_bar(e.choke_dp_max_pa)}] (fracture pressure minus the static column)")
+    if not e.block_min_m <= sp.block_position_target_m <= e.block_max_m:
+        return False, (f"block_position_target_m = {sp.block_position_target_m:g} m is outside "
+                       f"the drawworks range [{e.block_min_m:g}, {e.block_max_m:g}] m")
+    if not 0.0 < sp.trip_speed_limit_mps <= e.speed_max_mps:
+        return False, (f"trip_speed_limit_mps = {sp.trip_speed_limit_mps:g} m/s is outside "
+                       f"(0, {e.speed_max_mps:g}] m/s (string velocity limit)")
+    return True, ""

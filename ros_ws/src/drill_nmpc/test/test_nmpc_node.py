@@ -1,0 +1,209 @@
+"""NMPC node over DDS: lockstep commands on sample stamps, status, validating setpoint service.
+
+The node runs as a child process in fast mode; this test plays the estimator (an rclpy node
+with its own context on an isolated ROS_DOMAIN_ID, localhost discovery) that publishes
+/clock and StateEstimate messages, records RigCommand / NmpcStatus / OperatorEvent, and
+calls /set_setpoints.
+"""
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytestmark = [pytest.mark.dds,
+              pytest.mark.filterwarnings("ignore::DeprecationWarning:lark.utils")]
+
+DOMAIN_ID = 86
+CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+SCENARIO = CONFIG_DIR / "scenarios" / "case2.yaml"
+SAMPLE_NS = 1_000_000_000
+TIMEOUT_S = 60.0
+
+
+def _env() -> dict:
+    env = dict(os.environ)
+    env.update(ROS_DOMAIN_ID=str(DOMAIN_ID), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+               RMW_IMPLEMENTATION="rmw_fastrtps_cpp", PYTHONUNBUFFERED="1")
+    env.pop("ROS_STATIC_PEERS", None)
+    return env
+
+
+@pytest.fixture
+def nmpc_process():
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "drill_nmpc.nmpc_node", "--ros-args",
+         "-p", f"config_dir:={CONFIG_DIR}", "-p", f"scenario:={SCENARIO}", "-p", "mode:=fast",
+         "-p", "use_sim_time:=true"],
+        env=_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    yield proc
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=5)
+
+
+class Estimator:
+    """The estimator as far as the supervisor can tell."""
+
+    def __init__(self, monkeypatch):
+        import rclpy
+        from drill_msgs.msg import NmpcStatus, OperatorEvent, RigCommand, Setpoints, StateEstimate
+        from drill_msgs.srv import SetSetpoints
+        from rclpy.executors import SingleThreadedExecutor
+        from rosgraph_msgs.msg import Clock
+
+        from drill_core.ros import topics
+
+        monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        monkeypatch.delenv("ROS_STATIC_PEERS", raising=False)
+        self.rclpy, self.topics = rclpy, topics
+        self.StateEstimate, self.Clock, self.Setpoints = StateEstimate, Clock, Setpoints
+        self.SetSetpoints = SetSetpoints
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=DOMAIN_ID)
+        self.node = rclpy.create_node("nmpc_test_estimator", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.commands, self.statuses, self.events, self.setpoints = [], [], [], []
+        self.pub_estimate = self.node.create_publisher(StateEstimate, topics.ESTIMATE, topics.RELIABLE)
+        self.pub_clock = self.node.create_publisher(Clock, "/clock", topics.RELIABLE)
+        self.sub_cmd = self.node.create_subscription(RigCommand, topics.COMMAND, self.commands.append,
+                                                     topics.RELIABLE)
+        self.node.create_subscription(NmpcStatus, topics.NMPC_STATUS, self.statuses.append,
+                                      topics.RELIABLE)
+        self.node.create_subscription(OperatorEvent, topics.OPERATOR_EVENTS, self.events.append,
+                                      topics.RELIABLE)
+        self.client = self.node.create_client(SetSetpoints, topics.SET_SETPOINTS)
+
+    def close(self):
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.rclpy.shutdown(context=self.context)
+
+    def spin_until(self, predicate, timeout_s: float, proc) -> bool:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if predicate():
+                return True
+            if proc.poll() is not None:
+                pytest.fail(f"nmpc exited ({proc.returncode}): {proc.stdout.read()[-3000:]}")
+            self.executor.spin_once(timeout_sec=0.05)
+        return predicate()
+
+    def estimate(self, stamp_ns: int, names, x) -> None:
+        from drill_core.ros.stamps import from_ns
+        stamp = from_ns(stamp_ns)
+        self.pub_clock.publish(self.Clock(clock=stamp))
+        msg = self.StateEstimate(state_names=list(names), mean=[float(v) for v in x])
+        msg.header.stamp = stamp
+        msg.bottom_influx_m3s = 0.0
+        msg.string_flow_observable = True
+        self.pub_estimate.publish(msg)
+
+    def latched_setpoints(self, proc, timeout_s: float = 10.0):
+        """A late-joining subscriber's view of /setpoints (transient local)."""
+        got = []
+        sub = self.node.create_subscription(self.Setpoints, self.topics.SETPOINTS, got.append,
+                                            self.topics.LATCHED)
+        self.spin_until(lambda: got, timeout_s, proc)
+        self.node.destroy_subscription(sub)
+        return got[-1] if got else None
+
+    def call(self, setpoints, proc):
+        assert self.client.wait_for_service(timeout_sec=10.0)
+        future = self.client.call_async(self.SetSetpoints.Request(setpoints=setpoints))
+        assert self.spin_until(future.done, 20.0, proc), "no answer from /set_setpoints"
+        return future.result()
+
+
+def test_lockstep_commands_status_and_setpoint_service(nmpc_process, monkeypatch):
+    from drill_core.config import load_rig
+    from drill_core.estimation_model import build_estimation_model
+    from drill_core.scenario import load_scenario_config
+    from drill_nmpc.bench import steady_estimate
+
+    scenario, config = load_scenario_config(SCENARIO, CONFIG_DIR)
+    em = build_estimation_model(config, with_disturbance=False)
+    x, _ = steady_estimate(em, scenario.initial)
+    nmpc = config.nmpc
+    lo, hi = np.array(nmpc.input_min.as_tuple()), np.array(nmpc.input_max.as_tuple())
+    est = Estimator(monkeypatch)
+    try:
+        assert est.spin_until(lambda: est.pub_estimate.get_subscription_count() >= 1
+                              and est.sub_cmd.get_publisher_count() >= 1, TIMEOUT_S, nmpc_process), \
+            "nmpc node did not connect"
+        stamps = [0, SAMPLE_NS // 2, SAMPLE_NS, 2 * SAMPLE_NS, 3 * SAMPLE_NS]
+        for s in stamps:
+            est.estimate(s, em.state_names(), x)
+            time.sleep(0.01)
+        assert est.spin_until(lambda: len(est.commands) >= 4 and len(est.statuses) >= 4, TIMEOUT_S,
+                              nmpc_process), f"commands {len(est.commands)}"
+        est.spin_until(lambda: False, 1.0, nmpc_process)       # nothing else may arrive
+        got = [c.header.stamp.sec * 1_000_000_000 + c.header.stamp.nanosec for c in est.commands]
+        assert got == [0, SAMPLE_NS, 2 * SAMPLE_NS, 3 * SAMPLE_NS]   # not the 0.5 s estimate
+        for c in est.commands:
+            u = np.array([c.block_position_ref_m, c.choke_flow_ref_m3s, c.bpp_flow_m3s, c.spp_pa])
+            assert np.all(np.isfinite(u)) and np.all(u >= lo - 1e-9) and np.all(u <= hi + 1e-9), u
+            assert c.source == "nmpc" and c.mud_pump_on
+        s0 = est.statuses[0]
+        assert s0.configuration == nmpc.configuration
+        assert len(s0.predicted_bhp_pa) == nmpc.prediction_steps + 1
+        assert len(s0.planned_spp_pa) == nmpc.prediction_steps
+        assert list(s0.slack_names) and len(s0.slack_max) == len(s0.slack_names)
+        assert all(math.isfinite(st.solve_time_s) and st.fallback in ("none", "relaxed", "hold")
+                   for st in est.statuses)
+        # steady state at the reference: the plan holds BHP within its band
+        bhp = x[em.pressure(em.n)]
+        assert abs(s0.bhp_ref_pa - bhp) < 1.0
+        assert max(abs(p - bhp) for p in s0.predicted_bhp_pa) < nmpc.bhp_band_pa
+
+        first = est.latched_setpoints(nmpc_process)
+        assert first is not None and abs(first.bhp_ref_pa - bhp) < 1.0
+
+        bad = est.Setpoints(bhp_ref_pa=-1.0e5, bhp_band_pa=2.0e5, choke_dp_ref_pa=2.0e6,
+                            choke_dp_band_pa=5.0e5, block_position_target_m=0.0,
+                            trip_speed_limit_mps=0.5, controller_enabled=True, mud_pump_on=True,
+                            source="test")
+        answer = est.call(bad, nmpc_process)
+        assert not answer.accepted and "bhp_ref_pa" in answer.reason
+        assert abs(answer.active.bhp_ref_pa - bhp) < 1.0
+        speedy = est.Setpoints(bhp_ref_pa=math.nan, bhp_band_pa=math.nan, choke_dp_ref_pa=math.nan,
+                               choke_dp_band_pa=math.nan, block_position_target_m=math.nan,
+                               trip_speed_limit_mps=2.0, controller_enabled=True,
+                               mud_pump_on=True, source="test")
+        answer = est.call(speedy, nmpc_process)
+        assert not answer.accepted and "trip_speed_limit_mps" in answer.reason
+
+        good = est.Setpoints(bhp_ref_pa=bhp + 1.0, bhp_band_pa=3.0e5, choke_dp_ref_pa=2.0e6,
+                             choke_dp_band_pa=5.0e5, block_position_target_m=10.0,
+                             trip_speed_limit_mps=0.3, controller_enabled=True, mud_pump_on=True,
+                             source="test")
+        answer = est.call(good, nmpc_process)
+        assert answer.accepted and answer.reason == ""
+        assert abs(answer.active.bhp_ref_pa - (bhp + 1.0)) < 1e-6
+        latched = est.latched_setpoints(nmpc_process)
+        assert latched is not None and abs(latched.bhp_ref_pa - (bhp + 1.0)) < 1e-6
+        assert latched.bhp_band_pa == 3.0e5 and latched.source == "test"
+        assert latched.block_position_target_m == 10.0 and latched.trip_speed_limit_mps == 0.3
+        assert est.spin_until(lambda: sum(not e.accepted for e in est.events) >= 2
+                              and any(e.accepted and "test" in e.text for e in est.events),
+                              10.0, nmpc_process), [e.text for e in est.events]
+
+        # the next sample uses the new setpoints: the plan moves the block toward 10 m
+        est.estimate(4 * SAMPLE_NS, em.state_names(), x)
+        assert est.spin_until(lambda: len(est.statuses) >= 5, TIMEOUT_S, nmpc_process)
+        assert est.statuses[-1].block_position_ref_m == 10.0
+        assert est.commands[-1].block_position_ref_m > 0.0
+    finally:
+        est.close()

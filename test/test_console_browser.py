@@ -1,0 +1,299 @@
+"""The operator console in a real browser (headless Debian chromium + chromedriver,
+driven by selenium) against the real rig graph in realtime mode.
+
+The short_trip scenario runs with the real nodes (recorder, actuators, estimator, nmpc,
+protection, plant) plus the console on a free port, on an isolated ROS_DOMAIN_ID. A
+listener node in this process (its own rclpy context) checks independently of the page
+what reached the graph. In one ~45 s realtime run:
+
+* the page shows live values that change;
+* a BHP setpoint above fracture is refused and the supervisor's reason is on screen;
+* a valid BHP setpoint is accepted and reaches the NMPC (latched /setpoints and
+  NmpcStatus.bhp_ref_pa);
+* the emergency stop stops the string (velocity ~0 a few seconds later) and
+  /rig/command carries the protection hold;
+* the operator actions are in the recording (drill_msgs/OperatorEvent).
+
+Screenshots go to test/artifacts/ (paths printed; run with -s to see them). Skips with
+the reason when chromium / chromedriver / selenium are missing.
+"""
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from drill_bringup import cli, launcher, mcap_io
+from drill_core.ros import topics
+
+pytestmark = [pytest.mark.dds,
+              pytest.mark.filterwarnings("ignore::DeprecationWarning")]
+
+ROOT = cli.ROOT
+SCENARIO = ROOT / "config" / "scenarios" / "short_trip.yaml"
+ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
+CHROMIUM = "/usr/bin/chromium"
+CHROMEDRIVER = "/usr/bin/chromedriver"
+DOMAIN_ID = int(os.environ.get("RIG_CONSOLE_TEST_DOMAIN", "96"))     # 94-97 are the console's
+CHROMIUM_FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                  "--window-size=1600,1250")
+
+
+def _requirements() -> str:
+    """Why the test cannot run here, or ""."""
+    for path in (CHROMIUM, CHROMEDRIVER):
+        if not os.access(path, os.X_OK):
+            return (f"{path} not found: install Debian's chromium and chromium-driver "
+                    "(apt-get install -y chromium chromium-driver)")
+    try:
+        import selenium  # noqa: F401
+    except ImportError:
+        return "selenium is not installed in the venv (requirements: selenium 4.x)"
+    try:
+        import drill_nmpc.nmpc_node  # noqa: F401
+    except ImportError as err:
+        return f"the real nmpc node is not importable ({err})"
+    return ""
+
+
+# ----------------------------------------------------------------------------- graph side
+class Listener:
+    """Own rclpy context on the rig's domain: what the graph really sees."""
+
+    def __init__(self, domain_id: int):
+        import rclpy
+        from drill_msgs.msg import NmpcStatus, PlantTruth, RigCommand, Setpoints, StateEstimate
+        from rclpy.context import Context
+        from rclpy.executors import SingleThreadedExecutor
+
+        from drill_bringup.console import DISPLAY
+
+        self.rclpy = rclpy
+        self.context = Context()
+        rclpy.init(context=self.context, domain_id=domain_id)
+        self.node = rclpy.create_node("console_test_listener", context=self.context)
+        self.lock = threading.Lock()
+        self.setpoints = None
+        self.nmpc = []          # (wall, bhp_ref_pa)
+        self.commands = []      # (wall, RigCommand)
+        self.truth = []         # (wall, string_velocity_mps, string_position_m)
+        self.estimate = []      # (wall, string_velocity_mps)
+        sub = self.node.create_subscription
+        sub(Setpoints, topics.SETPOINTS, self._keep("setpoints"), topics.LATCHED)
+        sub(NmpcStatus, topics.NMPC_STATUS, lambda m: self._add(self.nmpc, m.bhp_ref_pa), DISPLAY)
+        sub(RigCommand, topics.MACHINE_COMMAND, lambda m: self._add(self.commands, m), topics.RELIABLE)
+        sub(PlantTruth, topics.TRUTH,
+            lambda m: self._add(self.truth, (m.string_velocity_mps, m.string_position_m)), DISPLAY)
+        sub(StateEstimate, topics.ESTIMATE, lambda m: self._add(self.estimate, m.string_velocity_mps), DISPLAY)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _keep(self, name):
+        def store(msg):
+            with self.lock:
+                setattr(self, name, msg)
+        return store
+
+    def _add(self, target: list, value) -> None:
+        with self.lock:
+            target.append((time.monotonic(), value))
+
+    def _spin(self):
+        while not self._stop.is_set():
+            try:
+                self.executor.spin_once(timeout_sec=0.05)
+            except Exception:
+                return
+
+    def since(self, series: list, t0: float) -> list:
+        with self.lock:
+            return [v for t, v in series if t >= t0]
+
+    def close(self):
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        self.executor.shutdown(timeout_sec=1.0)
+        self.node.destroy_node()
+        self.rclpy.try_shutdown(context=self.context)
+
+
+def wait_until(predicate, timeout: float, what: str, launch=None, period: float = 0.2):
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if value:
+            return value
+        if launch is not None:
+            dead = [(n, p.poll()) for n, p in launch.procs.items() if p.poll() not in (None, 0)]
+            if dead:
+                pytest.fail(launch.failure(*dead[0]))
+        if time.monotonic() > deadline:
+            pytest.fail(f"timed out after {timeout:g} s waiting for {what}")
+        time.sleep(period)
+
+
+# ----------------------------------------------------------------------------- browser side
+def start_browser(profile_dir: str):
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for flag in CHROMIUM_FLAGS:
+        options.add_argument(flag)
+    options.add_argument(f"--user-data-dir={profile_dir}")
+    return webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
+
+
+def text(driver, element_id: str) -> str:
+    from selenium.webdriver.common.by import By
+    return driver.find_element(By.ID, element_id).text.strip()
+
+
+def number(driver, element_id: str) -> float | None:
+    try:
+        return float(text(driver, element_id))
+    except ValueError:
+        return None
+
+
+def submit_bhp(driver, bar: float) -> None:
+    from selenium.webdriver.common.by import By
+    field = driver.find_element(By.ID, "in-bhp")
+    field.clear()
+    field.send_keys(f"{bar:.1f}")
+    driver.find_element(By.ID, "apply").click()
+
+
+def screenshot(driver, name: str, shots: list) -> None:
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    path = ARTIFACTS / f"console-{name}.png"
+    driver.save_screenshot(str(path))
+    shots.append(path)
+    print(f"[console test] screenshot: {path}", flush=True)
+
+
+def console_url(log: Path) -> str:
+    match = re.search(r"CONSOLE_URL (http://\S+)", log.read_text(errors="replace")) if log.exists() else None
+    return match.group(1) if match else ""
+
+
+# ----------------------------------------------------------------------------- the test
+def test_console_in_a_real_browser(tmp_path):
+    reason = _requirements()
+    if reason:
+        pytest.skip(reason)
+
+    common = {"config_dir": str(ROOT / "config"), "scenario": str(SCENARIO), "mode": "realtime"}
+    mcap_path = tmp_path / "console_trip.mcap"
+    nodes = launcher.graph("nmpc", common, mcap_path, fast=False)
+    nodes.insert(-1, launcher.NodeSpec("console", "drill_bringup.console",
+                                       dict(common, port=0, use_sim_time=False)))
+    launch = launcher.Launch(nodes, tmp_path, DOMAIN_ID)
+    listener = Listener(DOMAIN_ID)
+    profile = tempfile.mkdtemp(prefix="console-chromium-")
+    driver = None
+    shots: list[Path] = []
+    try:
+        launch.start()
+        driver = start_browser(profile)
+        url = wait_until(lambda: console_url(launch.logs / "console.log"), 30, "the console's URL", launch)
+        driver.get(url)
+
+        # 1. live values that change while the rig runs
+        first = wait_until(lambda: number(driver, "bhp-value"), 30, "a BHP value on the page", launch)
+        wait_until(lambda: (number(driver, "bhp-value") or first) != first, 10, "the BHP value to change", launch)
+        assert 600.0 < first < 750.0, f"BHP {first} bar is not a plausible value"
+        assert text(driver, "level") == "CLOSED LOOP"
+        sp_text = wait_until(lambda: number(driver, "sp-bhp"), 30,
+                             "the supervisor's setpoints (BHP reference) on the page", launch)
+        screenshot(driver, "1-live", shots)
+
+        # 2. invalid: above fracture -> refused, reason on screen
+        submit_bhp(driver, 800.0)
+        result = wait_until(lambda: "REFUSED" in text(driver, "result") and text(driver, "result"), 15,
+                            "the refusal on the page", launch)
+        assert "fracture" in result, result
+        assert number(driver, "sp-bhp") == pytest.approx(sp_text, abs=0.01), "a refusal changed the setpoints"
+        screenshot(driver, "2-refused", shots)
+
+        # 3. valid: +3 bar -> accepted, latched /setpoints and the NMPC reference follow
+        target_bar = round(sp_text + 3.0, 1)
+        t_accept = time.monotonic()
+        submit_bhp(driver, target_bar)
+        wait_until(lambda: "Accepted" in text(driver, "result"), 15, "the acceptance on the page", launch)
+        wait_until(lambda: listener.setpoints is not None
+                   and abs(listener.setpoints.bhp_ref_pa - target_bar * 1e5) < 1.0, 10,
+                   f"latched /setpoints with bhp_ref_pa = {target_bar} bar", launch)
+        wait_until(lambda: any(abs(ref - target_bar * 1e5) < 1.5e5
+                               for ref in listener.since(listener.nmpc, t_accept)), 20,
+                   f"NmpcStatus.bhp_ref_pa moving to {target_bar} bar", launch)
+        wait_until(lambda: number(driver, "sp-bhp") == pytest.approx(target_bar, abs=0.01), 5,
+                   "the new setpoint in the page's table", launch)
+        screenshot(driver, "3-accepted", shots)
+
+        # 4. emergency stop: the string stops, /rig/command carries the protection hold
+        from selenium.webdriver.common.by import By
+        moving = listener.since(listener.truth, time.monotonic() - 1.0)
+        speed_before = max((abs(v) for v, _ in moving), default=float("nan"))
+        t_stop = time.monotonic()
+        driver.find_element(By.ID, "estop").click()
+        wait_until(lambda: driver.find_element(By.ID, "estop-banner").is_displayed(), 10,
+                   "the emergency-stop banner", launch)
+        held = wait_until(lambda: [c for c in listener.since(listener.commands, t_stop + 0.5)
+                                   if c.source.startswith("protection")], 10,
+                          "a machine command after the emergency stop", launch)
+        time.sleep(4.0)
+        recent = listener.since(listener.truth, time.monotonic() - 1.0)
+        assert recent, "no truth samples after the emergency stop"
+        speed_after = max(abs(v) for v, _ in recent)
+        estimate_after = listener.since(listener.estimate, time.monotonic() - 1.0)
+        print(f"[console test] string speed before e-stop {speed_before:.3f} m/s, "
+              f"{time.monotonic() - t_stop:.1f} s after {speed_after:.3f} m/s", flush=True)
+        assert speed_after < 0.05, f"string still moving at {speed_after:.3f} m/s after the emergency stop"
+        assert estimate_after and abs(estimate_after[-1]) < 0.1, estimate_after[-5:]
+        position = recent[-1][1]
+        commands = listener.since(listener.commands, t_stop + 0.5)
+        refs = [c.block_position_ref_m for c in commands]
+        assert max(refs) - min(refs) < 0.05, f"block reference not held: {refs}"
+        assert abs(refs[-1] - position) < 0.5, (refs[-1], position)
+        assert abs(number(driver, "velocity-value")) < 0.1
+        assert held[-1].source.startswith("protection")
+        wait_until(lambda: "emergency stop" in text(driver, "events").lower(), 5,
+                   "the emergency stop in the page's events", launch)
+        screenshot(driver, "4-estop", shots)
+        driver.find_element(By.ID, "estop-release").click()
+        wait_until(lambda: not driver.find_element(By.ID, "estop-banner").is_displayed(), 10,
+                   "the emergency-stop banner to clear", launch)
+    finally:
+        if driver is not None:
+            try:
+                if not shots or not shots[-1].name.startswith("console-4"):
+                    screenshot(driver, "last", shots)
+            except Exception:
+                pass
+            driver.quit()
+        listener.close()
+        codes = launch.stop()
+        shutil.rmtree(profile, ignore_errors=True)
+        print(f"[console test] exit codes {codes}; logs in {launch.logs}", flush=True)
+
+    # 5. the operator's actions are in the recording
+    texts = [msg.text for _, msg in mcap_io.decoded_messages(mcap_path, [topics.OPERATOR_EVENTS])]
+    console_events = [t for t in texts if t.startswith("[console]")]
+    assert any("refused" in t and "fracture" in t for t in console_events), console_events
+    assert any("accepted" in t for t in console_events), console_events
+    assert any("emergency stop ENGAGED" in t for t in console_events), console_events
+    assert any("emergency stop released" in t for t in console_events), console_events
+    assert len(shots) >= 4, shots
+    print("[console test] screenshots: " + ", ".join(str(p) for p in shots), flush=True)
