@@ -112,7 +112,7 @@ def test_reestimate_replays_recording_into_a_retuned_estimator(two_runs, tmp_pat
 
     from drill_bringup.reestimate import reestimate
 
-    same = reestimate(two_runs[0], cli.ROOT / "config", rate=5.0, domain_id=94)
+    same = reestimate(two_runs[0], cli.ROOT / "config", rate=5.0, domain_id=90)
     assert same["estimates"] == same["measurements"] == 451
     # the same tuning on the same recorded inputs gives the same estimates
     assert same["new_bhp_estimate_rmse_pa"] == pytest.approx(same["recorded_bhp_estimate_rmse_pa"],
@@ -122,7 +122,7 @@ def test_reestimate_replays_recording_into_a_retuned_estimator(two_runs, tmp_pat
     tuning = yaml.safe_load((config / "estimator.yaml").read_text())
     tuning["measurement_noise"]["bhp_pa"] = 1.0e6      # trust the BHP sensor 10x less
     (config / "estimator.yaml").write_text(yaml.safe_dump(tuning))
-    retuned = reestimate(two_runs[0], config, rate=5.0, domain_id=95)
+    retuned = reestimate(two_runs[0], config, rate=5.0, domain_id=98)
     assert retuned["estimates"] == 451
     assert retuned["new_bhp_estimate_rmse_pa"] != pytest.approx(same["recorded_bhp_estimate_rmse_pa"],
                                                                 rel=1e-3)
