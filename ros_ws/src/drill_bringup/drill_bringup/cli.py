@@ -35,6 +35,18 @@ def scenario_path(name: str) -> Path:
     return candidate
 
 
+def console_url(log_path: Path, timeout_s: float = 10.0) -> str:
+    """The console's address, as it prints it once it serves (CONSOLE_URL <url>)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if log_path.exists():
+            for line in log_path.read_text(errors="replace").splitlines():
+                if "CONSOLE_URL" in line:
+                    return line.split("CONSOLE_URL", 1)[1].strip()
+        time.sleep(0.2)
+    return f"not reported yet (see {log_path})"
+
+
 def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = None,
                  seed: int | None = None, domain_id: int | None = None,
                  timeout_s: float | None = None, quiet: bool = False) -> tuple[int, Path]:
@@ -54,6 +66,10 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     say(f"[rig] {scenario.name}: {scenario.description} ({mode} mode, logs in {run_dir / 'logs'})")
     started = time.monotonic()
     launch.start()
+    if realtime:
+        say(f"[rig] ROS_DOMAIN_ID {launch.env['ROS_DOMAIN_ID']} (operator CLI: "
+            f"python -m drill_bringup.operator_cli --domain {launch.env['ROS_DOMAIN_ID']} watch)")
+        say(f"[rig] console: {console_url(run_dir / 'logs' / 'console.log')}")
     limit = timeout_s or (scenario.duration_s * 1.5 + 120 if realtime else 900.0)
     try:
         ok, message = launch.watch(limit)

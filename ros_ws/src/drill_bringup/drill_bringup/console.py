@@ -5,11 +5,12 @@ Run (inside ``source scripts/env.sh``, on the rig's ROS_DOMAIN_ID)::
     python -m drill_bringup.console --ros-args -p port:=8080 \\
         -p config_dir:=config -p scenario:=config/scenarios/short_trip.yaml
 
-then open http://127.0.0.1:8080/ on this machine. Parameters: ``port`` (8080; 0 picks
-a free port, logged), ``host`` (127.0.0.1 — loopback only; the page has no login),
-``config_dir`` and ``scenario`` (pressure window from protection.yaml with the
-scenario's overrides), ``mode``, ``stand_length_m`` (28 m, the pull-out / run-in
-step), ``service_timeout_s`` (5 s).
+then open http://127.0.0.1:8080/ on this machine. Parameters: ``port`` (8080; 0 picks a
+free port; a port in use falls back to a free one unless ``port_fallback`` is false —
+the URL is printed as ``CONSOLE_URL http://...``), ``host`` (127.0.0.1: loopback only,
+the page has no login), ``config_dir`` and ``scenario`` (pressure window from
+protection.yaml with the scenario's overrides), ``mode``, ``stand_length_m`` (28 m,
+the pull-out / run-in step), ``service_timeout_s`` (5 s).
 
 The page is one self-contained HTML file (``console_page.html`` next to this module:
 inline JS and canvas trends, no external assets). It polls the JSON API below twice a
@@ -55,6 +56,7 @@ published as drill_msgs/OperatorEvent on /operator/events, so the recorder keeps
 """
 from __future__ import annotations
 
+import errno
 import json
 import os
 import sys
@@ -203,6 +205,10 @@ class OperatorLink:
                 else:
                     accepted, reason = bool(response.accepted), response.reason
                     active = setpoints_to_dict(response.active)
+                    if active["source"] in ("", "active"):     # the supervisor's label for "in force"
+                        active["source"] = request.get("source", "operator") if accepted else ""
+                    if not active["source"]:
+                        active = None                            # keep the latched copy as it is
                     if not accepted and not reason:
                         reason = "refused (the supervisor gave no reason)"
             if accepted:
@@ -231,7 +237,7 @@ class OperatorLink:
     def refuse(self, action: str, reason: str) -> dict:
         """An operator input the console could not turn into a request: logged too."""
         with self._lock:
-            self.event("refusal", f"{action} not sent: {reason}", False)
+            self.event("refusal", f"{action} not done: {reason}", False)
         return {"accepted": False, "reason": reason}
 
 
@@ -246,6 +252,7 @@ class ConsoleNode(Node):
         host = self.declare_parameter("host", "127.0.0.1").value
         stand = float(self.declare_parameter("stand_length_m", cs.STAND_LENGTH_M).value)
         timeout = float(self.declare_parameter("service_timeout_s", 5.0).value)
+        port_fallback = bool(self.declare_parameter("port_fallback", True).value)
         config = load_scenario_config(scenario, config_dir)[1] if scenario else load_rig(config_dir)
         p = config.protection
         self.state = cs.ConsoleState(cs.Window(p.pore_pressure_pa, p.fracture_pressure_pa,
@@ -273,7 +280,13 @@ class ConsoleNode(Node):
             sub(NodeStatus, topic, self._on_status, DISPLAY)
 
         self.status = StatusReporter(self, self.mode)
-        self.server = ConsoleServer((host, port), self)
+        try:
+            self.server = ConsoleServer((host, port), self)
+        except OSError as err:
+            if err.errno != errno.EADDRINUSE or not port_fallback:
+                raise
+            self.get_logger().warning(f"port {port} is in use: serving on a free port instead")
+            self.server = ConsoleServer((host, 0), self)
         self.port = self.server.server_address[1]
         self._thread = threading.Thread(target=self.server.serve_forever, name="console-http", daemon=True)
         self._thread.start()

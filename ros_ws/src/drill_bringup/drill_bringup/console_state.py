@@ -27,6 +27,7 @@ AUTOMATION_LEVELS = ("manual", "advisory", "closed_loop")
 STAND_LENGTH_M = 28.0          # one stand of drill pipe (DESIGN section 8: ~28 m)
 TREND_POINTS = 1500            # per series: 150 s at the 10 Hz sensor rate
 EVENT_HISTORY = 200
+REPEAT_LOOKBACK = 10           # an event identical to one of the newest 10 is counted, not added
 STALE_AFTER_S = 3.0
 # events from these kinds, coming from the protection layer, wait for an acknowledgement
 ACK_KINDS = ("alarm", "clamp", "refusal")
@@ -250,6 +251,7 @@ class ConsoleState:
         self._event_id = 0
         self.requested_level: str | None = None     # latched /operator/automation_level
         self.estop: bool | None = None              # latched /operator/emergency_stop
+        self._protection_level: str | None = None   # last level the protection node reported
         self._result: dict | None = None            # last operator action and its outcome
 
     # ---------------------------------------------------------------- trends
@@ -329,6 +331,10 @@ class ConsoleState:
         with self._lock:
             self._nodes[name] = dict(m)
             self._received[f"node/{name}"] = self._clock()
+            if name == "protection":
+                suffix = str(m.get("mode", "")).rsplit("/", 1)[-1]
+                if suffix in AUTOMATION_LEVELS:
+                    self._protection_level = suffix
 
     def on_level(self, level: str) -> None:
         with self._lock:
@@ -350,14 +356,16 @@ class ConsoleState:
 
     # ---------------------------------------------------------------- events
     def on_event(self, source: str, t: float, kind: str, text: str, accepted: bool) -> dict:
-        """Add an event (or count a repeat of the newest identical one); returns it."""
+        """Add an event, or count a repeat of an identical one among the newest few (moved
+        to the end), so a clamp repeated every command period does not flood the list."""
         with self._lock:
-            newest = self._events[-1] if self._events else None
-            if newest and (newest["source"], newest["kind"], newest["text"]) == (source, kind, text):
-                newest["count"] += 1
-                newest["t"] = t
-                newest["wall"] = time.time()
-                return dict(newest)
+            key = (source, kind, text)
+            for event in list(self._events)[-REPEAT_LOOKBACK:]:
+                if (event["source"], event["kind"], event["text"]) == key:
+                    self._events.remove(event)
+                    event.update(count=event["count"] + 1, t=t, wall=time.time())
+                    self._events.append(event)
+                    return dict(event)
             self._event_id += 1
             event = {"id": self._event_id, "t": t, "wall": time.time(), "source": source,
                      "kind": kind, "text": text, "accepted": bool(accepted), "count": 1,
@@ -406,6 +414,8 @@ class ConsoleState:
             estop = bool(self.estop) or (fresh and suffix == "emergency_stop")
             if fresh and suffix in AUTOMATION_LEVELS:
                 level, source = suffix, "protection status"
+            elif fresh and suffix == "emergency_stop" and self._protection_level:
+                level, source = self._protection_level, "protection status (under the emergency stop)"
             elif self.requested_level in AUTOMATION_LEVELS:
                 level, source = self.requested_level, "latched request"
             else:

@@ -72,6 +72,8 @@ def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -
     for name in ACTUATOR_NODES:
         wait_for.append(f"sub@{topics.actuator_frame(name)}:3")
         wait_for.append(f"pub@{topics.actuator_frame(name)}:1")
+    if not fast:
+        nodes.append(NodeSpec("console", "drill_bringup.console", {"port": 8080}))
     nodes.append(NodeSpec("plant", "drill_plant.plant_node", {"wait_for": [w for w in wait_for if w]}))
     for node in nodes:
         node.params.update(common)

@@ -5,6 +5,8 @@ same latched level / emergency-stop topics and the same recorded operator events
 
     watch [--count N] [--period S]       one line per period (default 1 s): BHP, its window,
                                          choke dp, position, velocity, level, NMPC solve time
+                                         (starts once the measurement, and within 5 s more
+                                         the estimate, setpoints and NMPC status, are in)
     setpoints [--bhp-bar X] [--bhp-band-bar B] [--dp-bar Y] [--dp-band-bar D]
               [--target-m Z] [--speed-mps V]
                                          change the named setpoints (the rest stay in force)
@@ -14,10 +16,12 @@ same latched level / emergency-stop topics and the same recorded operator events
     level manual|advisory|closed_loop    latched /operator/automation_level
     estop on|off                         latched /operator/emergency_stop
 
-Exit codes (scriptable): 0 accepted / delivered, 1 refused or not delivered (no service,
-no setpoints in force, no subscriber), 2 usage error. ``--domain`` sets ROS_DOMAIN_ID
-(the rig's launch uses an isolated domain; see runs/<run>/launch.json or the launcher's
-output). Units: bar, m, m/s on the command line; SI on the wire.
+Before it acts, the CLI waits until DDS discovery has settled (every reader of the
+topic matched, the picture stable for 1.5 s), so its events reach the recorder; one
+action takes about 2-5 s. Exit codes (scriptable): 0 accepted / delivered, 1 refused or
+not delivered (no service, no setpoints in force, no subscriber), 2 usage error.
+``--domain`` sets ROS_DOMAIN_ID: the rig runs on an isolated domain, pass the one it
+uses. Units: bar, m, m/s on the command line; SI on the wire.
 
 Note: a latched level / emergency stop published here lives as long as this process;
 the protection node keeps the state it received after we exit, but a node started
@@ -34,6 +38,8 @@ import time
 from drill_bringup import console_state as cs
 
 LEVEL_WORDS = cs.AUTOMATION_LEVELS
+WATCH_EXTRA_WAIT_S = 5.0  # watch: how long to wait for estimate, setpoints, NMPC status
+SETTLE_S = 1.5          # discovery picture stable this long before we publish
 
 
 def parse_args(argv):
@@ -130,10 +136,39 @@ class Session:
             time.sleep(0.05)
         return predicate()
 
-    def readers_matched(self, publisher, topic: str) -> bool:
-        """Every subscriber the graph knows on ``topic`` (at least one) is matched."""
-        known = self.node.count_subscribers(topic)
-        return known >= 1 and publisher.get_subscription_count() >= known
+    def _endpoints_known(self) -> bool:
+        """Every other node's endpoints have been discovered (each rclpy node publishes at
+        least /rosout and /parameter_events), so subscriber counts are complete."""
+        me = self.node.get_name()
+        for name, namespace in self.node.get_node_names_and_namespaces():
+            if name == me:
+                continue
+            try:
+                if not self.node.get_publisher_names_and_types_by_node(name, namespace):
+                    return False
+            except Exception:                  # the node vanished meanwhile
+                return False
+        return True
+
+    def readers_matched(self, publisher, topic: str, timeout: float, settle_s: float = SETTLE_S) -> bool:
+        """Wait until the graph's endpoints are known, every subscriber of ``topic`` (at least
+        one) is matched by ``publisher``, and that picture has been stable for ``settle_s``:
+        discovery of a fresh process trickles in, and a volatile reader drops what it gets
+        before it has matched us in turn."""
+        deadline = time.monotonic() + timeout
+        stable_since, last = None, None
+        while time.monotonic() < deadline:
+            picture = (len(self.node.get_node_names_and_namespaces()), self.node.count_subscribers(topic),
+                       publisher.get_subscription_count())
+            if picture[1] >= 1 and picture[2] >= picture[1] and self._endpoints_known():
+                if picture != last:
+                    stable_since, last = time.monotonic(), picture
+                elif time.monotonic() - stable_since >= settle_s:
+                    return True
+            else:
+                stable_since, last = None, None
+            time.sleep(0.05)
+        return False
 
     def flush(self, timeout: float = 3.0) -> bool:
         from rclpy.duration import Duration
@@ -198,6 +233,17 @@ def main(argv=None) -> int:
 def _run(session: Session, args) -> int:
     topics, link = session.topics, session.link
     if args.command == "watch":
+        # complete lines from the start: wait for the measurement (up to --timeout), then
+        # give the estimate, setpoints and NMPC status a few seconds more to be discovered
+        state = session.state
+        if not session.wait_for(lambda: state.latest("measurement") is not None, args.timeout):
+            _say(f"no {topics.MEASUREMENT} within {args.timeout:g} s on ROS_DOMAIN_ID "
+                 f"{os.environ.get('ROS_DOMAIN_ID', '0')} (is the rig running?)", sys.stderr)
+        others = {"estimate": topics.ESTIMATE, "setpoints": topics.SETPOINTS, "nmpc": topics.NMPC_STATUS}
+        session.wait_for(lambda: all(state.latest(k) is not None for k in others), WATCH_EXTRA_WAIT_S)
+        missing = [topic for k, topic in others.items() if state.latest(k) is None]
+        if missing:
+            _say(f"nothing yet on {', '.join(missing)}", sys.stderr)
         n = 0
         while args.count <= 0 or n < args.count:
             time.sleep(args.period)
@@ -205,15 +251,16 @@ def _run(session: Session, args) -> int:
             n += 1
         return 0
 
-    # wait for the recorder (and any console) to be matched on /operator/events
-    session.wait_for(lambda: session.readers_matched(link.pub_events, topics.OPERATOR_EVENTS),
-                     min(args.timeout, 3.0))
+    # the recorder (and any console) must be matched on /operator/events before we act
+    if not session.readers_matched(link.pub_events, topics.OPERATOR_EVENTS, args.timeout):
+        _say(f"warning: no reader of {topics.OPERATOR_EVENTS} matched within {args.timeout:g} s: "
+             "this action may not be recorded", sys.stderr)
     if args.command in ("level", "estop"):
         if args.command == "level":
             pub, topic = link.pub_level, topics.AUTOMATION_LEVEL
         else:
             pub, topic = link.pub_estop, topics.EMERGENCY_STOP
-        if not session.wait_for(lambda: session.readers_matched(pub, topic), args.timeout):
+        if not session.readers_matched(pub, topic, args.timeout):
             _say(f"not delivered: no subscriber on {topic} within {args.timeout:g} s "
                  f"(is the protection node running on ROS_DOMAIN_ID "
                  f"{os.environ.get('ROS_DOMAIN_ID', '0')}?)", sys.stderr)

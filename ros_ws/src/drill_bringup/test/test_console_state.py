@@ -153,6 +153,10 @@ def test_events_collapse_repeats_and_acknowledge():
     assert [e["kind"] for e in events] == ["alarm", "clamp", "setpoint"]
     assert events[1]["count"] == 2 and events[1]["t"] == 3.0
     assert [e["needs_ack"] for e in events] == [True, True, False]
+    state.on_event("protection", 4.0, "clamp", "automation level manual: held", True)   # interleaved repeat
+    events = state.events()
+    assert [e["kind"] for e in events] == ["alarm", "setpoint", "clamp"]
+    assert events[-1]["count"] == 3 and events[-1]["t"] == 4.0
     assert state.unacknowledged() == 2
     done = state.acknowledge(a["id"])
     assert [e["id"] for e in done] == [a["id"]] and state.unacknowledged() == 1
@@ -180,7 +184,9 @@ def test_level_in_force_prefers_fresh_protection_status():
     assert state.level_in_force()["level"] == "advisory"
     state.on_status("protection", {"mode": "realtime/emergency_stop", "healthy": True})
     forced = state.level_in_force()
-    assert forced["emergency_stop"] is True and forced["level"] == "advisory"
+    assert forced["emergency_stop"] is True
+    assert forced["level"] == "manual", "the level the protection applied before the stop stays shown"
+    assert "emergency stop" in forced["source"]
     state.on_estop(False)
     state.on_status("protection", {"mode": "realtime/closed_loop", "healthy": True})
     assert state.level_in_force()["emergency_stop"] is False

@@ -279,12 +279,8 @@ class Nmpc:
     jit: bool = param(default=False, doc="compile the NLP functions with the C compiler (JIT)")
     hessian: str = param(choices=("exact", "gauss-newton"), default="gauss-newton",
                          doc="Lagrangian Hessian for ipopt/sqpmethod (fatrop: always exact)")
-    drawworks_lag_in_model: bool = param(default=True,
-                                         doc="predict the block with the drawworks lag (docs/nmpc.md)")
-    pore_pressure_pa: float = param("Pa", 0.0, 5.0e8, default=6.5e7,
-                                    doc="lower edge of the pressure window at the BHP sensor")
-    fracture_pressure_pa: float = param("Pa", 0.0, 5.0e8, default=7.5e7,
-                                        doc="upper edge of the pressure window at the BHP sensor")
+    actuator_lags_in_model: bool = param(default=True,
+                                         doc="predict with the drawworks/pump lags (docs/nmpc.md)")
 
     def validate(self) -> None:
         if self.control_horizon_s > self.prediction_horizon_s:
@@ -299,9 +295,6 @@ class Nmpc:
         for alpha in self.reference_smoothing.as_tuple():
             if not 0.0 <= alpha < 1.0:
                 raise ValueError(f"reference_smoothing {alpha} must lie in [0, 1)")
-        if self.pore_pressure_pa >= self.fracture_pressure_pa:
-            raise FieldError("pore_pressure_pa", f"value {self.pore_pressure_pa:g} Pa must be below "
-                             f"fracture_pressure_pa {self.fracture_pressure_pa:g} Pa")
 
     @property
     def prediction_steps(self) -> int:

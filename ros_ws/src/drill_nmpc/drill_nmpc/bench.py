@@ -1,7 +1,8 @@
 """In-process closed loop of the NMPC supervisor and its solve-time benchmark (no ROS).
 
-The "plant" here is the shared estimation model itself (exact Herschel-Bulkley string
-friction, RK4 with 20 steps per sample) plus the drawworks lag, optionally with a friction
+The "plant" here is the shared estimation model itself (RK4 with 20 steps per sample; the
+string friction from the same B-spline table as the supervisor unless ``exact``) plus the
+actuator lags (drawworks, back-pressure pump, mud pump), optionally with a friction
 mismatch (theta scaled) and a bottom influx, and the supervisor sees its exact state: a
 test bed for the optimiser, not a substitute for the ROS graph with the truth plant, the
 actuators and the UKF.
@@ -28,7 +29,7 @@ from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, load_rig
 from drill_core.estimation_model import EstimationModel, build_estimation_model
 from drill_core.scenario import ActiveSetpoints, Initial
-from drill_nmpc.ocp import DrawworksLag, PredictionModel, Supervisor, outputs
+from drill_nmpc.ocp import ActuatorLags, PredictionModel, StringFrictionTable, Supervisor, outputs
 
 PAPER_SOLVE_TIME_S = 16.4          # Tengesdal & Holden 2020, sec. 6.3.4 (MATLAB fmincon, NMPC0)
 TRIP_DISTANCE_M = 28.0
@@ -63,17 +64,20 @@ def steady_estimate(em: EstimationModel, initial: Initial) -> tuple[np.ndarray, 
 class ModelPlant:
     """The estimation model (+ drawworks lag) as a deterministic plant, one sample per call."""
 
-    def __init__(self, config: RigConfig, em: EstimationModel, x0: np.ndarray,
-                 friction_factor: float = 1.0, substeps: int = 20):
+    def __init__(self, config: RigConfig, em: EstimationModel, x0: np.ndarray, u0: np.ndarray,
+                 friction_factor: float = 1.0, substeps: int = 20, exact: bool = False):
         em_d = dataclasses.replace(em, with_disturbance=True)
         self.em = em_d
-        self.model = PredictionModel(em_d, DrawworksLag(config.actuators.drawworks.time_constant_s))
+        # exact=False evaluates the string friction from the B-spline table (< 0.01 bar off,
+        # builds in a fraction of the time); the rest of the model is the shared drift.
+        self.model = PredictionModel(em_d, ActuatorLags.from_config(config),
+                                     None if exact else StringFrictionTable(em_d.wm))
         self.step_fn = self.model.function(config.nmpc.sample_time_s, substeps, "rk4")
         full = np.zeros(em_d.size)
         full[:em.theta(em.n) + 1] = np.asarray(x0)[:em.theta(em.n) + 1]
         self.par = full[self.model.nd_model:].copy()
         self.par[:em.n - 1] *= friction_factor
-        self.x = self.model.initial_state(full)
+        self.x = self.model.initial_state(full, u0)
 
     @property
     def influx_m3s(self) -> float:
@@ -82,6 +86,10 @@ class ModelPlant:
     @influx_m3s.setter
     def influx_m3s(self, value: float) -> None:
         self.par[-1] = value
+
+    def actuators(self) -> dict:
+        """Actuator outputs (block, bpp flow, stand-pipe pressure), as their frames report them."""
+        return self.model.actuator_state(self.x)
 
     def state(self, em: EstimationModel) -> np.ndarray:
         """The plant state in the layout of ``em`` (what a perfect estimator would report)."""
@@ -93,8 +101,9 @@ class ModelPlant:
             out[em.disturbance] = full[self.em.disturbance]
         return out
 
-    def advance(self, u) -> None:
-        self.x = np.asarray(self.step_fn(self.x, u, self.par), dtype=float).ravel()
+    def advance(self, u, pump_on: bool = True) -> None:
+        self.x = np.asarray(self.step_fn(self.x, u, self.par, 1.0 if pump_on else 0.0),
+                            dtype=float).ravel()
 
 
 @dataclass
@@ -129,14 +138,15 @@ def closed_loop(config: RigConfig, configuration: str, samples: int, *, out_at: 
                 in_at: float | None = None, supervisor: Supervisor | None = None,
                 friction_factor: float = 1.0, influx_m3s: float = 0.0,
                 solver: str | None = None, jit: bool | None = None,
-                initial: Initial | None = None) -> tuple[LoopLog, Supervisor]:
+                initial: Initial | None = None, measured_actuators: bool = True
+                ) -> tuple[LoopLog, Supervisor]:
     """Run ``samples`` supervisor steps on the model plant (perfect state feedback)."""
     initial = initial or Initial(circulation_m3s=1000.0 / 60000.0, choke_dp_pa=2.0e6,
                                  bpp_flow_m3s=0.0)
     em = build_estimation_model(config, with_disturbance=(configuration == "NMPC2"))
     x0, u = steady_estimate(em, initial)
     sup = supervisor or Supervisor(config, em, configuration=configuration, solver=solver, jit=jit)
-    plant = ModelPlant(config, em, x0, friction_factor=friction_factor)
+    plant = ModelPlant(config, em, x0, u, friction_factor=friction_factor)
     plant.influx_m3s = influx_m3s
     ts = config.nmpc.sample_time_s
     in_at = in_at if in_at is not None else 0.6 * samples * ts
@@ -146,7 +156,7 @@ def closed_loop(config: RigConfig, configuration: str, samples: int, *, out_at: 
         t = k * ts
         x = plant.state(em)
         sp = trip_setpoints(t, out_at, in_at, bhp_ref)
-        res = sup.step(x, sp, u)
+        res = sup.step(x, sp, u, actuators=plant.actuators() if measured_actuators else None)
         y = outputs(em, x)
         log.time_s.append(t)
         log.block_position_m.append(float(y[0]))

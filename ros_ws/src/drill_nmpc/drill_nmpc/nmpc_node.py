@@ -3,9 +3,12 @@
     python -m drill_nmpc.nmpc_node --ros-args -p config_dir:=... -p scenario:=.../case2.yaml \
         -p mode:=fast -p use_sim_time:=true
 
-Subscribes /estimator/estimate only (never /rig/truth). On the estimate stamped t_k with
-t_k a multiple of the sample time t_s (fast mode; realtime: the first estimate of each new
-sample period) it solves the OCP and publishes drill_msgs/RigCommand stamped t_k (acts
+Subscribes /estimator/estimate (never /rig/truth) and the frames of the drawworks, the
+back-pressure pump and the mud pump (/actuators/<name>/frame: block position, bpp flow,
+stand-pipe pressure, the initial states of the actuator lags in the prediction model;
+parameter ``use_actuator_frames``). On the estimate stamped t_k with t_k a multiple of the
+sample time t_s (fast mode: once the frames stamped t_k - t_m are in as well; realtime:
+the first estimate of each new sample period, with the latest frames) it solves the OCP and publishes drill_msgs/RigCommand stamped t_k (acts
 from t_k) and drill_msgs/NmpcStatus. Every due estimate is answered with a command, also
 when the solve fails (the last input is held) or the estimate is unusable, so the fast-mode
 lockstep never stalls.
@@ -18,11 +21,13 @@ request (and every schedule change) goes out as drill_msgs/OperatorEvent on
 they change. ``controller_enabled: false`` hands back to a safe manual state: the block
 reference holds the estimated string position and the other inputs hold their last values.
 
-Initial u_{-1} (first estimate): u_r = z1 (hold the string), q_c = q_2 + q_bpp (the choke
-passes what arrives from below plus the back-pressure pump at steady state; q_bpp from the
-scenario's initial operating point), p_in = the stand-pipe pressure that keeps the
-estimated string flow steady, p_I - rho g (D_bit - z1) + string friction(q_d, z2) (the
-string momentum balance with dq_d/dt = 0), clipped into the input bounds.
+Initial u_{-1} (first estimate): u_r = z1 (hold the string where it is estimated); choke
+flow, back-pressure pump flow and stand-pipe pressure at the scenario's initial steady
+operating point (drill_plant.plant_model.steady_state: design knowledge of the well, the
+same point the actuators and the protection layer start from), clipped into the bounds.
+(The state-consistent alternative p_in = p_I - rho g (D_bit - z1) + string friction(q_d, z2)
+was 2.5 bar off the actuators' start with the UKF's initial estimate, and the protection's
+rate limit then clamped the first commands.)
 """
 from __future__ import annotations
 
@@ -31,12 +36,10 @@ import math
 import sys
 
 import numpy as np
-from drill_msgs.msg import NmpcStatus, OperatorEvent, RigCommand, Setpoints, StateEstimate
+from drill_msgs.msg import ActuatorFrame, NmpcStatus, OperatorEvent, RigCommand, Setpoints, StateEstimate
 from drill_msgs.srv import SetSetpoints
 from rclpy.node import Node
 
-from drill_core import hydraulics as hy
-from drill_core.backend import NUMPY
 from drill_core.estimation_model import build_estimation_model
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
@@ -105,6 +108,18 @@ class NmpcNode(Node):
         self.supervisor = Supervisor(cfg, self.em)
         self.envelope = Envelope.from_config(cfg, self.em.wm.geometry)
         self.sample_ns = seconds_to_ns(cfg.nmpc.sample_time_s)
+        self.frame_ns = seconds_to_ns(cfg.plant.sensor_period_s)
+        # The actuators' outputs (block position, bpp flow, stand-pipe pressure) are the
+        # initial states of the modelled actuator lags; in fast mode the frames stamped
+        # t_k - t_m are awaited (each carries the output up to t_k).
+        model = self.supervisor.model
+        wanted = {"drawworks": ("block_m", model.block), "bpp": ("bpp_flow_m3s", model.bpp),
+                  "mud_pump": ("spp_pa", model.pump)}
+        use = bool(self.declare_parameter("use_actuator_frames", True).value)
+        self.frame_keys = {name: key for name, (key, index) in wanted.items()
+                           if use and index is not None}
+        self.frames: dict[str, dict[int, float]] = {name: {} for name in self.frame_keys}
+        self.pending: StateEstimate | None = None
         self.status = StatusReporter(self, ctx.mode, topic=topics.NMPC_NODE_STATUS)
         self.start = initial_setpoints(ctx)
         self.active = self.start
@@ -120,6 +135,9 @@ class NmpcNode(Node):
         self.sp_pub = self.create_publisher(Setpoints, topics.SETPOINTS, topics.LATCHED)
         self.event_pub = self.create_publisher(OperatorEvent, topics.OPERATOR_EVENTS, topics.RELIABLE)
         self.create_service(SetSetpoints, topics.SET_SETPOINTS, self._on_set_setpoints)
+        for name in self.frame_keys:
+            self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
+                                     lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
         self.create_subscription(StateEstimate, topics.ESTIMATE, self._on_estimate, topics.RELIABLE)
         self._publish_setpoints(0, "scenario")
         self.get_logger().info(f"nmpc ready: {self.supervisor.configuration}, solver "
@@ -209,14 +227,13 @@ class NmpcNode(Node):
         return x if np.all(np.isfinite(x)) else None
 
     def _initial_input(self, x) -> np.ndarray:
-        em, wm = self.em, self.em.wm
-        g, w = wm.geometry, wm.well
+        """u_{-1} at the first estimate: hold the string where it is estimated; choke flow,
+        back-pressure pump and stand-pipe pressure at the scenario's initial steady operating
+        point -- the values the actuators and the protection layer start from too."""
+        from drill_plant.plant_model import steady_state     # design knowledge of the well
         ini = self.ctx.scenario.initial
-        rho_g = w.mud.density_kgm3 * w.gravity_mps2
-        q_d, z1, z2 = x[em.string_flow], x[0], x[1]
-        spp = x[em.string_pressure] - rho_g * (g.bit_depth_m - z1) \
-            + float(hy.string_friction(NUMPY, wm, q_d, z2))
-        u = np.array([z1, x[em.flow(2)] + ini.bpp_flow_m3s, ini.bpp_flow_m3s, spp])
+        op = steady_state(self.em.wm, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
+        u = np.array([x[0], op.choke_flow_m3s, ini.bpp_flow_m3s, op.inputs[3]])
         return self.supervisor.safe_input(u)
 
     def _on_estimate(self, msg: StateEstimate) -> None:
@@ -228,9 +245,47 @@ class NmpcNode(Node):
         if self.last_sample is not None and sample <= self.last_sample:
             return          # realtime: not a new sample period yet (fast: duplicate stamp)
         self.last_sample = sample
-        self._act(msg, stamp)
+        self.pending = msg
+        self._process_pending()
 
-    def _act(self, msg: StateEstimate, stamp: int) -> None:
+    def _on_frame(self, name: str, msg: ActuatorFrame) -> None:
+        if len(msg.output):
+            stamp = to_ns(msg.header.stamp)
+            slot = self.frames[name]
+            slot[stamp] = float(msg.output[-1])          # output at t + t_m - dt
+            for old in [k for k in slot if k < stamp - 10 * self.frame_ns]:
+                del slot[old]
+        self._process_pending()
+
+    def _actuators(self, stamp: int):
+        """(ready, measured actuator outputs) for the estimate stamped ``stamp``."""
+        out = {}
+        for name, key in self.frame_keys.items():
+            slot = self.frames[name]
+            if self.ctx.fast:
+                due = stamp - self.frame_ns
+                if due < 0:
+                    continue                             # first sample: no frame before t_0
+                if due not in slot:
+                    return False, {}
+                out[key] = slot[due]
+            elif slot:
+                latest = max(slot)
+                if stamp - latest <= 2 * self.frame_ns:
+                    out[key] = slot[latest]
+        return True, out
+
+    def _process_pending(self) -> None:
+        if self.pending is None:
+            return
+        stamp = to_ns(self.pending.header.stamp)
+        ready, actuators = self._actuators(stamp)
+        if not ready:
+            return
+        msg, self.pending = self.pending, None
+        self._act(msg, stamp, actuators)
+
+    def _act(self, msg: StateEstimate, stamp: int, actuators=None) -> None:
         x = self._state(msg)
         self._apply_schedule(stamp)
         if x is None:
@@ -245,7 +300,7 @@ class NmpcNode(Node):
             if self.u_prev is None:
                 self.u_prev = self._initial_input(x)
             if self.active.controller_enabled:
-                result = self.supervisor.step(x, self.active, self.u_prev)
+                result = self.supervisor.step(x, self.active, self.u_prev, actuators=actuators)
             else:
                 result = self._manual(x)
         self.u_prev = result.u

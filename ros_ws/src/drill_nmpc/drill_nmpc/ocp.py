@@ -63,7 +63,7 @@ OUTPUT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa")
 INPUT_NAMES = ("block_position_ref_m", "choke_flow_m3s", "bpp_flow_m3s", "spp_pa")
 SLACK_NAMES = ("velocity", "bhp_band", "choke_dp_band", "string_pressure", "choke_capacity")
 # Unit of each slack variable inside the OCP (its SI value = unit * scaled value).
-SLACK_UNITS = {"velocity": 0.01, "bhp_band": 1.0e5, "choke_dp_band": 1.0e5,
+SLACK_UNITS = {"velocity": 0.01, "bhp_band": 1.0e4, "choke_dp_band": 1.0e5,
                "string_pressure": 1.0e5, "choke_capacity": 1.0e-3}
 # Constraint kinds dropped in the relaxed retry (paper Alg. 3 keeps velocity, string
 # pressure and the input limits).
@@ -145,37 +145,57 @@ def _tabulated_string_friction(table: StringFrictionTable | None):
 
 
 @dataclass(frozen=True)
-class DrawworksLag:
-    """First-order lag between the block-position controller and the block (DESIGN section 4)."""
-    time_constant_s: float
+class ActuatorLags:
+    """First-order lags of the actuators between the NMPC's commands and the process
+    (DESIGN section 4); None leaves that input instantaneous in the prediction."""
+    drawworks_s: float | None = None      # block position (lags the block controller output)
+    bpp_s: float | None = None            # back-pressure pump flow
+    pump_s: float | None = None           # stand-pipe pressure
+
+    @classmethod
+    def from_config(cls, config: RigConfig) -> "ActuatorLags":
+        a = config.actuators
+        return cls(a.drawworks.time_constant_s, a.bpp.time_constant_s, a.mud_pump.time_constant_s)
+
+
+ACTUATOR_KEYS = ("block_m", "bpp_flow_m3s", "spp_pa")    # measured actuator outputs
 
 
 class PredictionModel:
-    """The NMPC's prediction model: the shared drift, optionally with the drawworks lag.
+    """The NMPC's prediction model: the shared drift plus the actuator lags.
 
-    State x = [z1, z2, z3, p_1, q_2, ..., p_n, q_d, p_I (, b)] (the estimation model's
-    evolving states, plus the block position b when the drawworks lag is modelled);
-    par = [theta_2..theta_n (, d)] frozen over the horizon.
+    State x = [z1, z2, z3, p_1, q_2, ..., p_n, q_d, p_I (, b, q_bpp, p_in)]: the estimation
+    model's evolving states, then the lagged actuator outputs that are modelled (block
+    position b, back-pressure pump flow, stand-pipe pressure); par = [theta_2..theta_n (, d)]
+    frozen over the horizon; ``pump_on`` (0/1) switches the mud pump (off: p_in -> 0).
 
-    The shared estimation model puts the block at the block controller's output
-    instantly; the actuator (and the truth plant) lag it by T_dw = 4 s. Without the lag a
-    reference step of 0.5 m swings the lightly damped string (zeta ~ 0.05, 3.2 rad/s) by
-    +-1.5 m/s in the prediction, which the velocity constraint then forbids, so the
-    supervisor would trip ~10x slower than the plant allows (docs/nmpc.md). With the lag the
-    shared drift is evaluated unchanged at the *virtual* reference that makes its block
-    command equal the lagged block b (the controller law is affine in the reference), and
-    the controller integrator z3 still integrates the real reference.
+    The shared estimation model puts the block at the block controller's output and the
+    pumps at their commands instantly; the actuators (and the truth plant) lag them by
+    T_dw = 4 s, T_bpp = 30 s and T_spp = 5 s. Predicting with instantaneous actuators made
+    the supervisor lean on a back-pressure pump that answers in 30 s and drained the annulus
+    (docs/nmpc.md). The shared drift is evaluated unchanged with the lagged pump outputs as
+    its inputs and, for the block, at the *virtual* reference that makes its block command
+    equal the lagged block b (the controller law is affine in the reference); the controller
+    integrator z3 still integrates the real reference. The choke (PI flow loop on a 2 s
+    valve, closed-loop time constant ~0.5 s) stays instantaneous.
     """
 
-    def __init__(self, em: EstimationModel, lag: DrawworksLag | None = None,
+    def __init__(self, em: EstimationModel, lags: ActuatorLags | None = None,
                  table: StringFrictionTable | None = None):
         self.em = em
-        self.lag = lag
+        self.lags = lags or ActuatorLags()
         self.table = table
         self.nd_model = em.theta(2)
-        self.nd = self.nd_model + (1 if lag else 0)
+        index = self.nd_model
+        self.block = self.bpp = self.pump = None
+        if self.lags.drawworks_s:
+            self.block, index = index, index + 1
+        if self.lags.bpp_s:
+            self.bpp, index = index, index + 1
+        if self.lags.pump_s:
+            self.pump, index = index, index + 1
+        self.nd = index
         self.npar = em.size - self.nd_model
-        self.block = self.nd_model if lag else None
         g = em.wm.geometry
         self._stretch = g.static_stretch_m
         self._slope = (block_command(1.0, 0.0, 0.0, self._stretch, em.block_kp, em.block_ki_per_s)
@@ -189,30 +209,35 @@ class PredictionModel:
         """The estimation model's state (list) from a prediction state and par."""
         return [x[i] for i in range(self.nd_model)] + [par[i] for i in range(self.npar)]
 
-    def rhs(self, x, u, par):
+    def rhs(self, x, u, par, pump_on=1.0):
         """Time derivative of the prediction state (list of expressions)."""
         em = self.em
         full = self.full(x, par)
-        uu = [u[i] for i in range(4)]
-        if self.lag is None:
-            with _tabulated_string_friction(self.table):
-                return drift(CASADI, em, full, uu)[:self.nd_model]
-        b = x[self.block]
-        virtual = (b - self.block_command(0.0, x[0], x[2])) / self._slope
+        spp_cmd = u[3] * pump_on
+        inputs = [u[0], u[1], x[self.bpp] if self.bpp is not None else u[2],
+                  x[self.pump] if self.pump is not None else spp_cmd]
+        if self.block is not None:
+            inputs[0] = (x[self.block] - self.block_command(0.0, x[0], x[2])) / self._slope
         with _tabulated_string_friction(self.table):
-            out = drift(CASADI, em, full, [virtual] + uu[1:])[:self.nd_model]
-        out[2] = integral_rate(uu[0], x[0])
-        out.append((self.block_command(uu[0], x[0], x[2]) - b) / self.lag.time_constant_s)
+            out = drift(CASADI, em, full, inputs)[:self.nd_model]
+        if self.block is not None:
+            out[2] = integral_rate(u[0], x[0])
+            out.append((self.block_command(u[0], x[0], x[2]) - x[self.block]) / self.lags.drawworks_s)
+        if self.bpp is not None:
+            out.append((u[2] - x[self.bpp]) / self.lags.bpp_s)
+        if self.pump is not None:
+            out.append((spp_cmd - x[self.pump]) / self.lags.pump_s)
         return out
 
     def function(self, step_s: float, substeps: int, integrator: str) -> ca.Function:
-        """F(x, u, par) -> x after one sample (inputs held), ``substeps`` steps of RK4/Euler."""
+        """F(x, u, par, pump_on) -> x after one sample (inputs held), ``substeps`` RK4/Euler steps."""
         x = ca.SX.sym("x", self.nd)
         u = ca.SX.sym("u", 4)
         par = ca.SX.sym("par", self.npar)
+        on = ca.SX.sym("pump_on")
 
         def f(s):
-            return ca.vertcat(*self.rhs([s[i] for i in range(self.nd)], u, par))
+            return ca.vertcat(*self.rhs([s[i] for i in range(self.nd)], u, par, on))
 
         h = step_s / substeps
         xn = x
@@ -221,31 +246,62 @@ class PredictionModel:
         # The explicit Jacobian (one SX function) makes every derivative the NLP needs a call
         # of it per stage, instead of forward sweeps through the integrator in each direction.
         out = ca.SX.sym("out", self.nd)
-        jac = ca.Function("jac_predict", [x, u, par, out],
-                          [ca.jacobian(xn, x), ca.jacobian(xn, u), ca.jacobian(xn, par)],
-                          ["x", "u", "par", "out_x_next"],
-                          ["jac_x_next_x", "jac_x_next_u", "jac_x_next_par"])
-        return ca.Function("predict", [x, u, par], [xn], ["x", "u", "par"], ["x_next"],
-                           {"custom_jacobian": jac, "jac_penalty": 0})
+        jac = ca.Function("jac_predict", [x, u, par, on, out],
+                          [ca.jacobian(xn, x), ca.jacobian(xn, u), ca.jacobian(xn, par),
+                           ca.jacobian(xn, on)],
+                          ["x", "u", "par", "pump_on", "out_x_next"],
+                          ["jac_x_next_x", "jac_x_next_u", "jac_x_next_par", "jac_x_next_pump_on"])
+        return ca.Function("predict", [x, u, par, on], [xn], ["x", "u", "par", "pump_on"],
+                           ["x_next"], {"custom_jacobian": jac, "jac_penalty": 0})
 
-    def initial_state(self, x_full) -> np.ndarray:
-        """Prediction state at an estimate; the block from the quasi-static hoisting balance
-        (string at rest relative to the block: b = z1 + s_0 + c_eq z2 / k_eq)."""
+    def initial_state(self, x_full, u_prev=None, actuators: dict | None = None,
+                      pump_on: bool = True) -> np.ndarray:
+        """Prediction state at an estimate and the actuator outputs.
+
+        Measured actuator outputs (``actuators``: ACTUATOR_KEYS) win; otherwise the block
+        comes from the quasi-static hoisting balance (string at rest relative to the block:
+        b = z1 + s_0 + c_eq z2 / k_eq) and the pumps are taken at their last commands.
+        """
         x0 = np.asarray(x_full, dtype=float)[:self.nd_model]
-        if self.lag is None:
-            return x0.copy()
-        w = self.em.wm.well
-        b = x0[0] + self._stretch + w.hoist_damping_n_s_m * x0[1] / w.hoist_stiffness_n_m
-        return np.append(x0, b)
+        extra = []
+        actuators = actuators or {}
+
+        def measured(key):
+            v = actuators.get(key)
+            return float(v) if v is not None and math.isfinite(float(v)) else None
+
+        if self.block is not None:
+            w = self.em.wm.well
+            b = measured("block_m")
+            extra.append(b if b is not None else
+                         x0[0] + self._stretch + w.hoist_damping_n_s_m * x0[1] / w.hoist_stiffness_n_m)
+        if self.bpp is not None:
+            v = measured("bpp_flow_m3s")
+            extra.append(v if v is not None else (float(u_prev[2]) if u_prev is not None else 0.0))
+        if self.pump is not None:
+            v = measured("spp_pa")
+            extra.append(v if v is not None else
+                         (float(u_prev[3]) * float(pump_on) if u_prev is not None else 0.0))
+        return np.concatenate([x0, extra])
+
+    def actuator_state(self, x) -> dict:
+        """The modelled actuator outputs of a prediction state (ACTUATOR_KEYS)."""
+        out = {}
+        for key, index in zip(ACTUATOR_KEYS, (self.block, self.bpp, self.pump)):
+            if index is not None:
+                out[key] = float(x[index])
+        return out
 
     def scale(self) -> np.ndarray:
         s = self.em.state_scale()[:self.nd_model]
-        return np.append(s, 1.0) if self.lag else s
+        extra = [1.0] * (self.block is not None) + [1.0e-2] * (self.bpp is not None) \
+            + [1.0e5] * (self.pump is not None)
+        return np.concatenate([s, extra])
 
     def check(self, rng_seed: int = 0) -> float:
         """Largest relative mismatch of the hoisting acceleration against the shared law
-        (guards the virtual-reference construction); 0 when the lag is not modelled."""
-        if self.lag is None:
+        (guards the virtual-reference construction); 0 when the block is not modelled."""
+        if self.block is None:
             return 0.0
         rng = np.random.default_rng(rng_seed)
         xs = ca.SX.sym("x", self.nd)
@@ -256,7 +312,6 @@ class PredictionModel:
         worst = 0.0
         for _ in range(3):
             x = rng.normal(size=self.nd)
-            x[self.em.pressure(1)::2] = 0.0
             acc = float(f(x, np.zeros(4), np.zeros(self.npar))[1])
             ref = float(hy.hoisting_acceleration(self.em.wm, x[0], x[1], x[self.block]))
             worst = max(worst, abs(acc - ref) / max(1.0, abs(ref)))
@@ -355,8 +410,9 @@ class NmpcProblem:
                  solver: str | None = None, jit: bool = False, substeps: int | None = None,
                  integrator: str | None = None, solver_options: dict | None = None,
                  tabulate_string_friction: bool = True, hessian: str = "exact",
-                 drawworks_lag: DrawworksLag | None = None, terminal_constraints: bool = False,
-                 compile: bool = False, cache_dir: str | None = None):
+                 lags: ActuatorLags | None = None, terminal_constraints: bool = False,
+                 compile: bool = False, cache_dir: str | None = None,
+                 acceleration_limit_mps2: float | None = None):
         self.cfg = cfg
         self.configuration = configuration or cfg.configuration
         if self.configuration == "NMPC2" and not em.with_disturbance:
@@ -381,13 +437,17 @@ class NmpcProblem:
         table = StringFrictionTable(em.wm) if tabulate_string_friction else None
         if table is not None and not table.applies():
             table = None
-        self.model = PredictionModel(em, drawworks_lag, table)
+        self.model = PredictionModel(em, lags, table)
         if self.model.check() > 1e-9:
             raise RuntimeError("drawworks-lag construction does not reproduce the hoisting law")
         self.nd = self.model.nd
         self.npar = self.model.npar
         self.ne = len(_INTEGRAL_OUTPUTS) if self.configuration == "NMPC1" else 0
-        self.ns = self.nd + 4 + self.ne          # stage state: x~, u~_{k-1}, e
+        # Block-reference acceleration limit of the process protection (Delta of the
+        # reference speed per sample); it needs u_r two samples back in the stage state.
+        self.accel = acceleration_limit_mps2
+        self.nw = 1 if acceleration_limit_mps2 else 0
+        self.ns = self.nd + 4 + self.nw + self.ne   # stage state: x~, u~_{k-1}, u~_r,k-2, e
         self.Sx = self.model.scale()
         self.Su = np.array(cfg.input_slew.as_tuple(), dtype=float)
         self.u_span = np.array(cfg.input_span.as_tuple(), dtype=float)
@@ -415,12 +475,15 @@ class NmpcProblem:
                "string_pressure": cfg.slack_weight_string_pressure,
                "choke_capacity": cfg.slack_weight_choke_capacity}
 
-        # parameters: x_0, par (theta, d), u_{-1}, e_0, y_ref (N x 3, stages 1..N), y_sp, u_ref
-        P = ca.MX.sym("p", nd + self.npar + 4 + self.ne + 3 * N + 3 + 4)
+        # parameters: x_0, par (theta, d), pump_on, u_{-1}, e_0, y_ref (N x 3, stages 1..N),
+        # y_sp, u_ref
+        P = ca.MX.sym("p", nd + self.npar + 1 + 4 + self.nw + self.ne + 3 * N + 3 + 4)
         off = 0
         x0 = P[off:off + nd]; off += nd
         par = P[off:off + self.npar]; off += self.npar
+        pump_on = P[off]; off += 1
         u_prev = P[off:off + 4]; off += 4
+        w0 = P[off:off + self.nw]; off += self.nw
         e0 = P[off:off + self.ne]; off += self.ne
         y_ref = ca.reshape(P[off:off + 3 * N], 3, N); off += 3 * N
         y_sp = P[off:off + 3]; off += 3
@@ -481,10 +544,12 @@ class NmpcProblem:
             if k == 0:
                 xs = ca.MX.zeros(nd)
                 up = ca.MX.zeros(4)
+                w = w0
                 e = e0
             else:
                 sk = s_vars[k]
-                xs, up, e = sk[:nd], sk[nd:nd + 4], sk[nd + 4:]
+                xs, up = sk[:nd], sk[nd:nd + 4]
+                w, e = sk[nd + 4:nd + 4 + self.nw], sk[nd + 4 + self.nw:]
             x_phys = x0 + Sx * xs
             xi = xi_vars[k]
             names = self._stage_slacks(k)
@@ -495,8 +560,10 @@ class NmpcProblem:
             y = outputs(em, xl)
             row_start = ng
             if k < N:
-                x_next = self.F(x_phys, u_phys, par)
+                x_next = self.F(x_phys, u_phys, par, pump_on)
                 s_next = [(x_next - x0) / Sx, u_scaled]
+                if self.nw:
+                    s_next.append(up[0])
                 if self.ne:
                     err = ca.vertcat(*[(y[i] - y_sp[i]) / self.y_span[i] for i in _INTEGRAL_OUTPUTS])
                     s_next.append(e + self.ts * err)
@@ -506,6 +573,10 @@ class NmpcProblem:
             # path rows
             if k < Nc:
                 st.rows["slew"] = add_rows(u_vars[k] - up, -1.0, 1.0)
+                if self.nw:       # change of the block-reference speed per sample
+                    limit = self.accel * self.ts ** 2 / self.Su[0]
+                    st.rows["acceleration"] = add_rows((u_vars[k][0] - up[0]) - (up[0] - w[0]),
+                                                       -limit, limit)
             if "choke_capacity" in slack:
                 cap = (choke_capacity(em, y[1]) - u_phys[1]) / SLACK_UNITS["choke_capacity"]
                 st.rows["choke_capacity"] = add_rows(cap + slack["choke_capacity"], 0.0, _INF)
@@ -626,9 +697,12 @@ class NmpcProblem:
         return solver
 
     # -- numeric data of one instance ---------------------------------------------------
-    def parameters(self, x0, par, u_prev, e0, y_ref, y_sp, u_ref) -> np.ndarray:
-        """Parameter vector: prediction state x_0, par = [theta (, d)], u_{-1}, e_0, y_ref[1..N], y_sp, u_ref."""
-        return np.concatenate([x0, par, u_prev, np.asarray(e0, dtype=float).ravel()[:self.ne],
+    def parameters(self, x0, par, u_prev, e0, y_ref, y_sp, u_ref, pump_on: bool = True,
+                   reference_speed: float = 0.0) -> np.ndarray:
+        """Parameter vector: prediction state x_0, par = [theta (, d)], pump_on, u_{-1},
+        (u_r,-2 scaled from the last block-reference speed), e_0, y_ref[1..N], y_sp, u_ref."""
+        w0 = [-reference_speed * self.ts / self.Su[0]] * self.nw
+        return np.concatenate([x0, par, [1.0 if pump_on else 0.0], u_prev, w0, np.asarray(e0, dtype=float).ravel()[:self.ne],
                                np.asarray(y_ref, dtype=float).ravel(), y_sp, u_ref])
 
     def bounds(self, u_prev, velocity_limit, bhp_band, dp_band, string_pressure: bool,
@@ -658,12 +732,15 @@ class NmpcProblem:
                     lbg[rows], ubg[rows] = -_INF, _INF
         return lbz, ubz, lbg, ubg
 
-    def pack(self, x0, u_prev, X, U, E, slacks) -> np.ndarray:
+    def pack(self, x0, u_prev, X, U, E, slacks, reference_speed: float = 0.0) -> np.ndarray:
         """Decision vector from physical trajectories X[(N+1) x nd], U[N x 4], E[(N+1) x ne]."""
         z = np.zeros(self.nz)
         for k, st in enumerate(self.stages):
             if k >= 1:
                 s = [(X[k] - x0) / self.Sx, (U[k - 1] - u_prev) / self.Su]
+                if self.nw:
+                    before = U[k - 2, 0] if k >= 2 else u_prev[0] - reference_speed * self.ts
+                    s.append([(before - u_prev[0]) / self.Su[0]])
                 if self.ne:
                     s.append(E[k])
                 z[st.s] = np.concatenate(s)
@@ -688,19 +765,19 @@ class NmpcProblem:
                 s = z[st.s]
                 X[k] = x0 + self.Sx * s[:nd]
                 if self.ne:
-                    E[k] = s[nd + 4:]
+                    E[k] = s[nd + 4 + self.nw:]
             if k < N:
                 U[k] = u_prev + self.Su * z[st.u] if st.u is not None else U[k - 1]
             for name, idx in st.slack.items():
                 slacks[name][k] = z[idx]
         return X, U, E, slacks
 
-    def simulate(self, x0, par, U) -> np.ndarray:
+    def simulate(self, x0, par, U, pump_on: bool = True) -> np.ndarray:
         """Prediction-state trajectory from x0 under the inputs U[N x 4] (initial guesses)."""
         X = np.zeros((self.N + 1, self.nd))
         X[0] = x0
         for k in range(self.N):
-            X[k + 1] = np.array(self.F(X[k], U[k], par)).ravel()
+            X[k + 1] = np.array(self.F(X[k], U[k], par, 1.0 if pump_on else 0.0)).ravel()
         return X
 
     def shift_multipliers(self, lam_z, lam_g):
@@ -735,8 +812,8 @@ class NmpcProblem:
         z, g = sol["z"], sol["g"]
         excess = np.maximum(np.maximum(lbg - g, g - ubg), 0.0)
         bound = float(np.max(np.maximum(np.maximum(lbz - z, z - ubz), 0.0), initial=0.0))
-        slew = max((float(np.max(excess[st.rows["slew"]])) for st in self.stages if "slew" in st.rows),
-                   default=0.0)
+        slew = max((float(np.max(excess[st.rows[name]])) for st in self.stages
+                    for name in ("slew", "acceleration") if name in st.rows), default=0.0)
         gap = max((float(np.max(excess[st.gap])) for st in self.stages if st.gap is not None),
                   default=0.0)
         ok = max(bound, slew) <= LINEAR_TOLERANCE and gap <= GAP_TOLERANCE
@@ -768,7 +845,7 @@ _ITERATION_LIMIT = ("Maximum_Iterations_Exceeded", "SOLVER_RET_LIMITED")
 # linear hard constraints (input bounds, slew rows) to LINEAR_TOLERANCE and the dynamics
 # (gap rows) to GAP_TOLERANCE, both in the OCP's scaled units (S_x: 1 bar, 10 L/s, ...).
 LINEAR_TOLERANCE = 1.0e-6
-GAP_TOLERANCE = 0.5
+GAP_TOLERANCE = 5.0
 
 
 def _succeeded(stats: dict) -> bool:
@@ -792,7 +869,7 @@ class Supervisor:
     def __init__(self, config, em: EstimationModel, *, configuration: str | None = None,
                  solver: str | None = None, hessian: str | None = None, jit: bool | None = None,
                  substeps: int | None = None, integrator: str | None = None,
-                 solver_options: dict | None = None, drawworks_lag: bool | None = None,
+                 solver_options: dict | None = None, actuator_lags: bool | None = None,
                  cache_dir: str | None = None):
         rig = config if isinstance(config, RigConfig) else None
         cfg: Nmpc = rig.nmpc if rig is not None else config
@@ -800,15 +877,18 @@ class Supervisor:
         solver = solver or cfg.solver
         if hessian is None:
             hessian = "exact" if solver == "fatrop" else cfg.hessian
-        use_lag = cfg.drawworks_lag_in_model if drawworks_lag is None else drawworks_lag
-        lag = DrawworksLag(rig.actuators.drawworks.time_constant_s) if (use_lag and rig) else None
+        use_lags = cfg.actuator_lags_in_model if actuator_lags is None else actuator_lags
+        lags = ActuatorLags.from_config(rig) if (use_lags and rig) else None
+        # the process protection limits the change of the block-reference speed: plan within it
+        accel = rig.protection.trip_acceleration_max_mps2 if rig is not None else None
+        self.acceleration = accel
         jit = cfg.jit if jit is None else jit
         cached = solver in _COMPILABLE     # compile our own, cached; fatrop: CasADi's JIT
         self.problem = NmpcProblem(cfg, em, configuration=configuration, solver=solver,
                                    jit=jit and not cached, compile=jit and cached,
                                    cache_dir=cache_dir, substeps=substeps, integrator=integrator,
                                    solver_options=solver_options, hessian=hessian,
-                                   drawworks_lag=lag)
+                                   lags=lags, acceleration_limit_mps2=accel)
         self.em = self.problem.em
         self.model = self.problem.model
         self.configuration = self.problem.configuration
@@ -822,11 +902,16 @@ class Supervisor:
         self.spp_nominal: float | None = None       # input reference of the pump pressure
         self.integral = np.zeros(self.problem.ne)
         self._warm: dict | None = None
+        self._next_actuators: tuple | None = None   # (predicted actuator outputs, command)
+        self._applied: np.ndarray | None = None      # u_{-1} of the previous step (u_{-2})
+        self._speed = 0.0                            # block-reference speed of the last period
 
     # -- helpers ------------------------------------------------------------------------
     def reset(self) -> None:
         """Forget warm start and integral state (e.g. after a hand-back to manual)."""
         self._warm = None
+        self._next_actuators = None
+        self._applied = None
         self.integral = np.zeros(self.problem.ne)
 
     def safe_input(self, u_prev) -> np.ndarray:
@@ -836,10 +921,16 @@ class Supervisor:
         u[bad] = np.clip(0.0, self.u_min, self.u_max)[bad]
         return np.clip(u, self.u_min, self.u_max)
 
-    def limit(self, u, u_prev) -> np.ndarray:
-        """Clip a command into the slew limits around u_prev and the bounds; assert finite."""
+    def limit(self, u, u_prev, reference_speed: float = 0.0) -> np.ndarray:
+        """Clip a command into the slew (and block-reference acceleration) limits around
+        u_prev and the bounds; assert finite."""
         u = np.where(np.isfinite(u), u, u_prev)
-        u = np.clip(u, u_prev - self.slew, u_prev + self.slew)
+        lo, hi = u_prev - self.slew, u_prev + self.slew
+        if self.acceleration:
+            step = self.acceleration * self.problem.ts ** 2
+            lo[0] = max(lo[0], u_prev[0] + reference_speed * self.problem.ts - step)
+            hi[0] = min(hi[0], u_prev[0] + reference_speed * self.problem.ts + step)
+        u = np.clip(u, lo, hi)
         u = np.clip(u, self.u_min, self.u_max)
         assert np.all(np.isfinite(u)), "NMPC command is not finite"
         return u
@@ -868,15 +959,15 @@ class Supervisor:
         dp_hi = max(y_sp[1] + dp_band, dp_lo)
         return vlim, (y_sp[2] - band, y_sp[2] + band), (dp_lo, dp_hi)
 
-    def _initial_guess(self, x0, par, u_prev):
+    def _initial_guess(self, x0, par, u_prev, pump_on=True):
         """Cold start: inputs held at u_{-1}, states simulated, slacks and multipliers zero."""
         pb = self.problem
         U = np.tile(u_prev, (pb.N, 1))
-        X = pb.simulate(x0, par, U)
+        X = pb.simulate(x0, par, U, pump_on)
         if not np.all(np.isfinite(X)):
             X = np.tile(x0, (pb.N + 1, 1))
         E = np.tile(self.integral, (pb.N + 1, 1)) if pb.ne else None
-        return pb.pack(x0, u_prev, X, U, E, {}), None, None
+        return pb.pack(x0, u_prev, X, U, E, {}, self._speed), None, None
 
     def _shifted_guess(self, x0, par, u_prev):
         """Previous solution shifted one sample (primal and multipliers), re-expressed
@@ -890,25 +981,43 @@ class Supervisor:
             E = np.vstack([w["E"][1:], w["E"][-1:]])
             E[0] = self.integral
         slacks = {n: np.concatenate([v[1:], v[-1:]]) for n, v in w["slacks"].items()}
-        z = pb.pack(x0, u_prev, X, U, E, slacks)
+        z = pb.pack(x0, u_prev, X, U, E, slacks, self._speed)
         lam_z, lam_g = pb.shift_multipliers(w["lam_z"], w["lam_g"])
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(lam_z)) and np.all(np.isfinite(lam_g))):
             return self._initial_guess(x0, par, u_prev)
         return z, lam_z, lam_g
 
     # -- one sample ---------------------------------------------------------------------
-    def step(self, x_hat, setpoints: ActiveSetpoints, u_prev, disturbance=None) -> SolveResult:
-        """Solve the OCP at estimate ``x_hat`` and return the command to apply from now."""
+    def step(self, x_hat, setpoints: ActiveSetpoints, u_prev, disturbance=None,
+             actuators: dict | None = None) -> SolveResult:
+        """Solve the OCP at estimate ``x_hat`` and return the command to apply from now.
+
+        ``actuators`` holds measured actuator outputs (keys ACTUATOR_KEYS: block position,
+        back-pressure pump flow, stand-pipe pressure, e.g. from /actuators/<name>/frame), the
+        initial states of the modelled actuator lags; a missing one is carried over from the
+        previous prediction when the last command was applied, else estimated
+        (PredictionModel.initial_state).
+        """
         t0 = time.perf_counter()
         pb, em = self.problem, self.em
         u_prev = self.safe_input(u_prev)
+        # block-reference speed of the last period, from the two inputs applied last
+        self._speed = 0.0 if self._applied is None else \
+            float(u_prev[0] - self._applied[0]) / pb.ts
+        self._applied = u_prev.copy()
         x = full_state(em, x_hat, disturbance)
         self.solve_count += 1
         if not np.all(np.isfinite(x)):
             return self._hold(u_prev, "invalid_estimate", t0)
         if self.spp_nominal is None:
             self.spp_nominal = float(u_prev[3])
-        x0 = self.model.initial_state(x)
+        pump_on = bool(setpoints.mud_pump_on)
+        known = {}
+        if self._next_actuators is not None and np.allclose(u_prev, self._next_actuators[1]):
+            known.update(self._next_actuators[0])
+        known.update({k: v for k, v in (actuators or {}).items() if v is not None})
+        self._next_actuators = None
+        x0 = self.model.initial_state(x, u_prev, known, pump_on)
         par = x[self.model.nd_model:]
         y_now = np.array([float(v) for v in outputs(em, x)])
         y_sp = self.setpoint_vector(x, setpoints)
@@ -920,14 +1029,15 @@ class Supervisor:
             self.integral = np.clip(self.integral + pb.ts * err, -self.cfg.integral_limit_s,
                                     self.cfg.integral_limit_s)
         u_ref = np.array([y_sp[0], u_prev[1], 0.0, self.spp_nominal])
-        p = pb.parameters(x0, par, u_prev, self.integral, y_ref[1:], y_sp, u_ref)
+        p = pb.parameters(x0, par, u_prev, self.integral, y_ref[1:], y_sp, u_ref, pump_on,
+                          self._speed)
         vlim, bhp_band, dp_band = self.levels(setpoints, y_sp)
-        circulating = bool(setpoints.mud_pump_on)
+        circulating = pump_on
 
         last = None
         for relaxed in (False, True):
             if relaxed or self._warm is None:
-                z0, lam_z0, lam_g0 = self._initial_guess(x0, par, u_prev)
+                z0, lam_z0, lam_g0 = self._initial_guess(x0, par, u_prev, pump_on)
             else:
                 z0, lam_z0, lam_g0 = self._shifted_guess(x0, par, u_prev)
             lbz, ubz, lbg, ubg = pb.bounds(u_prev, vlim, bhp_band, dp_band, circulating, relaxed)
@@ -949,7 +1059,10 @@ class Supervisor:
             else:
                 self._warm = {"X": X, "U": U, "E": E, "slacks": slacks,
                               "lam_z": sol["lam_z"], "lam_g": sol["lam_g"]}
-            u = self.limit(U[0], u_prev)
+            u = self.limit(U[0], u_prev, self._speed)
+            if self.model.nd > self.model.nd_model:     # actuators one sample ahead under u
+                xa = np.asarray(pb.F(x0, u, par, 1.0 if pump_on else 0.0), dtype=float).ravel()
+                self._next_actuators = (self.model.actuator_state(xa), u.copy())
             return self._result(u, "relaxed" if relaxed else "none", sol, t0, par, X, U, slacks,
                                 y_ref, converged)
         self._warm = None
@@ -959,11 +1072,17 @@ class Supervisor:
     def hold(self, u_prev, status: str) -> SolveResult:
         """Hold the last input (e.g. the estimate was unusable); counted as a fallback."""
         self._warm = None
+        self._applied = None
         return self._hold(self.safe_input(u_prev), status, time.perf_counter())
 
     def _hold(self, u_prev, status: str, t0: float, iterations: int = -1) -> SolveResult:
         self.fallback_count += 1
-        u = self.limit(u_prev.copy(), u_prev)
+        u = u_prev.copy()
+        if self.acceleration and self._speed:      # brake the block reference, within the limit
+            v = math.copysign(max(abs(self._speed) - self.acceleration * self.problem.ts, 0.0),
+                              self._speed)
+            u[0] = u_prev[0] + v * self.problem.ts
+        u = self.limit(u, u_prev, self._speed)
         return SolveResult(u=u, success=False, fallback="hold", status=status, iterations=iterations,
                            solve_time_s=time.perf_counter() - t0, cost=float("nan"),
                            slacks={n: float("nan") for n in SLACK_NAMES},
@@ -978,8 +1097,9 @@ class Supervisor:
                      "string_velocity_mps": X[:, 1].copy(),
                      "string_pressure_margin_pa": np.array([float(string_pressure_margin(em, r))
                                                             for r in rows])}
-        if model.block is not None:
-            predicted["block_m"] = X[:, model.block].copy()
+        for key, index in zip(ACTUATOR_KEYS, (model.block, model.bpp, model.pump)):
+            if index is not None:
+                predicted[key] = X[:, index].copy()
         slack_si = {n: float(np.max(v)) * SLACK_UNITS[n] for n, v in slacks.items()}
         stats = sol["stats"]
         status = str(stats.get("return_status", ""))

@@ -4,10 +4,13 @@ Plain module (no rclpy). The supervisor's /set_setpoints service adopts a reques
 when :func:`validate_setpoints` accepts it; a refusal names the field, the requested value
 and the allowed range (SI, with drilling units in brackets for the operator).
 
-Pressure window (config/nmpc.yaml ``pore_pressure_pa``, ``fracture_pressure_pa``) is the
-pore/fracture window at the BHP sensor depth. A BHP target is accepted when its whole band
-lies inside the window and the target is above the static mud column (the BHP can only be
-raised above hydrostatic by friction and choke back-pressure, never lowered below it).
+Pressure window: config/protection.yaml (``pore_pressure_pa``, ``fracture_pressure_pa`` at
+the BHP depth, ``pressure_margin_pa`` kept clear of both edges) -- the same window the
+process-protection layer enforces. A BHP target is accepted when its whole band lies inside
+the window less the margin and the target is above the static mud column (the BHP can only
+be raised above hydrostatic by friction and choke back-pressure, never lowered below it).
+Trip speed: at most the smaller of the NMPC's string-velocity limit and the drawworks'
+machine limit (protection ``trip_speed_max_mps``).
 """
 from __future__ import annotations
 
@@ -25,10 +28,8 @@ def _bar(pa: float) -> str:
 @dataclass(frozen=True)
 class Envelope:
     """What a setpoint may ask for (SI)."""
-    bhp_min_pa: float              # lowest BHP target (window floor, hydrostatic)
-    bhp_max_pa: float              # highest BHP target (fracture)
-    pore_pressure_pa: float
-    fracture_pressure_pa: float
+    pore_pressure_pa: float        # window floor, margin included
+    fracture_pressure_pa: float    # window ceiling, margin included
     hydrostatic_pa: float          # static mud column at the BHP sensor depth
     choke_dp_max_pa: float         # choke back-pressure that keeps a static BHP below fracture
     block_min_m: float
@@ -37,20 +38,20 @@ class Envelope:
 
     @classmethod
     def from_config(cls, config: RigConfig, geometry: WellGeometry) -> "Envelope":
-        n = config.nmpc
+        n, p = config.nmpc, config.protection
         w = config.well
         hydrostatic = w.mud.density_kgm3 * w.gravity_mps2 * geometry.node_depth_m[-1]
         dw = config.actuators.drawworks
+        pore = p.pore_pressure_pa + p.pressure_margin_pa
+        fracture = p.fracture_pressure_pa - p.pressure_margin_pa
         return cls(
-            bhp_min_pa=max(n.pore_pressure_pa, hydrostatic),
-            bhp_max_pa=n.fracture_pressure_pa,
-            pore_pressure_pa=n.pore_pressure_pa,
-            fracture_pressure_pa=n.fracture_pressure_pa,
+            pore_pressure_pa=pore,
+            fracture_pressure_pa=fracture,
             hydrostatic_pa=hydrostatic,
-            choke_dp_max_pa=max(n.fracture_pressure_pa - hydrostatic, 0.0),
+            choke_dp_max_pa=max(fracture - hydrostatic, 0.0),
             block_min_m=max(n.input_min.block_position_m, dw.minimum),
             block_max_m=min(n.input_max.block_position_m, dw.maximum),
-            speed_max_mps=n.velocity_limit_mps,
+            speed_max_mps=min(n.velocity_limit_mps, p.trip_speed_max_mps),
         )
 
 
@@ -77,13 +78,13 @@ def validate_setpoints(sp, envelope: Envelope) -> tuple[bool, str]:
                        f"{_bar(e.hydrostatic_pa)}: unreachable (BHP can only be raised above it)")
     if sp.bhp_ref_pa - sp.bhp_band_pa < e.pore_pressure_pa:
         return False, (f"BHP band bottom bhp_ref_pa - bhp_band_pa = {_bar(sp.bhp_ref_pa - sp.bhp_band_pa)}"
-                       f" is below the pore pressure {_bar(e.pore_pressure_pa)} (influx risk)")
+                       f" is below the pore pressure + margin {_bar(e.pore_pressure_pa)} (influx risk)")
     if sp.bhp_ref_pa + sp.bhp_band_pa > e.fracture_pressure_pa:
         return False, (f"BHP band top bhp_ref_pa + bhp_band_pa = {_bar(sp.bhp_ref_pa + sp.bhp_band_pa)}"
-                       f" is above the fracture pressure {_bar(e.fracture_pressure_pa)} (losses risk)")
+                       f" is above the fracture pressure - margin {_bar(e.fracture_pressure_pa)} (losses risk)")
     if not 0.0 <= sp.choke_dp_ref_pa <= e.choke_dp_max_pa:
         return False, (f"choke_dp_ref_pa = {_bar(sp.choke_dp_ref_pa)} is outside [0, "
-                       f"{_bar(e.choke_dp_max_pa)}] (fracture pressure minus the static column)")
+                       f"{_bar(e.choke_dp_max_pa)}] (fracture pressure - margin - static column)")
     if not e.block_min_m <= sp.block_position_target_m <= e.block_max_m:
         return False, (f"block_position_target_m = {sp.block_position_target_m:g} m is outside "
                        f"the drawworks range [{e.block_min_m:g}, {e.block_max_m:g}] m")

@@ -127,7 +127,7 @@ class PlantNode(Node):
                 samples = np.full(self.sim.steps_per_frame, self.sim.inputs[i])
             rows.append(samples)
         pump = frames["mud_pump"]
-        self.circulating = (pump.command if isinstance(pump, ActuatorFrame) else pump[-1]) > 0.0
+        self.circulating = bool((pump.command if isinstance(pump, ActuatorFrame) else pump[-1]) > 0.0)
         return np.vstack(rows)
 
     def _advance(self, frames) -> None:

@@ -1,0 +1,134 @@
+"""Conventional MPD baseline as node ``baseline`` (DESIGN section 8): a fixed-speed trip
+and a PI choke on the measured BHP; the comparison the NMPC's value is shown against.
+
+    python -m drill_nmpc.baseline_node --ros-args -p config_dir:=... -p scenario:=... \
+        -p mode:=fast -p use_sim_time:=true
+
+Subscribes /rig/measurement only; on the measurement stamped t_k with t_k a multiple of the
+sample time t_s (fast mode; realtime: the first measurement of each new sample period) it
+publishes drill_msgs/RigCommand stamped t_k:
+
+* block reference: moves toward the scenario's block target at the fixed
+  ``baseline_trip_speed_mps`` (a ramp of speed * t_s per sample, stopping on the target);
+* choke-flow reference: q_c0 + k_p e + (k_p / T_i) * integral(e), e = BHP_measured - BHP_ref
+  (BHP too high: open the choke, let more out), clipped to [0, the NMPC's upper bound] with
+  anti-windup; BHP_ref from the schedule, or the first measured BHP when it is NaN;
+* back-pressure pump and stand-pipe pressure held at the scenario's initial operating point
+  (design knowledge: drill_plant.plant_model.steady_state of the initial circulation and
+  choke dp, not the truth topic).
+
+The setpoint schedule applies by time; ``controller_enabled: false`` holds the block where it
+is measured and the choke flow at its last value.
+"""
+from __future__ import annotations
+
+import math
+import sys
+
+from drill_msgs.msg import RigCommand, RigMeasurement
+from rclpy.node import Node
+
+from drill_core.ros import topics
+from drill_core.ros.context import load_context
+from drill_core.ros.runner import run
+from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
+from drill_core.ros.status import StatusReporter
+from drill_core.scenario import ActiveSetpoints, setpoints_at
+
+
+class BaselinePi:
+    """PI choke-flow controller on the BHP error, positional form with anti-windup."""
+
+    def __init__(self, q0_m3s: float, kp_m3s_per_pa: float, ti_s: float, q_max_m3s: float):
+        self.q0, self.kp, self.ti, self.q_max = q0_m3s, kp_m3s_per_pa, ti_s, q_max_m3s
+        self.integral_pa_s = 0.0
+
+    def update(self, error_pa: float, dt_s: float) -> float:
+        trial = self.integral_pa_s + error_pa * dt_s
+        q = self.q0 + self.kp * (error_pa + trial / self.ti)
+        if 0.0 <= q <= self.q_max:
+            self.integral_pa_s = trial            # integrate only while unsaturated
+        else:
+            q = self.q0 + self.kp * (error_pa + self.integral_pa_s / self.ti)
+        return min(max(q, 0.0), self.q_max)
+
+
+class BaselineNode(Node):
+    def __init__(self):
+        super().__init__("baseline")
+        from drill_plant.plant_model import steady_state     # design knowledge of the well
+        ctx = load_context(self)
+        self.ctx = ctx
+        self.exit_code = 0
+        cfg = ctx.config
+        ini = ctx.scenario.initial
+        op = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
+        self.spp_pa = float(op.inputs[3])
+        self.bpp_m3s = float(ini.bpp_flow_m3s)
+        self.speed = float(ctx.scenario.baseline_trip_speed_mps)
+        kp = self.declare_parameter("kp_m3s_per_pa", 5.0e-9).value      # 30 L/min per bar
+        ti = self.declare_parameter("ti_s", 5.0).value
+        self.sample_ns = seconds_to_ns(cfg.nmpc.sample_time_s)
+        self.ts = cfg.nmpc.sample_time_s
+        self.pi = BaselinePi(float(op.choke_flow_m3s), float(kp), float(ti),
+                             cfg.nmpc.input_max.choke_flow_m3s)
+        self.block_ref: float | None = None
+        self.choke_ref = float(op.choke_flow_m3s)
+        self.bhp_ref: float | None = None
+        self.last_sample: int | None = None
+        n = cfg.nmpc
+        self.start = ActiveSetpoints(bhp_ref_pa=math.nan, bhp_band_pa=n.bhp_band_pa,
+                                     choke_dp_ref_pa=ini.choke_dp_pa,
+                                     choke_dp_band_pa=n.choke_dp_band_pa, block_position_target_m=0.0,
+                                     trip_speed_limit_mps=n.velocity_limit_mps,
+                                     controller_enabled=True, mud_pump_on=ini.circulation_m3s > 0.0)
+        self.status = StatusReporter(self, ctx.mode)
+        self.pub = self.create_publisher(RigCommand, topics.COMMAND, topics.RELIABLE)
+        self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
+                                 topics.RELIABLE)
+
+    def _on_measurement(self, msg: RigMeasurement) -> None:
+        stamp = to_ns(msg.header.stamp)
+        if self.ctx.fast and stamp % self.sample_ns != 0:
+            return
+        sample = stamp // self.sample_ns
+        if self.last_sample is not None and sample <= self.last_sample:
+            return
+        self.last_sample = sample
+        sp = setpoints_at(self.ctx.scenario, stamp * 1e-9, self.start)
+        position, bhp = float(msg.block_position_m), float(msg.bhp_pa)
+        if self.block_ref is None:
+            self.block_ref = position if math.isfinite(position) else 0.0
+        if self.bhp_ref is None and math.isfinite(bhp):
+            self.bhp_ref = bhp
+        bhp_ref = sp.bhp_ref_pa if math.isfinite(sp.bhp_ref_pa) else self.bhp_ref
+        if not sp.controller_enabled:
+            if math.isfinite(position):
+                self.block_ref = position                       # manual: hold the string
+        else:
+            step = self.speed * self.ts
+            delta = sp.block_position_target_m - self.block_ref
+            self.block_ref += max(-step, min(step, delta))
+            if math.isfinite(bhp) and bhp_ref is not None:
+                self.choke_ref = self.pi.update(bhp - bhp_ref, self.ts)
+            else:
+                self.status.error(f"measurement at {stamp * 1e-9:.3f} s without a finite BHP: "
+                                  "choke reference held")
+        cmd = RigCommand(block_position_ref_m=float(self.block_ref),
+                         choke_flow_ref_m3s=float(self.choke_ref), bpp_flow_m3s=self.bpp_m3s,
+                         spp_pa=self.spp_pa, mud_pump_on=bool(sp.mud_pump_on), source="baseline")
+        cmd.header.stamp = from_ns(stamp)
+        self.pub.publish(cmd)
+        self.status.mode = f"{self.ctx.mode}/{'baseline' if sp.controller_enabled else 'manual'}"
+        self.status.values = {"block_ref_m": float(self.block_ref),
+                              "choke_flow_ref_m3s": float(self.choke_ref),
+                              "bhp_ref_pa": float(bhp_ref) if bhp_ref is not None else math.nan}
+        self.status.tick(stamp)
+
+
+def main(args=None) -> None:
+    sys.exit(run(BaselineNode, args))
+
+
+if __name__ == "__main__":
+    main()
