@@ -39,7 +39,7 @@ def test_trip_completes_with_bhp_in_window(two_runs):
     series = report.load_series(_mcap(two_runs[0]))
     summary = report.summarise(series)
     t, pos = series.get("position")
-    assert t[-1] == pytest.approx(45.0)
+    assert t[-1] == pytest.approx(60.0)
     assert pos[-1] == pytest.approx(8.0, abs=0.5), "the trip did not reach its 8 m target"
     # window = reference +- 2 bar (DESIGN section 6); allow no excursion beyond 1 bar outside it
     assert summary["bhp_worst_excursion_pa"] < 1.0e5, summary
@@ -51,13 +51,13 @@ def test_recording_complete_and_read_by_independent_reader(two_runs):
     from rosbags.highlevel import AnyReader
     path = _mcap(two_runs[0])
     counts = mcap_io.topics(path)
-    assert counts[topics.MEASUREMENT].message_count == 451       # t = 0 .. 45 s at 10 Hz
-    assert counts[topics.COMMAND].message_count == 45            # one per second, t = 0 .. 44 s
-    assert counts[topics.MACHINE_COMMAND].message_count == 45    # each passed through protection
+    assert counts[topics.MEASUREMENT].message_count == 601       # t = 0 .. 60 s at 10 Hz
+    assert counts[topics.COMMAND].message_count == 61            # one per second, t = 0 .. 60 s
+    assert counts[topics.MACHINE_COMMAND].message_count == 61    # each passed through protection
     with AnyReader([path]) as reader:
         conns = [c for c in reader.connections if c.topic == topics.MEASUREMENT]
         decoded = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=conns)]
-    assert len(decoded) == 451
+    assert len(decoded) == 601
     assert all(math.isfinite(m.bhp_pa) and m.bhp_pa > 6.0e7 for m in decoded)
 
 
@@ -113,7 +113,7 @@ def test_reestimate_replays_recording_into_a_retuned_estimator(two_runs, tmp_pat
     from drill_bringup.reestimate import reestimate
 
     same = reestimate(two_runs[0], cli.ROOT / "config", rate=5.0, domain_id=90)
-    assert same["estimates"] == same["measurements"] == 451
+    assert same["estimates"] == same["measurements"] == 601
     # the same tuning on the same recorded inputs gives the same estimates
     assert same["new_bhp_estimate_rmse_pa"] == pytest.approx(same["recorded_bhp_estimate_rmse_pa"],
                                                              rel=1e-9)
@@ -123,6 +123,6 @@ def test_reestimate_replays_recording_into_a_retuned_estimator(two_runs, tmp_pat
     tuning["measurement_noise"]["bhp_pa"] = 1.0e6      # trust the BHP sensor 10x less
     (config / "estimator.yaml").write_text(yaml.safe_dump(tuning))
     retuned = reestimate(two_runs[0], config, rate=5.0, domain_id=98)
-    assert retuned["estimates"] == 451
+    assert retuned["estimates"] == 601
     assert retuned["new_bhp_estimate_rmse_pa"] != pytest.approx(same["recorded_bhp_estimate_rmse_pa"],
                                                                 rel=1e-3)
