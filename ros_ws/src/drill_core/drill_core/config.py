@@ -274,7 +274,7 @@ class Nmpc:
     input_reference_weight: InputVector = param(
         default=InputVector(0.0, 0.0, 1.0, 1.0),
         doc="r_r tilde (eq. 49/55); u_ref = [block target, previous choke flow, 0, initial spp]")
-    integral_limit_s: float = param("s", 0.0, 1.0e4, lo_open=True, default=20.0,
+    integral_limit_s: float = param("s", 0.0, 1.0e4, lo_open=True, default=5.0,
                                     doc="NMPC1 anti-windup: |e_i| <= limit (e in output spans x s)")
     jit: bool = param(default=False, doc="compile the NLP functions with the C compiler (JIT)")
     hessian: str = param(choices=("exact", "gauss-newton"), default="gauss-newton",

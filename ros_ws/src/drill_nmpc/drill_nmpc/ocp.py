@@ -2,38 +2,40 @@
 
 Plain module (no rclpy). The prediction model is the shared estimation model
 (``drill_core.estimation_model.drift``, the same equations the UKF runs) with the
-friction parameters theta (and, for NMPC2, the bottom influx d) frozen over the
-horizon at their estimates.
+friction parameters theta (and, for NMPC2, the bottom influx d) frozen over the horizon
+at their estimates, plus the actuator lags (drawworks, back-pressure pump, mud pump)
+around it (``PredictionModel``). docs/nmpc.md has the derivation and the measurements
+behind each choice.
 
-Transcription (docs/nmpc.md has the derivation and the measurements behind each choice):
-
-* **Multiple shooting**, one shooting interval per sample t_s, inputs held over it, M
-  classical RK4 sub-steps per interval (forward Euler with the paper's M = 10 is unstable
-  on the lightly damped hoisting/hydraulic modes, see docs/nmpc.md).
-* **Stage-wise layout for FATROP**: stage k holds its state s_k then its controls v_k;
-  the constraint vector holds, per stage, the gap s_{k+1} - Phi(s_k, v_k) first and then
-  that stage's path constraints. Stage 0 has no state (x_0 = x_hat is a parameter).
-* **Control horizon** N_c: the stage state carries the previous input u_{k-1}
-  (so Delta u is stage-local); stages k >= N_c have no input variables and apply
-  u_{k-1} (u_j = u_{j-1}, j >= N_c).
+* **Multiple shooting**, one interval per sample t_s, inputs held over it, M classical
+  RK4 steps per interval (forward Euler with the paper's M = 10 is 10 bar off or diverges
+  on the lightly damped hoisting/hydraulic modes).
+* **Stage-wise layout** (FATROP / HPIPM): stage k holds its state s_k then its controls
+  v_k; per stage the gap s_{k+1} - Phi(s_k, v_k) comes first, then that stage's path
+  constraints. Stage 0 has no state (x_0 = x_hat is a parameter); the terminal stage has
+  no controls (cost only).
+* **Control horizon** N_c: the stage state carries the previous input u_{k-1} (Delta u is
+  stage-local) and u_r,k-2 (block-reference acceleration); stages k >= N_c apply u_{k-1}.
 * **Scaling**: x = x_hat + S_x x~ (S_x = em.state_scale(): bar, 10 L/s, ...), u = u_{-1} +
-  S_u u~ with S_u the slew limit per sample (so |Delta u~| <= 1), slacks in units of
-  0.01 m/s, 1 bar and 1e-3 m^3/s.
-* **Cost (49)/(55)**: w~_i ((y_i - y_ref,i)/y_span,i)^2 over stages 1..N_p (smoothed reference
-  of eq. 59 anchored at the estimated output), r~_i (Delta u_i/u_span,i)^2 and
-  r~r_i ((u_i - u_ref,i)/u_span,i)^2 over the control horizon, plus T (xi^2 + xi) per slack
-  (the linear term makes the penalty exact: a soft constraint holds whenever it can).
-* **Soft constraints (52)-(53)**: string velocity, BHP band, choke dp band, string pressure
-  above BHP + BHA loss (the annulus pressure at the moving bit), choke-flow capacity.
-  Hard: input bounds (variable bounds) and slew limits (linear rows).
-* **NMPC1** adds the integrated tracking error of the pressure outputs as states
-  (eq. 56): e_{j+1} = e_j + t_s (y_j - y_sp)/y_span, cost q~ w~ e^2; e_0 is carried between
-  solves from the estimated error. **NMPC2** adds the estimated bottom influx d (eqs.
-  57-58) held constant over the horizon.
+  S_u u~ with S_u the slew limit per sample (|Delta u~| <= 1), slacks in SLACK_UNITS.
+* **Cost (49)/(55)**: w~_i ((y_i - y_ref,i)/y_span,i)^2 over stages 1..N_p (reference
+  trajectory of eq. 59 anchored at the estimated output), r~_i (Delta u_i/u_span,i)^2 and
+  r~r_i ((u_i - u_ref,i)/u_span,i)^2 over the control horizon, T (xi^2 + xi) per slack
+  (the linear term makes the penalty exact).
+* **Soft constraints (52)-(53)**: string velocity, BHP band, choke dp band, string
+  pressure above the annulus pressure at the moving bit + BHA loss, choke-flow capacity.
+  Hard: input bounds (the block reference also within the monotone trip range), slew
+  limits and the protection's block-reference acceleration limit.
+* **NMPC1**: integrated tracking error of the pressure outputs (eq. 56); the value carried
+  between solves integrates the estimated error outside the band, clamped. **NMPC2**: the estimated bottom influx
+  d (eqs. 57-58) held constant over the horizon.
+* **Solver**: by default one Gauss-Newton SQP step per sample (real-time iteration) with
+  the HPIPM QP, warm-started from the shifted previous solution; ipopt and fatrop are
+  selectable (config ``solver``).
 
-On a failed solve the problem is re-solved cold with the relaxed constraint set
-(velocity, string pressure, input bounds and slew only: paper Alg. 3); if that fails
-too the last input is held. Commands are always finite and inside the bounds.
+On an unusable answer the problem is re-solved cold with the relaxed constraint set
+(velocity, string pressure, input bounds, slew and acceleration: paper Alg. 3); if that
+fails too the last input is held. Commands are always finite and inside the bounds.
 """
 from __future__ import annotations
 
@@ -69,6 +71,9 @@ SLACK_UNITS = {"velocity": 0.01, "bhp_band": 1.0e4, "choke_dp_band": 1.0e5,
 # pressure and the input limits).
 RELAXED_DROPS = ("bhp_band", "choke_dp_band", "choke_capacity")
 _INTEGRAL_OUTPUTS = (1, 2)        # NMPC1 integrates the pressure outputs (see docs/nmpc.md)
+TRIP_RANGE_MARGIN_M = 0.5         # the block reference may pass the string / target by this
+THETA_STIFFNESS_LIMIT = 2.0       # |lambda| h of the annular flow modes kept below this (RK4: 2.78)
+THETA_SPEED_FLOOR_MPS = 0.1       # effective annular speed used for the cap near zero flow
 _INF = float("inf")
 
 
@@ -105,7 +110,7 @@ class StringFrictionTable:
     exact expression instead of silently diverging.
     """
 
-    def __init__(self, wm: hy.WellModel, q_max_m3s: float = 0.1):
+    def __init__(self, wm: hy.WellModel, q_max_m3s: float = 0.2):
         self.wm = wm
         self.area = wm.geometry.string_top_inner_area_m2
         log = np.logspace(-6.0, math.log10(q_max_m3s), 160)
@@ -453,9 +458,30 @@ class NmpcProblem:
         self.u_span = np.array(cfg.input_span.as_tuple(), dtype=float)
         self.y_span = np.array(cfg.output_span.as_tuple(), dtype=float)
         self.F = self.model.function(self.ts, self.substeps, self.integrator)
+        self._state_box = self._trust_region()
         self._build(jit, solver_options or {})
 
     # -- construction -------------------------------------------------------------------
+    def _trust_region(self) -> np.ndarray:
+        """Bounds on the scaled stage states (deviation from x_0): far outside any physical
+        move within the 15 s horizon, they keep the (real-time) SQP's trial points where the
+        model is defined and the RK4 step is stable (no effect at the solution)."""
+        em, m = self.em, self.model
+        phys = np.full(self.nd, np.inf)
+        phys[0], phys[1], phys[2] = 40.0, 2.0, 100.0                  # m, m/s, m s
+        for i in range(1, em.n + 1):
+            phys[em.pressure(i)] = 2.0e7                                # 200 bar
+            if i > 1:
+                phys[em.flow(i)] = 0.05                                 # 3000 L/min
+        phys[em.string_flow] = 0.05
+        phys[em.string_pressure] = 2.0e7
+        for index, value in ((m.block, 40.0), (m.bpp, 0.05), (m.pump, 3.0e7)):
+            if index is not None:
+                phys[index] = value
+        box = np.full(self.ns, np.inf)
+        box[:self.nd] = phys / self.Sx
+        return box
+
     def _stage_slacks(self, k: int) -> tuple[str, ...]:
         names = []
         if 1 <= k < self.N or (k == self.N and self.terminal_constraints):
@@ -666,7 +692,7 @@ class NmpcProblem:
             qp = extra.pop("qpsol", "hpipm")
             if qp == "hpipm":       # structure-exploiting interior-point QP (Riccati)
                 qp_opts = {"N": self.N, "nx": nx, "nu": nu, "ng": ngs, "error_on_fail": False,
-                           "hpipm": {"mode": "speed", "iter_max": 20, "res_g_max": 1e-6,
+                           "hpipm": {"mode": "speed", "iter_max": 30, "res_g_max": 1e-6,
                                      "res_b_max": 1e-6, "res_d_max": 1e-6, "res_m_max": 1e-6}}
             elif qp == "qrqp":
                 qp_opts = {"print_iter": False, "print_header": False, "error_on_fail": False}
@@ -706,17 +732,25 @@ class NmpcProblem:
                                np.asarray(y_ref, dtype=float).ravel(), y_sp, u_ref])
 
     def bounds(self, u_prev, velocity_limit, bhp_band, dp_band, string_pressure: bool,
-               relaxed: bool = False):
-        """Variable and row bounds: hard input limits, slew, soft-constraint levels."""
+               relaxed: bool = False, block_range: tuple | None = None):
+        """Variable and row bounds: hard input limits (the block reference also within
+        ``block_range``), slew, soft-constraint levels."""
         cfg = self.cfg
         lbz = np.full(self.nz, -_INF)
         ubz = np.full(self.nz, _INF)
-        u_lo = (np.array(cfg.input_min.as_tuple()) - u_prev) / self.Su
-        u_hi = (np.array(cfg.input_max.as_tuple()) - u_prev) / self.Su
+        lo = np.array(cfg.input_min.as_tuple(), dtype=float)
+        hi = np.array(cfg.input_max.as_tuple(), dtype=float)
+        if block_range is not None:
+            lo[0], hi[0] = max(lo[0], block_range[0]), min(hi[0], block_range[1])
+        u_lo = (lo - u_prev) / self.Su
+        u_hi = (hi - u_prev) / self.Su
         lbg, ubg = self._lbg0.copy(), self._ubg0.copy()
         levels = {"velocity": (-velocity_limit, velocity_limit), "bhp_band": bhp_band,
                   "choke_dp_band": dp_band}
         for st in self.stages:
+            if st.s.stop > st.s.start:         # trust region on the predicted states
+                box = self._state_box
+                lbz[st.s], ubz[st.s] = -box, box
             if st.u is not None:
                 lbz[st.u], ubz[st.u] = u_lo, u_hi
             for idx in st.slack.values():
@@ -799,16 +833,18 @@ class NmpcProblem:
                     new_z[idx] = lam_z[src.slack[name]]
         return new_z, new_g
 
-    def assess(self, sol: dict, lbz, ubz, lbg, ubg) -> tuple[bool, bool]:
-        """(usable, converged) for a solver answer: converged, or an iteration-limited
-        iterate meeting the linear hard constraints and (roughly) the dynamics."""
+    def assess(self, sol: dict, lbz, ubz, lbg, ubg) -> tuple[bool, bool, str]:
+        """(usable, converged, why not) for a solver answer: converged, or an
+        iteration-limited iterate meeting the linear hard constraints and (roughly) the
+        dynamics."""
+        status = str(sol["stats"].get("return_status", ""))
         if "z" not in sol or not np.all(np.isfinite(sol["z"])) or not np.all(np.isfinite(sol["g"])):
-            return False, False
+            return False, False, f"{status}: non-finite iterate"
         stats = sol["stats"]
         if _succeeded(stats):
-            return True, True
-        if str(stats.get("return_status", "")) not in _ITERATION_LIMIT:
-            return False, False
+            return True, True, ""
+        if status not in _ITERATION_LIMIT:
+            return False, False, status
         z, g = sol["z"], sol["g"]
         excess = np.maximum(np.maximum(lbg - g, g - ubg), 0.0)
         bound = float(np.max(np.maximum(np.maximum(lbz - z, z - ubz), 0.0), initial=0.0))
@@ -817,7 +853,7 @@ class NmpcProblem:
         gap = max((float(np.max(excess[st.gap])) for st in self.stages if st.gap is not None),
                   default=0.0)
         ok = max(bound, slew) <= LINEAR_TOLERANCE and gap <= GAP_TOLERANCE
-        return ok, False
+        return ok, False, "" if ok else f"{status}: bounds {bound:.2g}, slew {slew:.2g}, gap {gap:.2g}"
 
     def solve(self, p, z0, lbz, ubz, lbg, ubg, lam_z0=None, lam_g0=None) -> dict:
         args = {"x0": z0, "p": p, "lbx": lbz, "ubx": ubz, "lbg": lbg, "ubg": ubg}
@@ -842,9 +878,10 @@ _SUCCESS_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
 _ITERATION_LIMIT = ("Maximum_Iterations_Exceeded", "SOLVER_RET_LIMITED")
 # An iteration-limited iterate is still used (real-time iteration) when it meets the
-# linear hard constraints (input bounds, slew rows) to LINEAR_TOLERANCE and the dynamics
-# (gap rows) to GAP_TOLERANCE, both in the OCP's scaled units (S_x: 1 bar, 10 L/s, ...).
-LINEAR_TOLERANCE = 1.0e-6
+# linear hard constraints (input bounds, slew rows) to LINEAR_TOLERANCE (the QP's accuracy;
+# the command is then clipped exactly, Supervisor.limit) and the dynamics (gap rows) to
+# GAP_TOLERANCE, both in the OCP's scaled units (S_u: one slew step; S_x: 1 bar, 10 L/s, ...).
+LINEAR_TOLERANCE = 5.0e-2
 GAP_TOLERANCE = 5.0
 
 
@@ -905,6 +942,7 @@ class Supervisor:
         self._next_actuators: tuple | None = None   # (predicted actuator outputs, command)
         self._applied: np.ndarray | None = None      # u_{-1} of the previous step (u_{-2})
         self._speed = 0.0                            # block-reference speed of the last period
+        self.theta_clamps = 0                        # estimates whose theta had to be capped
 
     # -- helpers ------------------------------------------------------------------------
     def reset(self) -> None:
@@ -958,6 +996,44 @@ class Supervisor:
         dp_lo = max(y_sp[1] - dp_band, cfg.choke_dp_min_pa)
         dp_hi = max(y_sp[1] + dp_band, dp_lo)
         return vlim, (y_sp[2] - band, y_sp[2] + band), (dp_lo, dp_hi)
+
+    def _clamp_friction(self, x, par) -> str:
+        """Cap the friction parameters theta_i (in ``par``) where the annular flow mode
+        d(q_i)/dt = -(2 theta_i |v_e,i| / (A_i M_i)) q_i + ... becomes too stiff for the
+        prediction's RK4 step h (|lambda| h <= 2, inside RK4's stability region): an
+        estimate several times the circulating value would make the prediction diverge.
+        Returns a note when it acted."""
+        em, g = self.em, self.em.wm.geometry
+        h = self.problem.ts / self.problem.substeps
+        notes = []
+        for k, i in enumerate(range(2, em.n + 1)):
+            v_e = abs(x[em.flow(i)] / g.main_flow_area_m2[k] - g.main_clinging[k] * x[1])
+            limit = THETA_STIFFNESS_LIMIT / h * g.main_flow_area_m2[k] \
+                * g.annulus_inertance_kg_m4[k] / (2.0 * max(v_e, THETA_SPEED_FLOOR_MPS))
+            if par[k] > limit:
+                notes.append(f"theta_{i} {par[k]:.3g} -> {limit:.3g}")
+                par[k] = limit
+        if notes:
+            self.theta_clamps += 1
+            return "friction parameter capped for a stable prediction: " + ", ".join(notes)
+        return ""
+
+    def block_range(self, x, u_prev, target: float) -> tuple[float, float]:
+        """The trip plan is monotone: the block reference stays between the string's
+        position and the target (plus a small margin) -- the block is not a BHP actuator
+        beyond the trip plan (a wrong friction estimate otherwise makes the model see BHP
+        gains in overshooting or backing up). Where the acceleration limit cannot stop the
+        reference in time, the hardest braking step stays allowed (no infeasible bounds)."""
+        lo = min(float(x[0]), float(target)) - TRIP_RANGE_MARGIN_M
+        hi = max(float(x[0]), float(target)) + TRIP_RANGE_MARGIN_M
+        ts = self.problem.ts
+        if self.acceleration:
+            coast = float(u_prev[0]) + self._speed * ts
+            step = self.acceleration * ts ** 2
+            lo, hi = min(lo, coast + step), max(hi, coast - step)
+        else:
+            lo, hi = min(lo, float(u_prev[0])), max(hi, float(u_prev[0]))
+        return lo, hi
 
     def _initial_guess(self, x0, par, u_prev, pump_on=True):
         """Cold start: inputs held at u_{-1}, states simulated, slacks and multipliers zero."""
@@ -1018,37 +1094,46 @@ class Supervisor:
         known.update({k: v for k, v in (actuators or {}).items() if v is not None})
         self._next_actuators = None
         x0 = self.model.initial_state(x, u_prev, known, pump_on)
-        par = x[self.model.nd_model:]
+        par = x[self.model.nd_model:].copy()
+        clamped = self._clamp_friction(x, par)
         y_now = np.array([float(v) for v in outputs(em, x)])
         y_sp = self.setpoint_vector(x, setpoints)
         # reference trajectory (59), anchored at the estimated output
         y_ref = np.array([self.alpha ** j * y_now + (1.0 - self.alpha ** j) * y_sp
                           for j in range(pb.N + 1)])
-        if pb.ne:       # NMPC1: integrate the estimated tracking error (anti-windup clamp)
-            err = np.array([(y_now[i] - y_sp[i]) / pb.y_span[i] for i in _INTEGRAL_OUTPUTS])
+        vlim, bhp_band, dp_band = self.levels(setpoints, y_sp)
+        if pb.ne:
+            # NMPC1: integrate the estimated error *outside the band* (the part the model
+            # failed to prevent): riding the band edge on purpose does not wind it up, a
+            # persistent model bias does; clamped.
+            bands = {1: dp_band, 2: bhp_band}
+            err = np.array([(y_now[i] - min(max(y_now[i], bands[i][0]), bands[i][1]))
+                            / pb.y_span[i] for i in _INTEGRAL_OUTPUTS])
             self.integral = np.clip(self.integral + pb.ts * err, -self.cfg.integral_limit_s,
                                     self.cfg.integral_limit_s)
         u_ref = np.array([y_sp[0], u_prev[1], 0.0, self.spp_nominal])
         p = pb.parameters(x0, par, u_prev, self.integral, y_ref[1:], y_sp, u_ref, pump_on,
                           self._speed)
-        vlim, bhp_band, dp_band = self.levels(setpoints, y_sp)
         circulating = pump_on
 
         last = None
+        reasons: list[str] = []
         for relaxed in (False, True):
             if relaxed or self._warm is None:
                 z0, lam_z0, lam_g0 = self._initial_guess(x0, par, u_prev, pump_on)
             else:
                 z0, lam_z0, lam_g0 = self._shifted_guess(x0, par, u_prev)
-            lbz, ubz, lbg, ubg = pb.bounds(u_prev, vlim, bhp_band, dp_band, circulating, relaxed)
+            lbz, ubz, lbg, ubg = pb.bounds(u_prev, vlim, bhp_band, dp_band, circulating, relaxed,
+                                           self.block_range(x, u_prev, y_sp[0]))
             try:
                 sol = pb.solve(p, z0, lbz, ubz, lbg, ubg, lam_z0, lam_g0)
             except RuntimeError as err:       # evaluation error inside the solver
                 sol = {"stats": {"success": False, "return_status": f"error: {err}"[:120],
                                  "iter_count": -1}}
             last = sol
-            usable, converged = pb.assess(sol, lbz, ubz, lbg, ubg)
+            usable, converged, why = pb.assess(sol, lbz, ubz, lbg, ubg)
             if not usable:
+                reasons.append(why)
                 continue
             X, U, E, slacks = pb.unpack(sol["z"], x0, u_prev, self.integral)
             if not (np.all(np.isfinite(U)) and np.all(np.isfinite(X))):
@@ -1063,10 +1148,15 @@ class Supervisor:
             if self.model.nd > self.model.nd_model:     # actuators one sample ahead under u
                 xa = np.asarray(pb.F(x0, u, par, 1.0 if pump_on else 0.0), dtype=float).ravel()
                 self._next_actuators = (self.model.actuator_state(xa), u.copy())
-            return self._result(u, "relaxed" if relaxed else "none", sol, t0, par, X, U, slacks,
-                                y_ref, converged)
+            result = self._result(u, "relaxed" if relaxed else "none", sol, t0, par, X, U, slacks,
+                                  y_ref, converged)
+            if clamped:
+                result.status = f"{result.status}; {clamped}"
+            if relaxed:
+                result.status = f"{result.status}; first attempt: {reasons[0]}"
+            return result
         self._warm = None
-        return self._hold(u_prev, str(last["stats"].get("return_status", "failed")), t0,
+        return self._hold(u_prev, "; ".join(reasons) or "failed", t0,
                           iterations=int(last["stats"].get("iter_count", -1)))
 
     def hold(self, u_prev, status: str) -> SolveResult:

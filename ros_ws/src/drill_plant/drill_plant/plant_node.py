@@ -28,7 +28,7 @@ from drill_core.ros.status import StatusReporter
 from drill_plant.plant_model import PlantLayout, steady_state
 from drill_plant.simulator import PlantDiverged, PlantSimulator
 
-SETTLE_S = 0.5
+SETTLE_S = 2.0          # discovery precedes endpoint matching: let reliable matches complete
 
 
 class PlantNode(Node):
@@ -39,6 +39,7 @@ class PlantNode(Node):
         self.exit_code = 0
         seed = self.declare_parameter("seed", ctx.scenario.seed).value
         self.wait_for = self.declare_parameter("wait_for", [""]).value
+        self.stall_timeout_s = self.declare_parameter("stall_timeout_s", 60.0).value
         ini = ctx.scenario.initial
         initial = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
         self.sim = PlantSimulator(ctx.config, initial, seed)
@@ -85,7 +86,24 @@ class PlantNode(Node):
         if now - self._ready_since >= SETTLE_S:
             self._start_timer.cancel()
             self.get_logger().info("graph connected; starting lockstep")
+            self._progress = (self.k, now)
+            self.create_timer(1.0, self._check_stall)
             self._publish_sample()
+
+    def _check_stall(self) -> None:
+        """Fail loudly if the lockstep stops advancing (a lost or missing input)."""
+        now = time.monotonic()
+        if self.k != self._progress[0]:
+            self._progress = (self.k, now)
+        elif now - self._progress[1] > self.stall_timeout_s:
+            stamp = self.k * self.frame_ns
+            missing = [n for n in topics.ACTUATORS if not self.frames.has(n, stamp)]
+            self.status.error(f"lockstep stalled at t = {stamp * 1e-9:.1f} s for "
+                              f"{self.stall_timeout_s:.0f} s; no frame from {', '.join(missing)}",
+                              fatal=True)
+            self.get_logger().error(self.status.last_error)
+            self.exit_code = 3
+            rclpy.try_shutdown()
 
     def _on_frame(self, name: str, msg: ActuatorFrame) -> None:
         self.frames.put(name, msg)
