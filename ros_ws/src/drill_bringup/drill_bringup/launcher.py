@@ -31,19 +31,6 @@ class NodeSpec:
     params: dict = field(default_factory=dict)
 
 
-@dataclass
-class LaunchResult:
-    ok: bool
-    message: str
-    mcap_path: Path
-    wall_time_s: float
-    exit_codes: dict
-
-
-class LaunchError(RuntimeError):
-    """A node failed; the message names it and shows its last log lines."""
-
-
 def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -> list[NodeSpec]:
     """The node set of a run, recorder first and plant last."""
     nodes = [NodeSpec("recorder", "drill_bringup.recorder", {"output": str(mcap_path)})]
