@@ -74,6 +74,8 @@ def test_publisher_qos_follows_recorded_offers():
     assert best_effort.history == HistoryPolicy.KEEP_LAST
     mixed = replay.publisher_qos([LATCHED, QosOffer()])
     assert mixed.durability == DurabilityPolicy.VOLATILE
+    reliable = replay.publisher_qos([QosOffer(reliability=mcap_io.RELIABLE)])
+    assert reliable.history == HistoryPolicy.KEEP_ALL
 
 
 # ---------------------------------------------------------------- DDS
