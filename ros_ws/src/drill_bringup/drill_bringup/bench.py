@@ -66,11 +66,11 @@ def plant_actuators_rtf(domain_id: int) -> dict:
                  for n in launcher.ACTUATOR_NODES]
         wait = [f"sub@/actuators/{n}/frame:1" for n in launcher.ACTUATOR_NODES] \
             + [f"pub@/actuators/{n}/frame:1" for n in launcher.ACTUATOR_NODES] \
-            + ["sub@/rig/measurement:4", "sub@/clock:4"]
+            + ["sub@/rig/measurement:4"]
         nodes.append(launcher.NodeSpec("plant", "drill_plant.plant_node", {"wait_for": wait}))
         for node in nodes:
             node.params.update(common)
-            node.params["use_sim_time"] = node.name != "plant"
+            node.params["use_sim_time"] = launcher.uses_sim_time(node.name, fast=True)
         launch = launcher.Launch(nodes, Path(tmp), domain_id)
         start = time.monotonic()
         launch.start()

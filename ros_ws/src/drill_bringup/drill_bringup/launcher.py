@@ -22,6 +22,15 @@ from drill_core.ros import topics
 
 ACTUATOR_NODES = topics.ACTUATORS
 LOG_TAIL_LINES = 15
+# In fast mode these nodes act on the stamps of their inputs and never read the clock,
+# so they do not subscribe to /clock (each subscription costs a callback per frame).
+STAMP_DRIVEN = (*ACTUATOR_NODES, "estimator")
+
+
+def uses_sim_time(name: str, fast: bool) -> bool:
+    """Whether node ``name`` runs on /clock: in fast mode, every node that reads its clock
+    (the plant publishes /clock and runs on wall time)."""
+    return fast and name != "plant" and name not in STAMP_DRIVEN
 
 
 @dataclass
@@ -44,13 +53,13 @@ def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -
     controller = scenario_controller in ("nmpc", "baseline")
     if controller:
         nodes.append(NodeSpec("protection", "drill_protection.protection_node"))
-    sim_nodes = len(nodes)
+    clock_readers = sum(uses_sim_time(n.name, fast) for n in nodes)
     measurement_readers = len(ACTUATOR_NODES) + 2 + controller + (scenario_controller == "baseline")
     wait_for = [
         f"sub@{topics.MEASUREMENT}:{measurement_readers}",
         f"sub@{topics.TRUTH}:1",
         f"sub@{topics.ESTIMATE}:{1 + (scenario_controller == 'nmpc')}",
-        f"sub@/clock:{sim_nodes}" if fast else "",
+        f"sub@/clock:{clock_readers}" if fast else "",
     ]
     if controller:
         wait_for += [f"sub@{topics.COMMAND}:2", f"pub@{topics.COMMAND}:1",
@@ -64,7 +73,7 @@ def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -
     nodes.append(NodeSpec("plant", "drill_plant.plant_node", {"wait_for": [w for w in wait_for if w]}))
     for node in nodes:
         node.params.update(common)
-        node.params["use_sim_time"] = fast and node.name != "plant"
+        node.params["use_sim_time"] = uses_sim_time(node.name, fast)
     return nodes
 
 

@@ -203,6 +203,10 @@ class Estimator:
     motion_reference_speed_mps: float = param("m/s", 0.0, 10.0, lo_open=True, default=0.1)
     block_input: str = param(choices=("reference", "block_position"), default="reference",
                              doc="time-update input u[0]: drawworks reference u_r or its output u_b")
+    model_steps_per_frame: int = param(
+        "1", 1, 100, default=2,
+        doc="RK4 steps of the time update per sensor frame; the actuators' per-plant-step "
+            "outputs are averaged over each")
     max_friction_parameter: float = param(
         "Pa s^2/m^2", 0.0, lo_open=True, default=1.0e9,
         doc="upper projection bound of theta (a quadratic law cannot hold a gelled, static "

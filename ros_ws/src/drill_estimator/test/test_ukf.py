@@ -217,7 +217,7 @@ def test_nan_measurement_rejected_and_counted(cfg, plant):
     # a rejected sample leaves the prediction untouched
     ukf = run.ukf
     ss = steady_state(ukf.em.wm, CIRCULATION, 2.0e6, 0.0)
-    ukf.predict([ss.inputs[0], ss.choke_flow_m3s, 0.0, ss.inputs[3]])
+    ukf.predict_frame(_held([ss.inputs[0], ss.choke_flow_m3s, 0.0, ss.inputs[3]], cfg))
     before, var_before = ukf.mean.copy(), ukf.covariance_diagonal.copy()
     result = ukf.update([0.0, np.inf, 6.8e7, CIRCULATION], True)
     assert not result.accepted and ukf.rejected == 4
@@ -226,6 +226,11 @@ def test_nan_measurement_rejected_and_counted(cfg, plant):
     # a missing string flow is fine while not circulating, and a dict works too
     result = ukf.update({"block_position_m": 0.0, "choke_dp_pa": 2e6, "bhp_pa": ukf.bhp_pa}, False)
     assert result.accepted and result.nis_dof == 3 and not result.string_flow_observable
+
+
+def _held(u, cfg):
+    """Inputs [4 x steps_per_frame] holding ``u`` over one sensor frame."""
+    return np.repeat(np.asarray(u, dtype=float)[:, None], cfg.plant.steps_per_frame, axis=1)
 
 
 def _started(cfg, **changes):
@@ -242,12 +247,12 @@ def _started(cfg, **changes):
 def test_covariance_guards_repair_and_reset(cfg):
     ukf, ss, y = _started(cfg)
     u = [ss.inputs[0], ss.choke_flow_m3s, 0.0, ss.inputs[3]]
-    ukf.predict(u)
+    ukf.predict_frame(_held(u, cfg))
     # an indefinite covariance is repaired (jitter / eigenvalue clipping), not a crash
     P = ukf._ukf.P.copy()
     P[3, 3] = -abs(P[3, 3])
     ukf._ukf.P = P
-    ukf.predict(u)
+    ukf.predict_frame(_held(u, cfg))
     assert ukf.repairs >= 1 and np.all(np.isfinite(ukf.mean))
     assert np.all(np.linalg.eigvalsh(0.5 * (ukf._ukf.P + ukf._ukf.P.T)) > -1e-9)
     # a non-finite covariance is reset to the initial one and counted
@@ -263,8 +268,7 @@ def test_nis_alarm_inflates_covariance(cfg):
     rng = np.random.default_rng(0)
     results = []
     for _ in range(30):      # a BHP sensor 5x noisier than the filter assumes
-        for _ in range(10):
-            ukf.predict(u)
+        ukf.predict_frame(_held(u, cfg))
         results.append(ukf.update(np.array(y) + [0.0, 0.0, 5.0e5 * rng.normal(), 0.0], True))
     assert ukf.inflations >= 1
     assert any(r.nis_alarm for r in results)
@@ -277,8 +281,7 @@ def test_bottom_influx_state(cfg):
     assert ukf.state_names[-1] == "bottom_influx_m3s"
     u = [ss.inputs[0], ss.choke_flow_m3s, 0.0, ss.inputs[3]]
     for _ in range(5):
-        for _ in range(10):
-            ukf.predict(u)
+        ukf.predict_frame(_held(u, cfg))
         ukf.update(y, True)
     assert np.isfinite(ukf.bottom_influx_m3s) and abs(ukf.bottom_influx_m3s) < 1e-3
     assert ukf.covariance_diagonal.shape == (16,)
@@ -290,8 +293,7 @@ def test_reference_block_input_runs(cfg):
     assert ukf.block_input == "reference"
     u = [0.0, ss.choke_flow_m3s, 0.0, ss.inputs[3]]
     for _ in range(5):
-        for _ in range(10):
-            ukf.predict(u)
+        ukf.predict_frame(_held(u, cfg))
         result = ukf.update(y, True)
     assert result.accepted and np.all(np.isfinite(ukf.mean))
     assert abs(ukf.mean[0]) < 0.01 and abs(ukf.bhp_pa - y[2]) < 1e5
