@@ -50,11 +50,14 @@ def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -
         nodes.append(NodeSpec("nmpc", "drill_nmpc.nmpc_node"))
     elif scenario_controller == "baseline":
         nodes.append(NodeSpec("baseline", "drill_nmpc.baseline_node"))
-    controller = scenario_controller in ("nmpc", "baseline")
+    elif scenario_controller == "open_loop":
+        nodes.append(NodeSpec("sequencer", "drill_nmpc.sequencer_node"))
+    controller = scenario_controller in ("nmpc", "baseline", "open_loop")
     if controller:
         nodes.append(NodeSpec("protection", "drill_protection.protection_node"))
     clock_readers = sum(uses_sim_time(n.name, fast) for n in nodes)
-    measurement_readers = len(ACTUATOR_NODES) + 2 + controller + (scenario_controller == "baseline")
+    advisor_reads_measurement = scenario_controller in ("baseline", "open_loop")
+    measurement_readers = len(ACTUATOR_NODES) + 2 + controller + advisor_reads_measurement
     wait_for = [
         f"sub@{topics.MEASUREMENT}:{measurement_readers}",
         f"sub@{topics.TRUTH}:1",

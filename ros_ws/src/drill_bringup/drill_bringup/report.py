@@ -1,6 +1,8 @@
 """Run report from a recording: the paper's Table 7 figures, BHP-window violations,
-peak surge/swab, solve-time statistics and PNG plots (bar and L/min on the plots
-and in the printed table only; summary.json stays SI)."""
+peak surge/swab, estimator errors against the truth (the estimation study's result,
+paper sec. 4.3), solve-time statistics and PNG plots (bar and L/min on the plots and in
+the printed table only; summary.json stays SI). An open-loop run (the sequencer's
+commands, no setpoints) has no tracking figures: they are reported as n/a."""
 from __future__ import annotations
 
 import json
@@ -15,6 +17,8 @@ from drill_core.ros import topics
 
 PA_PER_BAR = 1e5
 LPM_PER_M3S = 60000.0
+FINAL_WINDOW_S = 30.0           # the estimator's final bias: mean error over the run's last 30 s
+OPEN_LOOP_ADVISOR = "sequencer"
 
 
 @dataclass
@@ -22,6 +26,7 @@ class Series:
     """Time series pulled from one recording (SI)."""
     t: dict = field(default_factory=dict)
     v: dict = field(default_factory=dict)
+    advisor: str = ""       # source of the advisor commands (nmpc, baseline, sequencer)
 
     def add(self, key: str, t_s: float, value) -> None:
         self.t.setdefault(key, []).append(t_s)
@@ -38,7 +43,7 @@ def _stamp_s(msg) -> float:
 def load_series(mcap_path: Path) -> Series:
     s = Series()
     wanted = [topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.NMPC_STATUS,
-              topics.MACHINE_COMMAND, topics.SETPOINTS]
+              topics.COMMAND, topics.MACHINE_COMMAND, topics.SETPOINTS]
     for rec, msg in mcap_io.decoded_messages(mcap_path, wanted):
         t = _stamp_s(msg)
         if rec.topic == topics.TRUTH:
@@ -58,13 +63,17 @@ def load_series(mcap_path: Path) -> Series:
             s.add("bhp_est", t, msg.bhp_pa)
             s.add("friction_est", t, list(msg.friction_pa))
             s.add("nis", t, msg.nis)
+            s.add("string_flow_observable", t, float(msg.string_flow_observable))
         elif rec.topic == topics.NMPC_STATUS:
             s.add("solve_time", t, msg.solve_time_s)
             s.add("fallback", t, 0.0 if msg.fallback == "none" else 1.0)
             s.add("bhp_ref_smoothed", t, msg.bhp_ref_pa)
+        elif rec.topic == topics.COMMAND:
+            s.advisor = msg.source
         elif rec.topic == topics.MACHINE_COMMAND:
-            s.add("cmd", t, [msg.block_position_ref_m, msg.choke_flow_ref_m3s, msg.bpp_flow_m3s,
-                             msg.spp_pa])
+            manual = getattr(msg, "choke_manual", False)     # absent in older recordings
+            s.add("cmd", t, [msg.block_position_ref_m, math.nan if manual else msg.choke_flow_ref_m3s,
+                             msg.bpp_flow_m3s, msg.spp_pa, msg.choke_opening_ref if manual else math.nan])
         elif rec.topic == topics.SETPOINTS:
             s.add("setpoints", t, [msg.bhp_ref_pa, msg.bhp_band_pa, msg.block_position_target_m])
     return s
@@ -88,20 +97,20 @@ def references(s: Series, t):
     return held[:, 0], held[:, 1], held[:, 2]
 
 
-def summarise(s: Series) -> dict:
-    """The run's numbers (SI) in the paper's Table 7 form plus window and timing statistics."""
-    t, bhp = s.get("bhp")
-    _, pos = s.get("position")
+def tracks_setpoints(s: Series) -> bool:
+    """False for an open-loop run: its commands follow a schedule and no setpoint is tracked."""
+    return s.advisor != OPEN_LOOP_ADVISOR
+
+
+def _tracking(s: Series, t, bhp, pos) -> dict:
+    """Table 7 errors and control-band violations against the setpoints in force."""
     ref, band, target = references(s, t)
     e_bhp = bhp - ref
     e_pos = pos - target
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     outside = np.abs(e_bhp) > band
     excursion = np.where(outside, np.abs(e_bhp) - band, 0.0)
-    _, solve = s.get("solve_time")
-    _, fallback = s.get("fallback")
-    out = {
-        "duration_s": float(t[-1] - t[0]) if len(t) else 0.0,
+    return {
         "block_position_mean_error_m": float(np.mean(e_pos)),
         "block_position_rmse_m": float(np.sqrt(np.mean(e_pos ** 2))),
         "bhp_mean_error_pa": float(np.mean(e_bhp)),
@@ -110,15 +119,51 @@ def summarise(s: Series) -> dict:
                                      + int(outside[0])) if len(outside) else 0,
         "bhp_worst_excursion_pa": float(np.max(excursion)) if len(excursion) else 0.0,
         "bhp_time_outside_s": float(np.count_nonzero(outside) * dt),
+    }
+
+
+def _estimation(s: Series, t, bhp) -> dict:
+    """Estimate minus truth: BHP and per-path annular friction as mean, RMSE and final bias
+    (mean over the last FINAL_WINDOW_S; the paper's estimation study, sec. 4.3, reports the
+    BHP estimate converging with a constant bias)."""
+    t_est, bhp_est = s.get("bhp_est")
+    if not len(t_est):
+        return {}
+    final = t_est >= t_est[-1] - FINAL_WINDOW_S
+    err = bhp_est - np.interp(t_est, t, bhp)
+    out = {"bhp_estimate_mean_error_pa": float(np.mean(err)),
+           "bhp_estimate_rmse_pa": float(np.sqrt(np.mean(err ** 2))),
+           "bhp_estimate_final_bias_pa": float(np.mean(err[final]))}
+    _, fr = s.get("friction")
+    _, fe = s.get("friction_est")
+    if fr.ndim == 2 and fe.ndim == 2 and fe.shape == (len(t_est), fr.shape[1]):
+        f_err = fe - np.column_stack([np.interp(t_est, t, fr[:, i]) for i in range(fr.shape[1])])
+        out["friction_estimate_mean_error_pa"] = [float(v) for v in np.mean(f_err, axis=0)]
+        out["friction_estimate_rmse_pa"] = [float(v) for v in np.sqrt(np.mean(f_err ** 2, axis=0))]
+        out["friction_estimate_final_bias_pa"] = [float(v) for v in np.mean(f_err[final], axis=0)]
+    _, observable = s.get("string_flow_observable")
+    period = float(np.median(np.diff(t_est))) if len(t_est) > 1 else 0.0
+    out["string_flow_unobservable_s"] = float(np.count_nonzero(observable == 0.0) * period)
+    return out
+
+
+def summarise(s: Series) -> dict:
+    """The run's numbers (SI): the paper's Table 7 form and window statistics (runs that
+    track setpoints), surge/swab, estimator errors and solve times."""
+    t, bhp = s.get("bhp")
+    _, pos = s.get("position")
+    _, solve = s.get("solve_time")
+    _, fallback = s.get("fallback")
+    out = {
+        "duration_s": float(t[-1] - t[0]) if len(t) else 0.0,
         "peak_surge_pa": float(np.max(bhp - bhp[0])),
         "peak_swab_pa": float(np.min(bhp - bhp[0])),
         "max_string_speed_mps": float(np.max(np.abs(s.get("velocity")[1]))) if len(t) else 0.0,
         "trip_distance_m": float(np.max(pos) - np.min(pos)) if len(pos) else 0.0,
     }
-    t_est, bhp_est = s.get("bhp_est")
-    if len(t_est):
-        truth_at = np.interp(t_est, t, bhp)
-        out["bhp_estimate_rmse_pa"] = float(np.sqrt(np.mean((bhp_est - truth_at) ** 2)))
+    if tracks_setpoints(s):
+        out.update(_tracking(s, t, bhp, pos))
+    out.update(_estimation(s, t, bhp))
     if len(solve):
         out.update({
             "solve_time_median_s": float(np.median(solve)),
@@ -137,19 +182,37 @@ def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
         f"  duration                      {summary['duration_s']:.0f} s",
         f"  trip distance                 {summary['trip_distance_m']:.1f} m "
         f"(max string speed {summary['max_string_speed_mps']:.2f} m/s)",
-        "  Table 7 form                  mean error      RMSE",
-        f"    block position [m]         {summary['block_position_mean_error_m']:10.3f}  "
-        f"{summary['block_position_rmse_m']:9.3f}",
-        f"    BHP [bar]                  {summary['bhp_mean_error_pa'] / PA_PER_BAR:10.3f}  "
-        f"{summary['bhp_rmse_pa'] / PA_PER_BAR:9.3f}",
-        f"  BHP window violations         {summary['bhp_window_violations']} "
-        f"(worst {summary['bhp_worst_excursion_pa'] / PA_PER_BAR:.2f} bar outside, "
-        f"{summary['bhp_time_outside_s']:.1f} s outside)",
-        f"  peak surge / swab             {summary['peak_surge_pa'] / PA_PER_BAR:+.2f} / "
-        f"{summary['peak_swab_pa'] / PA_PER_BAR:+.2f} bar",
     ]
+    if "bhp_rmse_pa" in summary:
+        rows += [
+            "  Table 7 form                  mean error      RMSE",
+            f"    block position [m]         {summary['block_position_mean_error_m']:10.3f}  "
+            f"{summary['block_position_rmse_m']:9.3f}",
+            f"    BHP [bar]                  {summary['bhp_mean_error_pa'] / PA_PER_BAR:10.3f}  "
+            f"{summary['bhp_rmse_pa'] / PA_PER_BAR:9.3f}",
+            f"  BHP window violations         {summary['bhp_window_violations']} "
+            f"(worst {summary['bhp_worst_excursion_pa'] / PA_PER_BAR:.2f} bar outside, "
+            f"{summary['bhp_time_outside_s']:.1f} s outside)",
+        ]
+    else:
+        rows.append("  Table 7 form, BHP window      n/a (open loop: no setpoints to track)")
+    rows.append(f"  peak surge / swab             {summary['peak_surge_pa'] / PA_PER_BAR:+.2f} / "
+                f"{summary['peak_swab_pa'] / PA_PER_BAR:+.2f} bar")
     if "bhp_estimate_rmse_pa" in summary:
-        rows.append(f"  BHP estimate RMSE             {summary['bhp_estimate_rmse_pa'] / PA_PER_BAR:.3f} bar")
+        rows += [
+            f"  estimate - truth              mean error      RMSE  final bias (last {FINAL_WINDOW_S:.0f} s)",
+            f"    BHP [bar]                  {summary['bhp_estimate_mean_error_pa'] / PA_PER_BAR:10.3f}  "
+            f"{summary['bhp_estimate_rmse_pa'] / PA_PER_BAR:9.3f}  "
+            f"{summary['bhp_estimate_final_bias_pa'] / PA_PER_BAR:10.3f}",
+        ]
+        for i, (mean, rmse, bias) in enumerate(zip(summary.get("friction_estimate_mean_error_pa", []),
+                                                    summary.get("friction_estimate_rmse_pa", []),
+                                                    summary.get("friction_estimate_final_bias_pa", []))):
+            rows.append(f"    friction path {i + 2} [bar]     {mean / PA_PER_BAR:10.3f}  "
+                        f"{rmse / PA_PER_BAR:9.3f}  {bias / PA_PER_BAR:10.3f}")
+        if summary["string_flow_unobservable_s"] > 0.0:
+            rows.append(f"  string flow unobservable      {summary['string_flow_unobservable_s']:.1f} s "
+                        "(circulation off)")
     if "solves" in summary:
         rows.append(f"  NMPC solve time               median {summary['solve_time_median_s'] * 1e3:.1f} ms, "
                     f"p95 {summary['solve_time_p95_s'] * 1e3:.1f} ms, max {summary['solve_time_max_s'] * 1e3:.1f} ms "
@@ -169,6 +232,7 @@ def plot(s: Series, out_dir: Path) -> list[Path]:
 
     out_dir.mkdir(parents=True, exist_ok=True)
     t, bhp = s.get("bhp")
+    tracking = tracks_setpoints(s)
     ref, band, target = references(s, t)
     paths = []
 
@@ -186,9 +250,10 @@ def plot(s: Series, out_dir: Path) -> list[Path]:
     te, est = s.get("bhp_est")
     if len(te):
         ax.plot(te, est / PA_PER_BAR, lw=1, label="estimated")
-    ax.plot(t, ref / PA_PER_BAR, "k--", lw=1, label="reference")
-    ax.fill_between(t, (ref - band) / PA_PER_BAR, (ref + band) / PA_PER_BAR, color="tab:green",
-                    alpha=0.15, label="window")
+    if tracking:
+        ax.plot(t, ref / PA_PER_BAR, "k--", lw=1, label="reference")
+        ax.fill_between(t, (ref - band) / PA_PER_BAR, (ref + band) / PA_PER_BAR, color="tab:green",
+                        alpha=0.15, label="window")
     ax.set(xlabel="time [s]", ylabel="BHP [bar]", title="Bottom-hole pressure")
     ax.legend(loc="best", fontsize=8)
     save(fig, "bhp.png")
@@ -204,7 +269,8 @@ def plot(s: Series, out_dir: Path) -> list[Path]:
     _, blk = s.get("block")
     a1.plot(t, pos, label="string position")
     a1.plot(t, blk, lw=0.8, label="block (drawworks)")
-    a1.plot(t, target, "k--", lw=0.8, label="target")
+    if tracking:
+        a1.plot(t, target, "k--", lw=0.8, label="target")
     a1.set(ylabel="position [m]")
     a1.legend(fontsize=8)
     _, vel = s.get("velocity")
@@ -214,26 +280,30 @@ def plot(s: Series, out_dir: Path) -> list[Path]:
     a2.set(xlabel="time [s]", ylabel="string velocity [m/s]")
     save(fig, "block.png")
 
-    fig, axes = plt.subplots(4, 1, figsize=(10, 8), sharex=True)
+    fig, axes = plt.subplots(5, 1, figsize=(10, 9.5), sharex=True)
     tc, cmd = s.get("cmd")
     _, qc = s.get("choke_flow")
+    _, opening = s.get("choke_opening")
     _, bpp = s.get("bpp")
     _, spp = s.get("spp")
     has_cmd = cmd.ndim == 2 and len(cmd)
     axes[0].plot(t, pos, label="string position")
     axes[1].plot(t, qc * LPM_PER_M3S, label="choke flow")
-    axes[2].plot(t, bpp * LPM_PER_M3S, label="back-pressure pump")
-    axes[3].plot(t, spp / PA_PER_BAR, label="stand-pipe pressure")
+    axes[2].plot(t, opening, label="choke opening")
+    axes[3].plot(t, bpp * LPM_PER_M3S, label="back-pressure pump")
+    axes[4].plot(t, spp / PA_PER_BAR, label="stand-pipe pressure")
     if has_cmd:
         axes[0].step(tc, cmd[:, 0], where="post", label="u_r command")
-        axes[1].step(tc, cmd[:, 1] * LPM_PER_M3S, where="post", label="reference")
-        axes[2].step(tc, cmd[:, 2] * LPM_PER_M3S, where="post", label="command")
-        axes[3].step(tc, cmd[:, 3] / PA_PER_BAR, where="post", label="command")
-    for ax, unit in zip(axes, ["m", "L/min", "L/min", "bar"]):
+        axes[1].step(tc, cmd[:, 1] * LPM_PER_M3S, where="post", label="PI flow reference")
+        axes[2].step(tc, cmd[:, 4], where="post", label="manual opening command")
+        axes[3].step(tc, cmd[:, 2] * LPM_PER_M3S, where="post", label="command")
+        axes[4].step(tc, cmd[:, 3] / PA_PER_BAR, where="post", label="command")
+    for ax, unit in zip(axes, ["m", "L/min", "1", "L/min", "bar"]):
         ax.set_ylabel(unit)
         ax.legend(fontsize=7, loc="best")
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle("Inputs: block reference, choke flow, back-pressure pump, stand-pipe pressure")
+    fig.suptitle("Inputs: block reference, choke flow and opening, back-pressure pump, "
+                 "stand-pipe pressure")
     save(fig, "inputs.png")
 
     fig, ax = plt.subplots(figsize=(10, 4))

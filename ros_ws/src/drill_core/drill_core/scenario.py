@@ -1,5 +1,6 @@
 """Scenario files (config/scenarios/*.yaml): initial operating point, controller,
-configuration overrides and a timed setpoint schedule (DESIGN section 8).
+configuration overrides and a timed schedule of setpoints, or of commands for the
+``open_loop`` controller (drill_core.open_loop) (DESIGN section 8).
 
 A schedule entry changes only the fields it names; the rest carry over. Times are
 simulated seconds from the start of the run.
@@ -12,7 +13,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from drill_core.config import ConfigError, RigConfig, load_rig, load_yaml
-from drill_core.schema import build, param
+from drill_core.open_loop import OpenLoopPlan, start_command
+from drill_core.schema import FieldError, build, param
 
 _NAN = float("nan")
 
@@ -27,7 +29,8 @@ class Initial:
 
 @dataclass(frozen=True)
 class SetpointChange:
-    """Setpoints changed at ``time_s``; NaN/absent fields keep their previous value."""
+    """Setpoints (closed loop) or open-loop commands (controller ``open_loop``,
+    drill_core.open_loop) changed at ``time_s``; absent fields keep their previous value."""
     time_s: float = param("s", 0.0, 1.0e6)
     bhp_ref_pa: float = param("Pa", 0.0, 5.0e8, default=_NAN)
     bhp_band_pa: float = param("Pa", 0.0, 1.0e7, lo_open=True, default=_NAN)
@@ -35,8 +38,32 @@ class SetpointChange:
     choke_dp_band_pa: float = param("Pa", 0.0, 1.0e7, lo_open=True, default=_NAN)
     block_position_target_m: float = param("m", -100.0, 100.0, default=_NAN)
     trip_speed_limit_mps: float = param("m/s", 0.0, 5.0, lo_open=True, default=_NAN)
-    controller_enabled: bool = param(default=True)
-    mud_pump_on: bool = param(default=True)
+    controller_enabled: bool | None = param(default=None)
+    mud_pump_on: bool | None = param(default=None)
+    block_speed_mps: float = param("m/s", 0.0, 5.0, lo_open=True, default=_NAN,
+                                   doc="open loop: cruise speed of the block reference")
+    block_acceleration_mps2: float = param("m/s^2", 0.0, 5.0, lo_open=True, default=_NAN,
+                                           doc="open loop: acceleration of the block reference")
+    bpp_flow_m3s: float = param("m^3/s", 0.0, 0.1, default=_NAN,
+                                doc="open loop: back-pressure pump flow")
+    bpp_ramp_s: float = param("s", 0.0, 1.0e4, default=_NAN,
+                              doc="open loop: ramp time to this entry's bpp_flow_m3s (absent: a step)")
+    choke_opening: float = param("1", 0.0, 1.0, default=_NAN,
+                                 doc="open loop: manual choke opening (choke panel in manual)")
+    choke_flow_ref_m3s: float = param("m^3/s", 0.0, 0.1, default=_NAN,
+                                      doc="open loop: choke PI flow reference (back to automatic)")
+
+    def changes(self, names) -> dict:
+        """The fields among ``names`` that this entry sets (not absent, not NaN)."""
+        values = {name: getattr(self, name) for name in names}
+        return {k: v for k, v in values.items()
+                if v is not None and not (isinstance(v, float) and math.isnan(v))}
+
+
+CLOSED_LOOP_FIELDS = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
+                      "trip_speed_limit_mps", "controller_enabled")
+OPEN_LOOP_FIELDS = ("block_speed_mps", "block_acceleration_mps2", "bpp_flow_m3s", "bpp_ramp_s",
+                    "choke_opening", "choke_flow_ref_m3s")
 
 
 @dataclass(frozen=True)
@@ -57,6 +84,16 @@ class Scenario:
             raise ValueError("schedule entries must be in time order")
         if times[0] != 0.0:
             raise ValueError("the first schedule entry must be at time_s 0")
+        open_loop = self.controller == "open_loop"
+        unused = CLOSED_LOOP_FIELDS if open_loop else OPEN_LOOP_FIELDS
+        for i, change in enumerate(self.schedule):
+            named = list(change.changes(unused))
+            if named:
+                raise FieldError(f"schedule[{i}].{named[0]}", (
+                    "not used with controller open_loop (no supervisor tracks it)" if open_loop
+                    else f"only used with controller open_loop, not {self.controller}"))
+        if open_loop:
+            OpenLoopPlan(self.schedule, start_command(self.initial))
 
 
 @dataclass(frozen=True)
@@ -75,13 +112,11 @@ class ActiveSetpoints:
 def setpoints_at(scenario: Scenario, time_s: float, start: ActiveSetpoints) -> ActiveSetpoints:
     """Setpoints in force at ``time_s``: ``start`` with every due schedule entry applied."""
     current = start
+    names = [f.name for f in dataclasses.fields(ActiveSetpoints)]
     for change in scenario.schedule:
         if change.time_s > time_s + 1e-9:
             break
-        updates = {f.name: getattr(change, f.name) for f in dataclasses.fields(ActiveSetpoints)}
-        updates = {k: v for k, v in updates.items()
-                   if not (isinstance(v, float) and math.isnan(v))}
-        current = dataclasses.replace(current, **updates)
+        current = dataclasses.replace(current, **change.changes(names))
     return current
 
 

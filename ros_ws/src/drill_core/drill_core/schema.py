@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import types
 import typing
 from typing import Any, Mapping
 
@@ -46,8 +47,20 @@ def _range_text(meta: Mapping[str, Any]) -> str:
     return f"{left}{lo_s}, {hi_s}]{unit}"
 
 
+def _optional_inner(hint: Any) -> Any:
+    """``X`` for a hint ``X | None`` (a field that may be left unset), else None."""
+    if typing.get_origin(hint) in (typing.Union, types.UnionType):
+        inner = [a for a in typing.get_args(hint) if a is not type(None)]
+        if len(inner) == 1:
+            return inner[0]
+    return None
+
+
 def _allowed_text(hint: Any, meta: Mapping[str, Any]) -> str:
     """What a field accepts, for error messages."""
+    inner = _optional_inner(hint)
+    if inner is not None:
+        return f"{_allowed_text(inner, meta)} (or null: unset)"
     if dataclasses.is_dataclass(hint):
         return f"a mapping with keys {', '.join(f.name for f in dataclasses.fields(hint) if f.init)}"
     if typing.get_origin(hint) is tuple:
@@ -100,6 +113,9 @@ def _check_number(value: Any, meta: Mapping[str, Any], where: _Where, integer: b
 
 
 def _convert(value: Any, hint: Any, meta: Mapping[str, Any], where: _Where) -> Any:
+    inner = _optional_inner(hint)
+    if inner is not None:
+        return None if value is None else _convert(value, inner, meta, where)
     origin = typing.get_origin(hint)
     if dataclasses.is_dataclass(hint):
         return build(hint, value, where.source, where.path)

@@ -116,7 +116,8 @@ class BaselineNode(Node):
                                   "choke reference held")
         cmd = RigCommand(block_position_ref_m=float(self.block_ref),
                          choke_flow_ref_m3s=float(self.choke_ref), bpp_flow_m3s=self.bpp_m3s,
-                         spp_pa=self.spp_pa, mud_pump_on=bool(sp.mud_pump_on), source="baseline")
+                         spp_pa=self.spp_pa, mud_pump_on=bool(sp.mud_pump_on), choke_manual=False,
+                         source="baseline")
         cmd.header.stamp = from_ns(stamp)
         self.pub.publish(cmd)
         self.status.mode = f"{self.ctx.mode}/{'baseline' if sp.controller_enabled else 'manual'}"

@@ -160,8 +160,7 @@ class NmpcNode(Node):
         while self.applied_entries < len(schedule) and schedule[self.applied_entries].time_s <= t + 1e-9:
             entry = schedule[self.applied_entries]
             self.applied_entries += 1
-            updates = {f.name: getattr(entry, f.name) for f in dataclasses.fields(ActiveSetpoints)}
-            updates = {k: v for k, v in updates.items() if not (isinstance(v, float) and math.isnan(v))}
+            updates = entry.changes([f.name for f in dataclasses.fields(ActiveSetpoints)])
             candidate = dataclasses.replace(self.active, **updates)
             if math.isfinite(candidate.bhp_ref_pa):
                 ok, reason = validate_setpoints(candidate, self.envelope)
@@ -324,7 +323,8 @@ class NmpcNode(Node):
         assert np.all(np.isfinite(u)), "refusing to publish a non-finite command"
         cmd = RigCommand(block_position_ref_m=float(u[0]), choke_flow_ref_m3s=float(u[1]),
                          bpp_flow_m3s=float(u[2]), spp_pa=float(u[3]),
-                         mud_pump_on=bool(self.active.mud_pump_on), source="nmpc")
+                         mud_pump_on=bool(self.active.mud_pump_on), choke_manual=False,
+                         source="nmpc")
         cmd.header.stamp = from_ns(stamp)
         self.cmd_pub.publish(cmd)
         self.commands += 1

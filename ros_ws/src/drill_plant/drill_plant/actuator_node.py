@@ -3,7 +3,9 @@
 On each measurement stamped t_k it publishes its output over the coming frame,
 stamped t_k. In fast mode, when a supervisor command is due at t_k (t_k a multiple
 of ``command_period_s``) it waits for the command stamped t_k first, so commands act
-from the sample they were computed at. If commands stop for longer than the
+from the sample they were computed at. The choke honours the command's manual mode
+(``choke_manual``: drive to ``choke_opening_ref``) and otherwise runs its PI flow
+controller on ``choke_flow_ref_m3s``. If commands stop for longer than the
 watchdog timeout it holds a safe state (block held where it is, choke opening and
 pumps held) and says so on its status topic.
 """
@@ -35,8 +37,7 @@ class ActuatorNode(Node):
         self.actuator = self.declare_parameter("actuator", "drawworks").value
         if self.actuator not in UNITS:
             raise ValueError(f"parameter actuator: {self.actuator!r} is not one of {', '.join(UNITS)}")
-        default_period = ctx.config.nmpc.sample_time_s if ctx.scenario.controller != "open_loop" else 0.0
-        period = self.declare_parameter("command_period_s", default_period).value
+        period = self.declare_parameter("command_period_s", ctx.config.nmpc.sample_time_s).value
         self.command_period_ns = seconds_to_ns(period)
         cfg = ctx.config
         ini = ctx.scenario.initial
@@ -136,7 +137,8 @@ class ActuatorNode(Node):
                 opening = self.model.lag.value
                 return FrameOutput(opening, target, self.model.lag.advance(opening, self.step_s,
                                                                            self.steps))
-            return self.model.frame(target, m.choke_dp_pa, self.step_s, self.steps)
+            manual = self.command.choke_opening_ref if self.command.choke_manual else None
+            return self.model.frame(target, m.choke_dp_pa, self.step_s, self.steps, manual)
         return self.model.frame(target, self.step_s, self.steps)
 
 

@@ -8,6 +8,7 @@ samples the plant holds over the frame.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -95,7 +96,10 @@ class Choke:
     """PI flow controller (velocity form) + choke-valve lag; the reference is a choke flow [m^3/s].
 
     The controlled flow is inferred from the valve law with the measured differential
-    pressure and the current opening (the choke flow itself is not measured).
+    pressure and the current opening (the choke flow itself is not measured). Like a choke
+    panel, it has a manual mode that drives the valve to a given opening, bypassing the PI
+    (the paper's estimation study, sec. 4.3, holds the choke at 50 %); back in automatic
+    the velocity-form PI continues from the opening it was left at (bumpless).
     """
 
     def __init__(self, config: Actuators, wm: hy.WellModel, initial_opening: float):
@@ -106,7 +110,14 @@ class Choke:
         self.previous_error: float | None = None
 
     def frame(self, flow_ref_m3s: float, measured_dp_pa: float, step_s: float,
-              steps: int) -> FrameOutput:
+              steps: int, manual_opening: float | None = None) -> FrameOutput:
+        """One frame; ``manual_opening`` [1] (not None) is manual mode and the frame's
+        reference is then NaN (no flow reference)."""
+        if manual_opening is not None:
+            self.opening_command = self.lag.limit(manual_opening)
+            self.previous_error = None
+            return FrameOutput(self.opening_command, math.nan,
+                               self.lag.advance(self.opening_command, step_s, steps))
         c = self.config
         flow = float(hy.choke_flow(self.wm, self.lag.value, measured_dp_pa))
         error = (flow_ref_m3s - flow) / c.choke_flow_scale_m3s

@@ -8,6 +8,9 @@ machines respects the most conservative of
   steady Herschel-Bulkley surge/swab model keeps the BHP inside the pore/fracture
   window (with margin), and a limit on the change of trip speed (acceleration).
 
+A manual choke opening (choke panel in manual) is kept inside the choke's range; its
+rate is limited by the choke actuator's own lag.
+
 Every clamp is reported with its reason. Plain Python; the node wires it to topics.
 """
 from __future__ import annotations
@@ -30,6 +33,7 @@ class Decision:
     command: np.ndarray                 # [u_r m, q_c m^3/s, q_bpp m^3/s, p_spp Pa]
     clamps: tuple[str, ...]             # one reason per limit that acted
     trip_speed_limits_mps: tuple[float, float]  # allowed speed running in, pulling out
+    manual_choke_opening: float | None = None   # choke in manual at this opening [1]; None: PI
 
 
 def surge_swab_pa(wm: hy.WellModel, speeds_mps: np.ndarray, circulation_m3s: float) -> np.ndarray:
@@ -51,6 +55,7 @@ class ProcessProtection:
         self.config = config
         self.wm = wm
         self.previous = np.asarray(initial_command, dtype=float).copy()
+        self.previous_manual_opening: float | None = None
         self.previous_speed_mps = 0.0
         self.emergency_stop = False
         self.automation_level = "closed_loop"
@@ -93,8 +98,10 @@ class ProcessProtection:
         return limits[0], limits[1]
 
     def apply(self, request, position_m: float, string_velocity_mps: float, bhp_pa: float,
-              circulation_m3s: float, operator_speed_limit_mps: float) -> Decision:
-        """Limit ``request`` [u_r, q_c, q_bpp, p_spp]; returns the command to send and why."""
+              circulation_m3s: float, operator_speed_limit_mps: float,
+              manual_choke_opening: float | None = None) -> Decision:
+        """Limit ``request`` [u_r, q_c, q_bpp, p_spp] and the requested manual choke opening
+        (None: the choke on its PI flow controller); returns the command to send and why."""
         p = self.config.protection
         period = p.command_period_s
         request = np.asarray(request, dtype=float)
@@ -102,12 +109,17 @@ class ProcessProtection:
         if not np.all(np.isfinite(request)):
             clamps.append("non-finite request: holding the last command")
             request = self.previous.copy()
+        if manual_choke_opening is not None and not np.isfinite(manual_choke_opening):
+            clamps.append("non-finite manual choke opening: holding the last choke mode")
+            manual_choke_opening = self.previous_manual_opening
         if self.emergency_stop or self.automation_level != "closed_loop":
             why = "emergency stop" if self.emergency_stop else f"automation level {self.automation_level}"
             clamps.append(f"{why}: advisor command not applied, block held at rest, pressures held")
             request = self.previous.copy()
             request[0] = position_m if self.emergency_stop else self.previous[0]
+            manual_choke_opening = self.previous_manual_opening
         command = request.copy()
+        manual_choke_opening = self._limit_opening(manual_choke_opening, clamps)
 
         for i in (1, 2, 3):
             limited = np.clip(command[i], self.previous[i] - self.slew[i], self.previous[i] + self.slew[i])
@@ -136,4 +148,15 @@ class ProcessProtection:
         command[0] = ref
         self.previous_speed_mps = (ref - self.previous[0]) / period
         self.previous = command.copy()
-        return Decision(command, tuple(clamps), (down, up))
+        self.previous_manual_opening = manual_choke_opening
+        return Decision(command, tuple(clamps), (down, up), manual_choke_opening)
+
+    def _limit_opening(self, opening: float | None, clamps: list[str]) -> float | None:
+        """A manual choke opening inside the choke's range [1] (None stays None)."""
+        if opening is None:
+            return None
+        lag = self.config.actuators.choke
+        limited = float(np.clip(opening, lag.minimum, lag.maximum))
+        if limited != opening:
+            clamps.append(f"choke_opening_ref {opening:.6g} -> {limited:.6g} (machine range)")
+        return limited

@@ -116,11 +116,14 @@ class ProtectionNode(Node):
         decision = self.protection.apply(
             [request.block_position_ref_m, request.choke_flow_ref_m3s, request.bpp_flow_m3s,
              request.spp_pa], m.block_position_m, self._velocity(), m.bhp_pa, max(circulation, 0.0),
-            self.operator_speed_limit)
+            self.operator_speed_limit, request.choke_opening_ref if request.choke_manual else None)
+        manual = decision.manual_choke_opening
         out = RigCommand(block_position_ref_m=float(decision.command[0]),
                          choke_flow_ref_m3s=float(decision.command[1]),
                          bpp_flow_m3s=float(decision.command[2]), spp_pa=float(decision.command[3]),
-                         mud_pump_on=request.mud_pump_on, source=f"protection<{request.source}")
+                         mud_pump_on=request.mud_pump_on, choke_manual=manual is not None,
+                         choke_opening_ref=float(manual) if manual is not None else 0.0,
+                         source=f"protection<{request.source}")
         out.header.stamp = request.header.stamp
         self.pub_command.publish(out)
         for text in decision.clamps:

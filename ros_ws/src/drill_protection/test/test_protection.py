@@ -104,3 +104,30 @@ def test_manual_level_holds_everything(setup):
     d = p.apply([20.0, 0.03, 0.02, 2.0e7], 0.5, 0.0, 6.85e7, CIRCULATION, 0.5)
     assert np.allclose(d.command, held)
     assert any("automation level manual" in c for c in d.clamps)
+
+
+def test_manual_choke_opening_passes_inside_the_valve_range(setup):
+    config, _ = setup
+    p = fresh(setup)
+    d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5,
+                manual_choke_opening=0.5)
+    assert d.manual_choke_opening == 0.5 and d.clamps == ()
+    d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5,
+                manual_choke_opening=1.4)
+    assert d.manual_choke_opening == config.actuators.choke.maximum
+    assert any("choke_opening_ref 1.4 -> 1" in c for c in d.clamps)
+    d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
+    assert d.manual_choke_opening is None                  # back on the PI flow controller
+
+
+def test_manual_choke_held_by_emergency_stop_and_non_finite_request(setup):
+    p = fresh(setup)
+    p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5,
+            manual_choke_opening=0.4)
+    d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5,
+                manual_choke_opening=float("nan"))
+    assert d.manual_choke_opening == 0.4
+    assert any("non-finite manual choke opening" in c for c in d.clamps)
+    p.emergency_stop = True
+    d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
+    assert d.manual_choke_opening == 0.4                   # the choke stays where it was put

@@ -1,0 +1,78 @@
+"""Open-loop command sequencer as node ``sequencer`` (controller ``open_loop``; DESIGN
+section 8, the paper's estimation study): the advisor when no controller closes the loop.
+
+    python -m drill_nmpc.sequencer_node --ros-args -p config_dir:=... -p scenario:=... \
+        -p mode:=fast -p use_sim_time:=true
+
+Subscribes /rig/measurement only as its clock; on the measurement stamped t_k with t_k a
+multiple of the command period t_s (nmpc.sample_time_s, the period the actuators wait
+for; realtime: the first measurement of each new period) it publishes the scenario's
+open-loop commands at t_k (drill_core.open_loop) as drill_msgs/RigCommand stamped t_k on
+the advisor topic, which process protection forwards to the machines. Initial choke flow
+and stand-pipe pressure: drill_plant.plant_model.steady_state of the scenario's initial
+operating point, the point the actuators and protection start from.
+"""
+from __future__ import annotations
+
+import sys
+
+from drill_msgs.msg import RigCommand, RigMeasurement
+from rclpy.node import Node
+
+from drill_core.open_loop import OpenLoopPlan, start_command
+from drill_core.ros import topics
+from drill_core.ros.context import load_context
+from drill_core.ros.runner import run
+from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
+from drill_core.ros.status import StatusReporter
+
+
+class SequencerNode(Node):
+    def __init__(self):
+        super().__init__("sequencer")
+        from drill_plant.plant_model import steady_state     # design knowledge of the well
+        ctx = load_context(self)
+        self.ctx = ctx
+        self.exit_code = 0
+        ini = ctx.scenario.initial
+        op = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
+        start = start_command(ini, float(op.choke_flow_m3s), float(op.inputs[3]))
+        self.plan = OpenLoopPlan(ctx.scenario.schedule, start)
+        self.period_ns = seconds_to_ns(ctx.config.nmpc.sample_time_s)
+        self.start_ns: int | None = None
+        self.last_period: int | None = None
+        self.status = StatusReporter(self, ctx.mode)
+        self.pub = self.create_publisher(RigCommand, topics.COMMAND, topics.RELIABLE)
+        self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
+                                 topics.RELIABLE)
+
+    def _on_measurement(self, msg: RigMeasurement) -> None:
+        stamp = to_ns(msg.header.stamp)
+        if self.ctx.fast and stamp % self.period_ns != 0:
+            return
+        if self.start_ns is None:
+            self.start_ns = stamp        # fast mode: 0; realtime: the run starts at the wall time
+        period = (stamp - self.start_ns) // self.period_ns
+        if self.last_period is not None and period <= self.last_period:
+            return
+        self.last_period = period
+        c = self.plan.command_at((stamp - self.start_ns) * 1e-9)
+        cmd = RigCommand(block_position_ref_m=c.block_position_ref_m,
+                         choke_flow_ref_m3s=c.choke_flow_ref_m3s, bpp_flow_m3s=c.bpp_flow_m3s,
+                         spp_pa=c.spp_pa, mud_pump_on=c.mud_pump_on, choke_manual=c.choke_manual,
+                         choke_opening_ref=c.choke_opening if c.choke_manual else 0.0,
+                         source="sequencer")
+        cmd.header.stamp = from_ns(stamp)
+        self.pub.publish(cmd)
+        self.status.mode = f"{self.ctx.mode}/open_loop"
+        self.status.values = {"block_ref_m": c.block_position_ref_m, "bpp_flow_m3s": c.bpp_flow_m3s,
+                              "choke_manual": float(c.choke_manual), "choke_opening": c.choke_opening}
+        self.status.tick(stamp)
+
+
+def main(args=None) -> None:
+    sys.exit(run(SequencerNode, args))
+
+
+if __name__ == "__main__":
+    main()
