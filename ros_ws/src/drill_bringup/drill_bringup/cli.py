@@ -6,6 +6,8 @@
   rig replay FILE [options]        republish a recording (see rig replay --help)
   rig reestimate RUN_DIR [--config-dir DIR] [--rate R]
                                    re-run the estimator with other tuning on a recorded run
+  rig compare [SCENARIO ...] [--output FILE]
+                                   run Cases 1-4 and the baseline; write the results table
 """
 from __future__ import annotations
 
@@ -110,6 +112,9 @@ def main(argv=None) -> int:
     rest_.add_argument("--config-dir", type=Path, default=ROOT / "config",
                        help="configuration with the new estimator tuning")
     rest_.add_argument("--rate", type=float, default=5.0, help="replay rate factor")
+    comp = sub.add_parser("compare", help="run Cases 1-4 and the baseline; tabulate")
+    comp.add_argument("scenarios", nargs="*", help="default: case1 case2 case3 case4 baseline")
+    comp.add_argument("--output", type=Path, default=ROOT / "docs" / "results.md")
     args, rest = parser.parse_known_args(argv)
     try:
         if args.command == "demo":
@@ -121,6 +126,9 @@ def main(argv=None) -> int:
             _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name)
             print(table)
             return 0
+        if args.command == "compare":
+            from drill_bringup import compare
+            return compare.main(args.scenarios, args.output)
         if args.command == "reestimate":
             from drill_bringup.reestimate import reestimate
             result = reestimate(args.run_dir, args.config_dir, args.rate, launcher.default_domain_id())

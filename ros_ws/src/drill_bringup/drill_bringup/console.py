@@ -69,13 +69,13 @@ from urllib.parse import parse_qs, urlparse
 from drill_msgs.msg import (ActuatorFrame, NmpcStatus, NodeStatus, OperatorEvent, PlantTruth,
                             RigMeasurement, Setpoints, StateEstimate)
 from drill_msgs.srv import SetSetpoints
-from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Bool, String
 
 from drill_bringup import console_state as cs
 from drill_core.config import load_rig
 from drill_core.ros import topics
+from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_core.ros.status import StatusReporter
@@ -241,7 +241,7 @@ class OperatorLink:
         return {"accepted": False, "reason": reason}
 
 
-class ConsoleNode(Node):
+class ConsoleNode(RigNode):
     def __init__(self):
         super().__init__("console")
         root = Path(os.environ.get("RIG_ROOT", Path.cwd()))

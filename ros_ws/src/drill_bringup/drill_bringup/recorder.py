@@ -13,10 +13,10 @@ from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 import rclpy
 from ament_index_python.packages import PackageNotFoundError
 from drill_core.ros import topics
+from drill_core.ros.node import RigNode
 from drill_msgs.msg import NodeStatus
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -66,7 +66,7 @@ def status_values(counts: Dict[str, int]) -> Tuple[List[str], List[float]]:
     return keys, values
 
 
-class Recorder(Node):
+class Recorder(RigNode):
     """Subscribes raw (CDR) to discovered topics and writes them with mcap_io.McapWriter."""
 
     def __init__(self, **kwargs):

@@ -31,19 +31,19 @@ import time
 import numpy as np
 from drill_msgs.msg import ActuatorFrame, RigMeasurement, StateEstimate
 from rclpy.clock import Clock, ClockType
-from rclpy.node import Node
 
 from drill_core import hydraulics as hy
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
+from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_core.ros.status import StatusReporter
 from drill_estimator.ukf import RigUkf, UpdateResult
 
 
-class EstimatorNode(Node):
+class EstimatorNode(RigNode):
     def __init__(self):
         super().__init__("estimator")
         ctx = load_context(self)

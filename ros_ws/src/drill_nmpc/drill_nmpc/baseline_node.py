@@ -26,10 +26,10 @@ import math
 import sys
 
 from drill_msgs.msg import RigCommand, RigMeasurement
-from rclpy.node import Node
 
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
+from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
@@ -53,7 +53,7 @@ class BaselinePi:
         return min(max(q, 0.0), self.q_max)
 
 
-class BaselineNode(Node):
+class BaselineNode(RigNode):
     def __init__(self):
         super().__init__("baseline")
         from drill_plant.plant_model import steady_state     # design knowledge of the well

@@ -38,11 +38,11 @@ import sys
 import numpy as np
 from drill_msgs.msg import ActuatorFrame, NmpcStatus, OperatorEvent, RigCommand, Setpoints, StateEstimate
 from drill_msgs.srv import SetSetpoints
-from rclpy.node import Node
 
 from drill_core.estimation_model import build_estimation_model
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
+from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
@@ -95,7 +95,7 @@ def describe(sp: ActiveSetpoints) -> str:
             f"{'on' if sp.mud_pump_on else 'off'}")
 
 
-class NmpcNode(Node):
+class NmpcNode(RigNode):
     def __init__(self):
         super().__init__("nmpc")
         ctx = load_context(self)

@@ -14,11 +14,11 @@ from __future__ import annotations
 import sys
 
 from drill_msgs.msg import ActuatorFrame, RigCommand, RigMeasurement
-from rclpy.node import Node
 
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
+from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns, seconds_to_ns
 from drill_core.ros.status import StatusReporter
@@ -28,7 +28,7 @@ from drill_plant.plant_model import steady_state
 UNITS = {"drawworks": "m", "choke": "1", "bpp": "m^3/s", "mud_pump": "Pa"}
 
 
-class ActuatorNode(Node):
+class ActuatorNode(RigNode):
     def __init__(self):
         super().__init__("actuator")
         ctx = load_context(self)

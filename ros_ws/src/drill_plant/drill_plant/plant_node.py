@@ -16,12 +16,12 @@ import time
 import numpy as np
 import rclpy
 from drill_msgs.msg import ActuatorFrame, PlantTruth, RigMeasurement
-from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
+from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns
 from drill_core.ros.status import StatusReporter
@@ -31,7 +31,7 @@ from drill_plant.simulator import PlantDiverged, PlantSimulator
 SETTLE_S = 2.0          # discovery precedes endpoint matching: let reliable matches complete
 
 
-class PlantNode(Node):
+class PlantNode(RigNode):
     def __init__(self):
         super().__init__("plant")
         ctx = load_context(self)

@@ -17,12 +17,12 @@ from collections import deque
 
 import numpy as np
 from drill_msgs.msg import OperatorEvent, RigCommand, RigMeasurement, Setpoints
-from rclpy.node import Node
 from std_msgs.msg import Bool, String
 
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
+from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_core.ros.status import StatusReporter
@@ -32,7 +32,7 @@ from drill_protection.protection import AUTOMATION_LEVELS, ProcessProtection
 VELOCITY_WINDOW_S = 1.0
 
 
-class ProtectionNode(Node):
+class ProtectionNode(RigNode):
     def __init__(self):
         super().__init__("protection")
         ctx = load_context(self)
