@@ -228,8 +228,8 @@ def test_console_in_a_real_browser(tmp_path):
     common = {"config_dir": str(ROOT / "config"), "scenario": str(SCENARIO), "mode": "realtime"}
     mcap_path = tmp_path / "console_trip.mcap"
     nodes = launcher.graph("nmpc", common, mcap_path, fast=False)
-    nodes.insert(-1, launcher.NodeSpec("console", "drill_bringup.console",
-                                       dict(common, port=0, use_sim_time=False)))
+    console = next(n for n in nodes if n.name == "console")   # realtime graphs carry one
+    console.params["port"] = 0                                  # any free port
     launch = launcher.Launch(nodes, tmp_path, DOMAIN_ID)
     listener = Listener(DOMAIN_ID)
     profile = tempfile.mkdtemp(prefix="console-chromium-")

@@ -173,7 +173,7 @@ class OperatorLink:
     validating setpoint service, the latched level / emergency-stop topics and the
     event log. Thread-safe (one action at a time)."""
 
-    def __init__(self, node: Node, service_timeout_s: float = 5.0, source: str = "console"):
+    def __init__(self, node: RigNode, service_timeout_s: float = 5.0, source: str = "console"):
         self.node = node
         self.source = source
         self.service_timeout_s = service_timeout_s

@@ -24,7 +24,7 @@ ACTUATOR_NODES = topics.ACTUATORS
 LOG_TAIL_LINES = 15
 # In fast mode these nodes act on the stamps of their inputs and never read the clock,
 # so they do not subscribe to /clock (each subscription costs a callback per frame).
-STAMP_DRIVEN = (*ACTUATOR_NODES, "estimator")
+STAMP_DRIVEN = (*ACTUATOR_NODES, "estimator", "sequencer")
 
 
 def uses_sim_time(name: str, fast: bool) -> bool:
@@ -123,6 +123,10 @@ class Launch:
     """A running graph: start, watch, stop."""
 
     def __init__(self, nodes: list[NodeSpec], run_dir: Path, domain_id: int):
+        names = [n.name for n in nodes]
+        repeated = sorted({n for n in names if names.count(n) > 1})
+        if repeated:      # processes are tracked by name: a repeat could never be stopped
+            raise ValueError(f"node names must be unique; given more than once: {', '.join(repeated)}")
         self.nodes = nodes
         self.run_dir = run_dir
         self.logs = run_dir / "logs"

@@ -59,7 +59,7 @@ def reestimate(run_dir: Path, config_dir: Path, rate: float, domain_id: int) -> 
 
 
 def _count_estimates(domain_id: int, expected: int, replay_cmd: list, env: dict,
-                     idle_timeout_s: float = 10.0) -> int:
+                     idle_timeout_s: float = 30.0) -> int:
     """Run the replay while counting the new estimator's estimates until all arrived."""
     import rclpy
     from drill_msgs.msg import StateEstimate

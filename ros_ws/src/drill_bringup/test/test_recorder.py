@@ -4,23 +4,21 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 import time
 from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
-import rclpy
 import yaml
 from drill_msgs.msg import NodeStatus, RigMeasurement, Setpoints
 from mcap.reader import make_reader
-from rclpy.context import Context
 from rclpy.duration import Duration
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rosbags.highlevel import AnyReader
 from rosgraph_msgs.msg import Clock
+
+from rig_testing import spinning_node, wait_for
 
 from drill_bringup import mcap_io, recorder
 from drill_bringup.mcap_io import QosOffer
@@ -92,32 +90,6 @@ def recorder_process(output: Path, domain_id: int, *params: str):
         if process.poll() is None:
             process.kill()
         process.communicate(timeout=10)
-
-
-@contextmanager
-def spinning_node(domain_id: int, name: str, monkeypatch):
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    context = Context()
-    rclpy.init(context=context, domain_id=domain_id)
-    node = rclpy.create_node(name, context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
-    try:
-        yield node
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.shutdown(context=context)
-        thread.join(timeout=5)
-
-
-def wait_for(predicate, timeout_s: float, what: str) -> None:
-    deadline_s = time.monotonic() + timeout_s
-    while not predicate():
-        assert time.monotonic() < deadline_s, f"timed out waiting for {what}"
-        time.sleep(0.02)
 
 
 def recorded(statuses, topic: str) -> int:

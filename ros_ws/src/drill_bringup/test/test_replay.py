@@ -4,16 +4,15 @@ import subprocess
 import sys
 import threading
 import time
-from contextlib import contextmanager
 
 import pytest
 import rclpy
 from drill_msgs.msg import NodeStatus, RigMeasurement, Setpoints
-from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
+
+from rig_testing import spinning_node, wait_for
 
 from drill_bringup import mcap_io, replay
 from drill_bringup.mcap_io import QosOffer, RecordedMessage
@@ -116,42 +115,16 @@ class Inbox:
         return [m.clock.sec * 10**9 + m.clock.nanosec for _, m in self.clock]
 
 
-@contextmanager
-def spinning_node(domain_id: int, monkeypatch):
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    context = Context()
-    rclpy.init(context=context, domain_id=domain_id)
-    node = rclpy.create_node("listener", context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
-    try:
-        yield node
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.shutdown(context=context)
-        thread.join(timeout=5)
-
-
-def wait_for(predicate, timeout_s: float, what: str) -> None:
-    deadline_s = time.monotonic() + timeout_s
-    while not predicate():
-        assert time.monotonic() < deadline_s, f"timed out waiting for {what}"
-        time.sleep(0.02)
-
-
 @pytest.mark.dds
 def test_replay_file_republishes_everything_in_order_at_rate_with_clock(tmp_path, monkeypatch):
     path = write_recording(tmp_path / "rec.mcap")
-    with spinning_node(64, monkeypatch) as node:
+    with spinning_node(64, "listener", monkeypatch) as node:
         inbox = Inbox(node)
         player = rclpy.create_node("replay", context=node.context)
         count = replay.replay_file(path, rate=10.0, clock_hz=100.0, node=player, delay_s=0.2,
                                    wait_for_subscribers=True)
         wait_for(lambda: len(inbox.measurements) == N_MEASUREMENTS
-                 and len(inbox.status) == N_STATUS, 5, "replayed messages")
+                 and len(inbox.status) == N_STATUS, 15, "replayed messages")
         player.destroy_node()
     assert count == 1 + N_MEASUREMENTS + N_STATUS
     assert inbox.values() == [float(i) for i in range(N_MEASUREMENTS)]
@@ -168,7 +141,7 @@ def test_replay_file_republishes_everything_in_order_at_rate_with_clock(tmp_path
 def test_replay_cli_filters_topics_skips_start_and_keeps_latched(tmp_path, monkeypatch):
     path = write_recording(tmp_path / "rec.mcap")
     env = dict(os.environ, ROS_DOMAIN_ID="65", ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    with spinning_node(65, monkeypatch) as node:
+    with spinning_node(65, "listener", monkeypatch) as node:
         inbox = Inbox(node, measurement_topic="/replayed/measurement")
         result = subprocess.run(
             [sys.executable, "-m", "drill_bringup.replay", str(path), "--rate", "10",
@@ -191,7 +164,7 @@ def test_replay_cli_filters_topics_skips_start_and_keeps_latched(tmp_path, monke
 def test_replay_loops_until_stopped(tmp_path, monkeypatch):
     path = write_recording(tmp_path / "rec.mcap")
     stop = threading.Event()
-    with spinning_node(66, monkeypatch) as node:
+    with spinning_node(66, "listener", monkeypatch) as node:
         inbox = Inbox(node)
         player = rclpy.create_node("replay", context=node.context)
         thread = threading.Thread(target=replay.replay_file, args=(path,), kwargs=dict(

@@ -18,22 +18,27 @@ publishes drill_msgs/RigCommand stamped t_k:
   choke dp, not the truth topic).
 
 The setpoint schedule applies by time; ``controller_enabled: false`` holds the block where it
-is measured and the choke flow at its last value.
+is measured and the choke flow at its last value. The setpoints in force (the BHP reference
+resolved) go out on the latched /setpoints topic whenever they change, as the NMPC's do.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 
-from drill_msgs.msg import RigCommand, RigMeasurement
+from drill_msgs.msg import RigCommand, RigMeasurement, Setpoints
 
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
+from drill_core.ros.sampling import SampleGate
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
 from drill_core.scenario import ActiveSetpoints, setpoints_at
+from drill_nmpc.setpoint_messages import initial_setpoints, to_msg
+from drill_plant.plant_model import steady_state     # design knowledge of the well
 
 
 class BaselinePi:
@@ -56,7 +61,6 @@ class BaselinePi:
 class BaselineNode(RigNode):
     def __init__(self):
         super().__init__("baseline")
-        from drill_plant.plant_model import steady_state     # design knowledge of the well
         ctx = load_context(self)
         self.ctx = ctx
         self.exit_code = 0
@@ -68,40 +72,34 @@ class BaselineNode(RigNode):
         self.speed = float(ctx.scenario.baseline_trip_speed_mps)
         kp = self.declare_parameter("kp_m3s_per_pa", 5.0e-9).value      # 30 L/min per bar
         ti = self.declare_parameter("ti_s", 5.0).value
-        self.sample_ns = seconds_to_ns(cfg.nmpc.sample_time_s)
+        self.gate = SampleGate(seconds_to_ns(cfg.nmpc.sample_time_s), ctx.fast)
         self.ts = cfg.nmpc.sample_time_s
         self.pi = BaselinePi(float(op.choke_flow_m3s), float(kp), float(ti),
                              cfg.nmpc.input_max.choke_flow_m3s)
         self.block_ref: float | None = None
         self.choke_ref = float(op.choke_flow_m3s)
         self.bhp_ref: float | None = None
-        self.last_sample: int | None = None
-        n = cfg.nmpc
-        self.start = ActiveSetpoints(bhp_ref_pa=math.nan, bhp_band_pa=n.bhp_band_pa,
-                                     choke_dp_ref_pa=ini.choke_dp_pa,
-                                     choke_dp_band_pa=n.choke_dp_band_pa, block_position_target_m=0.0,
-                                     trip_speed_limit_mps=n.velocity_limit_mps,
-                                     controller_enabled=True, mud_pump_on=ini.circulation_m3s > 0.0)
+        self.start = initial_setpoints(ctx)
+        self.published: ActiveSetpoints | None = None
         self.status = StatusReporter(self, ctx.mode)
         self.pub = self.create_publisher(RigCommand, topics.COMMAND, topics.RELIABLE)
+        self.sp_pub = self.create_publisher(Setpoints, topics.SETPOINTS, topics.LATCHED)
         self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
                                  topics.RELIABLE)
 
     def _on_measurement(self, msg: RigMeasurement) -> None:
         stamp = to_ns(msg.header.stamp)
-        if self.ctx.fast and stamp % self.sample_ns != 0:
+        if not self.gate.admit(stamp):
             return
-        sample = stamp // self.sample_ns
-        if self.last_sample is not None and sample <= self.last_sample:
-            return
-        self.last_sample = sample
-        sp = setpoints_at(self.ctx.scenario, stamp * 1e-9, self.start)
+        sp = setpoints_at(self.ctx.scenario, self.gate.scenario_time_s(stamp), self.start)
         position, bhp = float(msg.block_position_m), float(msg.bhp_pa)
         if self.block_ref is None:
             self.block_ref = position if math.isfinite(position) else 0.0
         if self.bhp_ref is None and math.isfinite(bhp):
             self.bhp_ref = bhp
         bhp_ref = sp.bhp_ref_pa if math.isfinite(sp.bhp_ref_pa) else self.bhp_ref
+        if bhp_ref is not None:
+            self._publish_setpoints(dataclasses.replace(sp, bhp_ref_pa=bhp_ref), stamp)
         if not sp.controller_enabled:
             if math.isfinite(position):
                 self.block_ref = position                       # manual: hold the string
@@ -125,6 +123,12 @@ class BaselineNode(RigNode):
                               "choke_flow_ref_m3s": float(self.choke_ref),
                               "bhp_ref_pa": float(bhp_ref) if bhp_ref is not None else math.nan}
         self.status.tick(stamp)
+
+    def _publish_setpoints(self, sp: ActiveSetpoints, stamp_ns: int) -> None:
+        """The setpoints in force on the latched /setpoints topic, whenever they change."""
+        if sp != self.published:
+            self.sp_pub.publish(to_msg(sp, stamp_ns, "scenario"))
+            self.published = sp
 
 
 def main(args=None) -> None:

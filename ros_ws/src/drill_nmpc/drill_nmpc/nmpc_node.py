@@ -44,48 +44,14 @@ from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
+from drill_core.ros.sampling import SampleGate
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
 from drill_core.scenario import ActiveSetpoints
 from drill_nmpc.ocp import SLACK_NAMES, SolveResult, Supervisor
+from drill_nmpc.setpoint_messages import initial_setpoints, merge_request, to_msg
 from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
-
-_NUMERIC = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
-            "block_position_target_m", "trip_speed_limit_mps")
-
-
-def initial_setpoints(ctx) -> ActiveSetpoints:
-    """What is in force before the schedule's first entry (config defaults, initial point)."""
-    n = ctx.config.nmpc
-    ini = ctx.scenario.initial
-    return ActiveSetpoints(bhp_ref_pa=math.nan, bhp_band_pa=n.bhp_band_pa,
-                           choke_dp_ref_pa=ini.choke_dp_pa, choke_dp_band_pa=n.choke_dp_band_pa,
-                           block_position_target_m=0.0, trip_speed_limit_mps=n.velocity_limit_mps,
-                           controller_enabled=True, mud_pump_on=ini.circulation_m3s > 0.0)
-
-
-def merge_request(active: ActiveSetpoints, msg: Setpoints) -> ActiveSetpoints:
-    """Requested setpoints over the ones in force: a NaN numeric field keeps its value."""
-    changes = {}
-    for name in _NUMERIC:
-        value = float(getattr(msg, name))
-        if not math.isnan(value):
-            changes[name] = value
-    changes["controller_enabled"] = bool(msg.controller_enabled)
-    changes["mud_pump_on"] = bool(msg.mud_pump_on)
-    return dataclasses.replace(active, **changes)
-
-
-def to_msg(sp: ActiveSetpoints, stamp_ns: int, source: str) -> Setpoints:
-    msg = Setpoints()
-    msg.header.stamp = from_ns(stamp_ns)
-    for name in _NUMERIC:
-        setattr(msg, name, float(getattr(sp, name)))
-    msg.controller_enabled = bool(sp.controller_enabled)
-    msg.mud_pump_on = bool(sp.mud_pump_on)
-    msg.source = source
-    return msg
-
+from drill_plant.plant_model import steady_state     # design knowledge of the well
 
 def describe(sp: ActiveSetpoints) -> str:
     return (f"BHP {sp.bhp_ref_pa / 1e5:.2f} +- {sp.bhp_band_pa / 1e5:.2f} bar, choke dp "
@@ -107,7 +73,7 @@ class NmpcNode(RigNode):
         # graph's lockstep starts only once the supervisor can answer.
         self.supervisor = Supervisor(cfg, self.em)
         self.envelope = Envelope.from_config(cfg, self.em.wm.geometry)
-        self.sample_ns = seconds_to_ns(cfg.nmpc.sample_time_s)
+        self.gate = SampleGate(seconds_to_ns(cfg.nmpc.sample_time_s), ctx.fast)
         self.frame_ns = seconds_to_ns(cfg.plant.sensor_period_s)
         # The actuators' outputs (block position, bpp flow, stand-pipe pressure) are the
         # initial states of the modelled actuator lags; in fast mode the frames stamped
@@ -126,7 +92,6 @@ class NmpcNode(RigNode):
         self.applied_entries = 0
         self.bhp_resolved = False
         self.u_prev: np.ndarray | None = None
-        self.last_sample: int | None = None
         self.last_estimate_ns: int | None = None
         self.commands = 0
 
@@ -155,7 +120,7 @@ class NmpcNode(RigNode):
     def _apply_schedule(self, t_ns: int) -> None:
         """Apply every schedule entry that has become due, in order, over the setpoints in force."""
         schedule = self.ctx.scenario.schedule
-        t = t_ns * 1e-9
+        t = self.gate.scenario_time_s(t_ns)
         changed = False
         while self.applied_entries < len(schedule) and schedule[self.applied_entries].time_s <= t + 1e-9:
             entry = schedule[self.applied_entries]
@@ -229,7 +194,6 @@ class NmpcNode(RigNode):
         """u_{-1} at the first estimate: hold the string where it is estimated; choke flow,
         back-pressure pump and stand-pipe pressure at the scenario's initial steady operating
         point -- the values the actuators and the protection layer start from too."""
-        from drill_plant.plant_model import steady_state     # design knowledge of the well
         ini = self.ctx.scenario.initial
         op = steady_state(self.em.wm, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
         u = np.array([x[0], op.choke_flow_m3s, ini.bpp_flow_m3s, op.inputs[3]])
@@ -238,12 +202,8 @@ class NmpcNode(RigNode):
     def _on_estimate(self, msg: StateEstimate) -> None:
         stamp = to_ns(msg.header.stamp)
         self.last_estimate_ns = stamp
-        if self.ctx.fast and stamp % self.sample_ns != 0:
-            return          # lockstep: commands are due on sample times only
-        sample = stamp // self.sample_ns
-        if self.last_sample is not None and sample <= self.last_sample:
-            return          # realtime: not a new sample period yet (fast: duplicate stamp)
-        self.last_sample = sample
+        if not self.gate.admit(stamp):
+            return          # not a sample time (fast) or not a new sample period (realtime)
         self.pending = msg
         self._process_pending()
 

@@ -519,7 +519,7 @@ class NmpcProblem:
         Su = ca.DM(self.Su)
 
         z_parts, g_parts = [], []
-        lbz, ubz, lbg, ubg, equality = [], [], [], [], []
+        lbg, ubg, equality = [], [], []
         nz = 0
         ng = 0
         stages: list[_Stage] = []

@@ -17,20 +17,21 @@ from __future__ import annotations
 import sys
 
 from drill_msgs.msg import RigCommand, RigMeasurement
-from rclpy.node import Node
 
 from drill_core.open_loop import OpenLoopPlan, start_command
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
+from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
+from drill_core.ros.sampling import SampleGate
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
+from drill_plant.plant_model import steady_state     # design knowledge of the well
 
 
-class SequencerNode(Node):
+class SequencerNode(RigNode):
     def __init__(self):
         super().__init__("sequencer")
-        from drill_plant.plant_model import steady_state     # design knowledge of the well
         ctx = load_context(self)
         self.ctx = ctx
         self.exit_code = 0
@@ -38,9 +39,7 @@ class SequencerNode(Node):
         op = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
         start = start_command(ini, float(op.choke_flow_m3s), float(op.inputs[3]))
         self.plan = OpenLoopPlan(ctx.scenario.schedule, start)
-        self.period_ns = seconds_to_ns(ctx.config.nmpc.sample_time_s)
-        self.start_ns: int | None = None
-        self.last_period: int | None = None
+        self.gate = SampleGate(seconds_to_ns(ctx.config.nmpc.sample_time_s), ctx.fast)
         self.status = StatusReporter(self, ctx.mode)
         self.pub = self.create_publisher(RigCommand, topics.COMMAND, topics.RELIABLE)
         self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
@@ -48,15 +47,9 @@ class SequencerNode(Node):
 
     def _on_measurement(self, msg: RigMeasurement) -> None:
         stamp = to_ns(msg.header.stamp)
-        if self.ctx.fast and stamp % self.period_ns != 0:
+        if not self.gate.admit(stamp):
             return
-        if self.start_ns is None:
-            self.start_ns = stamp        # fast mode: 0; realtime: the run starts at the wall time
-        period = (stamp - self.start_ns) // self.period_ns
-        if self.last_period is not None and period <= self.last_period:
-            return
-        self.last_period = period
-        c = self.plan.command_at((stamp - self.start_ns) * 1e-9)
+        c = self.plan.command_at(self.gate.scenario_time_s(stamp))
         cmd = RigCommand(block_position_ref_m=c.block_position_ref_m,
                          choke_flow_ref_m3s=c.choke_flow_ref_m3s, bpp_flow_m3s=c.bpp_flow_m3s,
                          spp_pa=c.spp_pa, mud_pump_on=c.mud_pump_on, choke_manual=c.choke_manual,

@@ -55,8 +55,8 @@ class Envelope:
         )
 
 
-_NUMERIC = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
-            "block_position_target_m", "trip_speed_limit_mps")
+NUMERIC_FIELDS = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
+                  "block_position_target_m", "trip_speed_limit_mps")
 
 
 def validate_setpoints(sp, envelope: Envelope) -> tuple[bool, str]:
@@ -64,7 +64,7 @@ def validate_setpoints(sp, envelope: Envelope) -> tuple[bool, str]:
 
     Every numeric field must be finite (resolve "keep the value in force" before calling).
     """
-    for name in _NUMERIC:
+    for name in NUMERIC_FIELDS:
         value = getattr(sp, name)
         if not isinstance(value, (int, float)) or not math.isfinite(float(value)):
             return False, f"{name} = {value!r} is not a finite number"

@@ -142,7 +142,6 @@ class Estimator:
 
 
 def test_lockstep_commands_status_and_setpoint_service(nmpc_process, monkeypatch):
-    from drill_core.config import load_rig
     from drill_core.estimation_model import build_estimation_model
     from drill_core.scenario import load_scenario_config
     from drill_nmpc.bench import steady_estimate

@@ -1,0 +1,40 @@
+"""Launcher: the node set of a run, who runs on /clock, and unique node names."""
+from pathlib import Path
+
+import pytest
+
+from drill_bringup import launcher
+
+COMMON = {"config_dir": "/c", "scenario": "/c/s.yaml", "mode": "fast"}
+
+
+def _by_name(nodes):
+    return {n.name: n for n in nodes}
+
+
+def test_fast_graph_clock_readers_match_the_plants_wait_list():
+    nodes = _by_name(launcher.graph("nmpc", COMMON, Path("/r/x.mcap"), fast=True))
+    on_clock = sorted(name for name, n in nodes.items() if n.params["use_sim_time"])
+    assert on_clock == ["nmpc", "protection", "recorder"]
+    assert "sub@/clock:3" in nodes["plant"].params["wait_for"]
+    assert not any(nodes[a].params["use_sim_time"] for a in launcher.ACTUATOR_NODES)
+    assert list(nodes)[0] == "recorder" and list(nodes)[-1] == "plant"
+
+
+def test_open_loop_graph_has_sequencer_and_protection_but_no_supervisor():
+    names = [n.name for n in launcher.graph("open_loop", COMMON, Path("/r/x.mcap"), fast=True)]
+    assert "sequencer" in names and "protection" in names
+    assert "nmpc" not in names and "baseline" not in names
+
+
+def test_realtime_graph_runs_on_wall_time_with_a_console():
+    nodes = launcher.graph("baseline", dict(COMMON, mode="realtime"), Path("/r/x.mcap"), fast=False)
+    assert not any(n.params["use_sim_time"] for n in nodes)
+    assert "console" in _by_name(nodes)
+
+
+def test_repeated_node_names_are_refused(tmp_path):
+    nodes = launcher.graph("nmpc", COMMON, tmp_path / "x.mcap", fast=False)
+    nodes.append(launcher.NodeSpec("console", "drill_bringup.console", {"port": 0}))
+    with pytest.raises(ValueError, match="console"):
+        launcher.Launch(nodes, tmp_path, 1)

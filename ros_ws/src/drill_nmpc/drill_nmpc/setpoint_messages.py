@@ -1,0 +1,45 @@
+"""Setpoints in force (drill_core.scenario.ActiveSetpoints) to and from drill_msgs/Setpoints,
+shared by the advisors that publish them on the latched /setpoints topic."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from drill_msgs.msg import Setpoints
+
+from drill_core.ros.stamps import from_ns
+from drill_core.scenario import ActiveSetpoints
+from drill_nmpc.setpoint_validation import NUMERIC_FIELDS
+
+
+def initial_setpoints(ctx) -> ActiveSetpoints:
+    """What is in force before the schedule's first entry (config defaults, initial point)."""
+    n = ctx.config.nmpc
+    ini = ctx.scenario.initial
+    return ActiveSetpoints(bhp_ref_pa=math.nan, bhp_band_pa=n.bhp_band_pa,
+                           choke_dp_ref_pa=ini.choke_dp_pa, choke_dp_band_pa=n.choke_dp_band_pa,
+                           block_position_target_m=0.0, trip_speed_limit_mps=n.velocity_limit_mps,
+                           controller_enabled=True, mud_pump_on=ini.circulation_m3s > 0.0)
+
+
+def merge_request(active: ActiveSetpoints, msg: Setpoints) -> ActiveSetpoints:
+    """Requested setpoints over the ones in force: a NaN numeric field keeps its value."""
+    changes = {}
+    for name in NUMERIC_FIELDS:
+        value = float(getattr(msg, name))
+        if not math.isnan(value):
+            changes[name] = value
+    changes["controller_enabled"] = bool(msg.controller_enabled)
+    changes["mud_pump_on"] = bool(msg.mud_pump_on)
+    return dataclasses.replace(active, **changes)
+
+
+def to_msg(sp: ActiveSetpoints, stamp_ns: int, source: str) -> Setpoints:
+    msg = Setpoints()
+    msg.header.stamp = from_ns(stamp_ns)
+    for name in NUMERIC_FIELDS:
+        setattr(msg, name, float(getattr(sp, name)))
+    msg.controller_enabled = bool(sp.controller_enabled)
+    msg.mud_pump_on = bool(sp.mud_pump_on)
+    msg.source = source
+    return msg
