@@ -943,6 +943,7 @@ class Supervisor:
         self._applied: np.ndarray | None = None      # u_{-1} of the previous step (u_{-2})
         self._speed = 0.0                            # block-reference speed of the last period
         self.theta_clamps = 0                        # estimates whose theta had to be capped
+        self._trip: tuple[float, float] | None = None  # (block target m, furthest string position on the way m)
 
     # -- helpers ------------------------------------------------------------------------
     def reset(self) -> None:
@@ -951,6 +952,7 @@ class Supervisor:
         self._next_actuators = None
         self._applied = None
         self.integral = np.zeros(self.problem.ne)
+        self._trip = None
 
     def safe_input(self, u_prev) -> np.ndarray:
         """u_{-1} made finite and clipped into the input bounds."""
@@ -1019,13 +1021,26 @@ class Supervisor:
         return ""
 
     def block_range(self, x, u_prev, target: float) -> tuple[float, float]:
-        """The trip plan is monotone: the block reference stays between the string's
-        position and the target (plus a small margin) -- the block is not a BHP actuator
-        beyond the trip plan (a wrong friction estimate otherwise makes the model see BHP
-        gains in overshooting or backing up). Where the acceleration limit cannot stop the
-        reference in time, the hardest braking step stays allowed (no infeasible bounds)."""
-        lo = min(float(x[0]), float(target)) - TRIP_RANGE_MARGIN_M
-        hi = max(float(x[0]), float(target)) + TRIP_RANGE_MARGIN_M
+        """The trip corridor is monotone: the block reference stays between the furthest
+        point the string has reached on its way to the target and the target (each +- a
+        small margin) -- the block is not a BHP actuator beyond the trip plan (a wrong
+        friction estimate otherwise makes the model see BHP gains in overshooting or
+        backing up), and the corridor cannot ratchet along with an overshooting string.
+        A new target starts a new corridor at the string's position. Where the
+        acceleration limit cannot stop the reference in time, the hardest braking step
+        stays allowed (no infeasible bounds)."""
+        target, position = float(target), float(x[0])
+        if self._trip is None or self._trip[0] != target:
+            self._trip = (target, position)
+        direction = np.sign(target - self._trip[1])
+        progress = self._trip[1]
+        if direction * (position - progress) > 0.0 and direction * (target - position) > 0.0:
+            progress = position                      # further along, not past the target
+        elif direction * (position - target) >= 0.0:
+            progress = target
+        self._trip = (target, progress)
+        lo = min(progress, target) - TRIP_RANGE_MARGIN_M
+        hi = max(progress, target) + TRIP_RANGE_MARGIN_M
         ts = self.problem.ts
         if self.acceleration:
             coast = float(u_prev[0]) + self._speed * ts

@@ -264,3 +264,23 @@ def test_model_plant_matches_its_state_layout(config, em):
     plant.advance(u)
     y1 = plant.state(em)
     assert np.allclose(y1[em.pressure(em.n)], x[em.pressure(em.n)], atol=0.05e5)   # steady
+
+
+def test_trip_corridor_is_monotone_and_does_not_ratchet(config, em):
+    """The block reference stays between the furthest point the string reached on its way
+    to the target and the target (+- 0.5 m): no backing up, and a string that overshoots
+    does not drag the corridor along."""
+    sup = Supervisor(config, em, configuration="NMPC0", jit=False)
+    x = np.zeros(em.size)
+    held = np.zeros(4)
+    assert sup.block_range(x, held, 8.0) == pytest.approx((-0.5, 8.5))
+    x[0] = 5.0                                       # on the way: no going back below 4.5 m
+    assert sup.block_range(x, np.array([5.0, 0, 0, 0]), 8.0) == pytest.approx((4.5, 8.5))
+    x[0] = 3.0                                       # pushed back: the corridor stays
+    assert sup.block_range(x, np.array([5.0, 0, 0, 0]), 8.0)[0] == pytest.approx(4.5)
+    x[0] = 9.5                                       # overshoot past the target
+    lo, hi = sup.block_range(x, np.array([9.5, 0, 0, 0]), 8.0)
+    assert lo == pytest.approx(7.5) and hi < 9.5     # only back toward the target (or braking)
+    x[0] = 9.6
+    assert sup.block_range(x, np.array([hi, 0, 0, 0]), 8.0)[1] <= hi + 1e-12
+    assert sup.block_range(x, held, 0.0) == pytest.approx((-0.5, 10.1))   # a new trip: from 9.6 m
