@@ -9,10 +9,12 @@ A node that dies makes the launch fail with its name, exit code and last log lin
 """
 from __future__ import annotations
 
+import fcntl
 import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -22,6 +24,9 @@ from drill_core.ros import topics
 
 ACTUATOR_NODES = topics.ACTUATORS
 LOG_TAIL_LINES = 15
+RUN_DOMAINS = range(1, 40)       # safe DDS domain ids (0-101) left free by the tests (40-98)
+LOCK_DIR = Path(tempfile.gettempdir()) / "drill_rig_domains"
+_held_domains: list = []         # open lock files: a domain is ours while this process lives
 # In fast mode these nodes act on the stamps of their inputs and never read the clock,
 # so they do not subscribe to /clock (each subscription costs a callback per frame).
 STAMP_DRIVEN = (*ACTUATOR_NODES, "estimator", "sequencer")
@@ -107,8 +112,23 @@ def isolated_env(domain_id: int) -> dict:
 
 
 def default_domain_id() -> int:
-    """A domain per process tree, so parallel runs do not see each other (1..100)."""
-    return 1 + os.getpid() % 100
+    """A ROS domain no other run on this machine holds, so parallel runs never see each
+    other: the first free one of RUN_DOMAINS (clear of the tests' fixed domains 40-98),
+    held by an flock on a lock file until this process exits."""
+    LOCK_DIR.mkdir(parents=True, exist_ok=True)
+    start = os.getpid() % len(RUN_DOMAINS)
+    for i in range(len(RUN_DOMAINS)):
+        domain = RUN_DOMAINS[(start + i) % len(RUN_DOMAINS)]
+        handle = open(LOCK_DIR / f"domain-{domain}.lock", "w")
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.close()
+            continue
+        _held_domains.append(handle)
+        return domain
+    raise RuntimeError(f"every ROS domain in {RUN_DOMAINS[0]}..{RUN_DOMAINS[-1]} is in use "
+                       f"(lock files in {LOCK_DIR})")
 
 
 def tail(path: Path, lines: int = LOG_TAIL_LINES) -> str:

@@ -38,3 +38,16 @@ def test_repeated_node_names_are_refused(tmp_path):
     nodes.append(launcher.NodeSpec("console", "drill_bringup.console", {"port": 0}))
     with pytest.raises(ValueError, match="console"):
         launcher.Launch(nodes, tmp_path, 1)
+
+
+def test_default_domains_are_exclusive_while_held(monkeypatch, tmp_path):
+    monkeypatch.setattr(launcher, "LOCK_DIR", tmp_path)
+    monkeypatch.setattr(launcher, "_held_domains", [])
+    taken = [launcher.default_domain_id() for _ in range(len(launcher.RUN_DOMAINS))]
+    assert sorted(taken) == list(launcher.RUN_DOMAINS)      # each handed out once
+    with pytest.raises(RuntimeError, match="in use"):
+        launcher.default_domain_id()
+    for handle in launcher._held_domains:                    # released: free again
+        handle.close()
+    launcher._held_domains.clear()
+    assert launcher.default_domain_id() in launcher.RUN_DOMAINS
