@@ -27,9 +27,10 @@ LOG_TAIL_LINES = 15
 RUN_DOMAINS = range(1, 40)       # safe DDS domain ids (0-101) left free by the tests (40-98)
 LOCK_DIR = Path(tempfile.gettempdir()) / "drill_rig_domains"
 _held_domains: list = []         # open lock files: a domain is ours while this process lives
-# In fast mode these nodes act on the stamps of their inputs and never read the clock,
-# so they do not subscribe to /clock (each subscription costs a callback per frame).
-STAMP_DRIVEN = (*ACTUATOR_NODES, "estimator", "sequencer")
+# In fast mode these nodes act on (and stamp their events with) the stamps of their inputs
+# and never read the clock, so they do not subscribe to /clock (each subscription costs a
+# callback per frame). The recorder keeps /clock for its log times.
+STAMP_DRIVEN = (*ACTUATOR_NODES, "estimator", "sequencer", "nmpc", "baseline", "protection")
 
 
 def uses_sim_time(name: str, fast: bool) -> bool:

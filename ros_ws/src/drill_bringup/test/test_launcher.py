@@ -15,8 +15,8 @@ def _by_name(nodes):
 def test_fast_graph_clock_readers_match_the_plants_wait_list():
     nodes = _by_name(launcher.graph("nmpc", COMMON, Path("/r/x.mcap"), fast=True))
     on_clock = sorted(name for name, n in nodes.items() if n.params["use_sim_time"])
-    assert on_clock == ["nmpc", "protection", "recorder"]
-    assert "sub@/clock:3" in nodes["plant"].params["wait_for"]
+    assert on_clock == ["recorder"]
+    assert "sub@/clock:1" in nodes["plant"].params["wait_for"]
     assert not any(nodes[a].params["use_sim_time"] for a in launcher.ACTUATOR_NODES)
     assert list(nodes)[0] == "recorder" and list(nodes)[-1] == "plant"
 

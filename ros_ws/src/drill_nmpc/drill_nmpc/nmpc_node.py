@@ -152,8 +152,10 @@ class NmpcNode(RigNode):
             self._publish_setpoints(t_ns, "scenario")
 
     def _on_set_setpoints(self, request, response):
-        now_ns = self.last_estimate_ns if self.last_estimate_ns is not None else \
-            self.get_clock().now().nanoseconds
+        if self.last_estimate_ns is not None:      # rig time: the node needs no /clock
+            now_ns = self.last_estimate_ns
+        else:
+            now_ns = 0 if self.ctx.fast else self.get_clock().now().nanoseconds
         source = request.setpoints.source or "operator"
         candidate = merge_request(self.active, request.setpoints)
         if not math.isfinite(candidate.bhp_ref_pa):

@@ -66,10 +66,17 @@ class ProtectionNode(RigNode):
         if msg.data != self.protection.emergency_stop:
             self.protection.emergency_stop = msg.data
             self._event("emergency_stop", "emergency stop " + ("engaged" if msg.data else "released"),
-                        self.get_clock().now().nanoseconds)
+                        self._now_ns())
+
+    def _now_ns(self) -> int:
+        """Rig time for operator events: the latest measurement's stamp (simulated time in
+        fast mode, the plant's wall clock in realtime), so the node needs no /clock."""
+        if self.positions:
+            return self.positions[-1][0]
+        return 0 if self.ctx.fast else self.get_clock().now().nanoseconds
 
     def _on_level(self, msg: String) -> None:
-        now = self.get_clock().now().nanoseconds
+        now = self._now_ns()
         if msg.data not in AUTOMATION_LEVELS:
             self._event("refusal", f"automation level {msg.data!r} is not one of "
                                    f"{', '.join(AUTOMATION_LEVELS)}", now)
