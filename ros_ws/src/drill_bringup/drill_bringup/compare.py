@@ -12,7 +12,7 @@ import json
 from datetime import datetime
 from pathlib import Path
 
-from drill_bringup import cli
+from drill_bringup import cli, report
 from drill_core.scenario import load_scenario
 
 PA_PER_BAR = 1e5
@@ -57,7 +57,8 @@ def markdown(results: dict) -> str:
              f"Made by `scripts/rig compare` on {datetime.now():%Y-%m-%d %H:%M}: each scenario ran "
              "through the whole process graph over DDS in fast mode (deterministic: the same "
              "scenario files and seeds give the same numbers). Errors are truth minus "
-             "reference; the BHP band is the scenario's +-2 bar control band.", "",
+             "reference; the BHP band is the scenario's +-2 bar control band; a trip leg is the "
+             "time from a block target being set until the string is within 0.5 m of it.", "",
              "## Table 7 form (ours | paper)", "",
              "| scenario | controller | block mean error [m] | BHP mean error [bar] | "
              "block RMSE [m] | BHP RMSE [bar] |",
@@ -72,9 +73,9 @@ def markdown(results: dict) -> str:
         lines.append(f"| {name} | {scenario.controller} | " + " | ".join(cells) + " |")
     lines += ["", "## Control band, surge and swab, solver", "",
               "| scenario | time outside band [s] | worst excursion [bar] | violations | "
-              "peak surge [bar] | peak swab [bar] | max string speed [m/s] | "
+              "peak surge [bar] | peak swab [bar] | max string speed [m/s] | trip legs | "
               "BHP estimate RMSE [bar] | NMPC solve median / max [ms] | fallbacks | wall [s] |",
-              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for name, result in results.items():
         s = result["summary"]
         solver = "n/a"
@@ -84,7 +85,8 @@ def markdown(results: dict) -> str:
             f"| {name} | {s['bhp_time_outside_s']:.1f} | "
             f"{_num(s['bhp_worst_excursion_pa'], PA_PER_BAR, 2)} | {s['bhp_window_violations']} | "
             f"{_num(s['peak_surge_pa'], PA_PER_BAR, 2)} | {_num(s['peak_swab_pa'], PA_PER_BAR, 2)} | "
-            f"{s['max_string_speed_mps']:.3f} | {_num(s['bhp_estimate_rmse_pa'], PA_PER_BAR)} | "
+            f"{s['max_string_speed_mps']:.3f} | {report.format_legs(s.get('trip_legs', []))} | "
+            f"{_num(s['bhp_estimate_rmse_pa'], PA_PER_BAR)} | "
             f"{solver} | {s.get('fallbacks', 0)} | {result['wall_s']:.1f} |")
     base = results.get("baseline")
     trips = [n for n in TRIP_CASES if n in results]

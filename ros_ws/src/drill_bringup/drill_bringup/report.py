@@ -16,6 +16,7 @@ from drill_bringup import mcap_io
 from drill_core.ros import topics
 
 PA_PER_BAR = 1e5
+ARRIVAL_TOLERANCE_M = 0.5     # a trip leg ends when the string is this close to its target
 LPM_PER_M3S = 60000.0
 FINAL_WINDOW_S = 30.0           # the estimator's final bias: mean error over the run's last 30 s
 OPEN_LOOP_ADVISOR = "sequencer"
@@ -102,6 +103,21 @@ def tracks_setpoints(s: Series) -> bool:
     return s.advisor != OPEN_LOOP_ADVISOR
 
 
+def trip_legs(t, pos, target, tolerance_m: float = ARRIVAL_TOLERANCE_M) -> list:
+    """One (target m, seconds to arrive) per block target in force: the time from the target
+    being set until the string first comes within ``tolerance_m`` of it (None: it never
+    did before the next target). A first target the string already sits on is no leg."""
+    starts = [0] + [i for i in range(1, len(target)) if target[i] != target[i - 1]]
+    legs = []
+    for k, start in enumerate(starts):
+        end = starts[k + 1] if k + 1 < len(starts) else len(target)
+        near = np.nonzero(np.abs(pos[start:end] - target[start]) <= tolerance_m)[0]
+        if start == 0 and len(near) and near[0] == 0:
+            continue
+        legs.append((float(target[start]), float(t[start + near[0]] - t[start]) if len(near) else None))
+    return legs
+
+
 def _tracking(s: Series, t, bhp, pos) -> dict:
     """Table 7 errors and control-band violations against the setpoints in force."""
     ref, band, target = references(s, t)
@@ -119,6 +135,7 @@ def _tracking(s: Series, t, bhp, pos) -> dict:
                                      + int(outside[0])) if len(outside) else 0,
         "bhp_worst_excursion_pa": float(np.max(excursion)) if len(excursion) else 0.0,
         "bhp_time_outside_s": float(np.count_nonzero(outside) * dt),
+        "trip_legs": trip_legs(t, pos, target),
     }
 
 
@@ -175,6 +192,14 @@ def summarise(s: Series) -> dict:
     return out
 
 
+def format_legs(legs) -> str:
+    """'to 28.0 m in 61 s, to 0.0 m in 75 s' (a leg never completed: 'not reached')."""
+    if not legs:
+        return "none"
+    return ", ".join(f"to {target:.1f} m " + (f"in {time_s:.0f} s" if time_s is not None
+                                               else "not reached") for target, time_s in legs)
+
+
 def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
     """Human-readable summary in drilling units."""
     rows = [
@@ -193,6 +218,7 @@ def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
             f"  BHP window violations         {summary['bhp_window_violations']} "
             f"(worst {summary['bhp_worst_excursion_pa'] / PA_PER_BAR:.2f} bar outside, "
             f"{summary['bhp_time_outside_s']:.1f} s outside)",
+            f"  trip legs                     {format_legs(summary['trip_legs'])}",
         ]
     else:
         rows.append("  Table 7 form, BHP window      n/a (open loop: no setpoints to track)")
