@@ -449,4 +449,5 @@ def replace(obj: object, **changes: object) -> object:
 
 __all__ = ["ConfigError", "RigConfig", "Well", "StringSection", "Mud", "Turbulence", "Plant",
            "MeasurementNoise", "Lag", "Actuators", "Estimator", "FrictionLawTuning", "FRICTION_LAWS",
-           "Nmpc", "InputVector", "OutputVector", "Protection", "load_rig", "load_section", "load_yaml", "merge", "replace"]
+           "Nmpc", "InputVector", "OutputVector", "Protection", "load_rig", "load_section",
+           "load_yaml", "merge", "replace"]
