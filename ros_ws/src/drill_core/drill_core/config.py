@@ -187,6 +187,9 @@ class FrictionLawTuning:
     theta_motion_std: float = param("law unit", 0.0, default=0.0,
                                     doc="extra per-step std while the string moves at "
                                         "motion_reference_speed_mps or faster")
+    theta_correlation: float = param("1", 0.0, 0.999, default=0.0,
+                                     doc="correlation of the theta_i random walks and initial "
+                                         "errors (near 1: one common factor)")
 
 
 @dataclass(frozen=True)

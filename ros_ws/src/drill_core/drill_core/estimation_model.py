@@ -76,8 +76,16 @@ class NominalFriction:
         self.max_error_pa = max(
             float(np.max(np.abs(self.loss(NUMPY, k, q, v) - self._exact_loss(k, q, v, sections))))
             for k in range(len(self._paths)) for v in (-0.5, 0.0, 0.5))
-        self.peak_flow_gain = tuple(float(np.max(np.diff(self.loss(NUMPY, k, q, 0.0)) / np.diff(q)))
-                                    for k in range(len(self._paths)))
+        self._gain_flow = 0.5 * (q[1:] + q[:-1])
+        self._gain = [np.diff(self.loss(NUMPY, k, q, 0.0)) / np.diff(q) for k in range(len(self._paths))]
+        self.peak_flow_gain = tuple(float(np.max(g)) for g in self._gain)
+
+    def peak_gain_near(self, k: int, flow_m3s: float, half_width_m3s: float) -> float:
+        """Largest dF_nom/dq of path k + 2 (string still) within +-half_width of ``flow_m3s``."""
+        lo = min(flow_m3s - half_width_m3s, self._gain_flow[-1])
+        hi = max(flow_m3s + half_width_m3s, self._gain_flow[0])
+        near = (self._gain_flow >= lo) & (self._gain_flow <= hi)
+        return float(np.max(self._gain[k][near]))
 
     def _exact_loss(self, k, q, v_s, sections):
         return sum(c * self._exact(q / a - kc * v_s, sections[d]) for c, a, kc, d in self._paths[k])
@@ -186,19 +194,19 @@ def build_estimation_model(config: RigConfig, with_disturbance: bool = False) ->
                            with_disturbance, law, nominal)
 
 
-def _unit_friction(xp, em: EstimationModel, k: int, flow_m3s, string_velocity_mps):
-    """Annular friction of path k + 2 per unit theta: |v_e| v_e (eq. 46) or F_nom [Pa / theta]."""
+def _unit_friction(xp, em: EstimationModel, k: int, flow_m3s, string_velocity_mps, theta=1.0):
+    """Annular friction of path k + 2: theta |v_e| v_e (eq. 46) or theta F_nom [Pa]."""
     if em.friction_law == "quadratic":
         g = em.wm.geometry
         v_e = flow_m3s / g.main_flow_area_m2[k] - g.main_clinging[k] * string_velocity_mps
-        return xp.fabs(v_e) * v_e
-    return em.nominal_friction.loss(xp, k, flow_m3s, string_velocity_mps)
+        return theta * xp.fabs(v_e) * v_e
+    return theta * em.nominal_friction.loss(xp, k, flow_m3s, string_velocity_mps)
 
 
 def annulus_friction(xp, em: EstimationModel, x):
     """Annular friction F_i = theta_i f_i(q_i, v_s) of paths 2..n [Pa]: f_i = |v_e| v_e
     (quadratic, eq. 46) or the nominal HB friction F_nom,i (scaled_rheology)."""
-    return [x[em.theta(i)] * _unit_friction(xp, em, k, x[em.flow(i)], x[1])
+    return [_unit_friction(xp, em, k, x[em.flow(i)], x[1], x[em.theta(i)])
             for k, i in enumerate(range(2, em.n + 1))]
 
 
@@ -215,14 +223,17 @@ def fitted_friction_parameters(em: EstimationModel, flows_m3s, friction_pa,
 
 def friction_flow_gain_bound(em: EstimationModel, x, speed_floor_mps: float) -> np.ndarray:
     """Upper bound of dF_i/dq_i per unit theta [Pa s/m^3] near state ``x`` (flow-mode stiffness):
-    quadratic 2 max(|v_e|, floor)/A_f; scaled_rheology the peak gain of F_nom (at v_e = 0)."""
-    if em.friction_law != "quadratic":
-        return np.array(em.nominal_friction.peak_flow_gain)
+    quadratic 2 max(|v_e|, floor)/A_f; scaled_rheology the largest gain of F_nom within
+    +-floor of the state's v_e (the peak, at v_e = 0, only where the flow is that close)."""
     g = em.wm.geometry
     out = []
     for k, i in enumerate(range(2, em.n + 1)):
-        v_e = abs(x[em.flow(i)] / g.main_flow_area_m2[k] - g.main_clinging[k] * x[1])
-        out.append(2.0 * max(v_e, speed_floor_mps) / g.main_flow_area_m2[k])
+        area = g.main_flow_area_m2[k]
+        v_e = x[em.flow(i)] / area - g.main_clinging[k] * x[1]
+        if em.friction_law == "quadratic":
+            out.append(2.0 * max(abs(v_e), speed_floor_mps) / area)
+        else:
+            out.append(em.nominal_friction.peak_gain_near(k, area * v_e, area * speed_floor_mps))
     return np.array(out)
 
 

@@ -37,9 +37,13 @@ specialised as follows.
   changes the fitted value several-fold the moment the string moves (at rest theta
   settles; while tripping it tracks, so the BHP estimate keeps following the
   measurement). scaled_rheology: theta is a factor ~ 1 on the mud report's friction and
-  only corrects it slowly (no motion term). The mean is projected onto [0, theta_max] (a
-  quadratic law cannot hold a gelled, static pressure difference, so with no flow theta
-  would otherwise grow without bound).
+  only corrects it slowly (no motion term). With only the choke dp and the BHP measured,
+  just the sum of the path frictions is observable at steady circulation, so the theta_i
+  random walks (and their initial spread) are correlated with ``theta_correlation``:
+  near 1 they move together, one correction of the one mud's rheology, instead of
+  drifting apart along the unobservable direction. The mean is projected onto
+  [0, theta_max] (a quadratic law cannot hold a gelled, static pressure difference, so
+  with no flow theta would otherwise grow without bound).
 * **Guards.** A measurement with a NaN/inf value is rejected (counted, no update, the
   prediction is kept). The normalised innovation squared (NIS) is summed over a window
   of ``nis_window`` accepted updates; when the sum exceeds the chi-square quantile
@@ -213,6 +217,12 @@ class RigUkf:
         self._P0 = np.diag((p_std / self.scale) ** 2)
         self._max_std = est.max_std_factor * p_std / self.scale
         self._theta_index = np.array([em.theta(i) for i in range(2, em.n + 1)])
+        rho = est.friction_tuning.theta_correlation
+        self._theta_block = np.ix_(self._theta_index, self._theta_index)
+        self._theta_corr = rho + (1.0 - rho) * np.eye(em.n - 1)
+        for M, std in ((self._Q, q_std), (self._P0, p_std)):
+            s = std[self._theta_index] / self.scale[self._theta_index]
+            M[self._theta_block] = np.outer(s, s) * self._theta_corr
         self._theta_max = est.friction_tuning.theta_max / self.scale[self._theta_index]
 
         points = _SigmaPoints(self.n_x, est.alpha, est.beta, est.kappa_offset - self.n_x,
@@ -460,7 +470,7 @@ class RigUkf:
         speed = abs(float(self._ukf.x[1] * self.scale[1]))
         w = min(1.0, speed / self.est.motion_reference_speed_mps)
         std = self._theta_base_std + w * np.sqrt(self._theta_motion_var)
-        self._ukf.Q[self._theta_index, self._theta_index] = std ** 2
+        self._ukf.Q[self._theta_block] = np.outer(std, std) * self._theta_corr
 
     def _transition_for(self, steps: int) -> ca.Function:
         """All sigma points (columns, scaled) through ``steps`` model steps with inputs
@@ -530,7 +540,7 @@ class RigUkf:
         except (np.linalg.LinAlgError, ValueError):
             reset = self._lam_n * self._P0
             self._repaired = (reset, True)
-            return np.sqrt(reset)                   # P0 is diagonal
+            return np.linalg.cholesky(reset).T      # P0 is positive definite
 
     def _absorb_repair(self) -> None:
         """Replace P by the repaired covariance if the last square root needed one."""
