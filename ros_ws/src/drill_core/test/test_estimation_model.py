@@ -12,7 +12,8 @@ import pytest
 from drill_core import hydraulics as hy
 from drill_core.config import ConfigError, load_rig, replace
 from drill_core.estimation_model import (annulus_friction, build_discrete_model,
-                                         build_estimation_model, fitted_friction_parameters)
+                                         build_estimation_model, fitted_friction_parameters,
+                                         friction_flow_gain_bound)
 
 CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
 LPM = 1.0 / 60000.0
@@ -74,6 +75,20 @@ def test_scaled_rheology_flow_gain_matches_the_truth_where_the_quadratic_does_no
     quad = gain(lambda f: _friction(quadratic, f, theta=theta))
     assert np.all(model / truth > 0.8) and np.all(model / truth < 1.25)
     assert np.all(quad / truth > 10.0)          # 2F/q: the wrong-sign choke channel (docs/nmpc.md)
+
+
+def test_stiffness_bound_is_the_peak_gain_only_near_zero_relative_flow(scaled, quadratic):
+    """The NMPC caps theta_i so that theta_i dF_i/dq_i h / M_i stays inside RK4's region."""
+    peak = np.array(scaled.nominal_friction.peak_flow_gain)
+    inertance = np.array(scaled.wm.geometry.annulus_inertance_kg_m4)
+    assert NMPC_STEP_S * peak / inertance == pytest.approx([1.54, 1.54, 1.63], abs=0.02)
+    assert friction_flow_gain_bound(scaled, _state(scaled, 0.0, 1.0), 0.1) == pytest.approx(peak)
+    circulating = friction_flow_gain_bound(scaled, _state(scaled, 1000.0 * LPM, 1.0), 0.1)
+    assert np.all(circulating < 0.05 * peak)
+    x = _state(quadratic, 1000.0 * LPM, 1.0)
+    v_e = 1000.0 * LPM / np.array(quadratic.wm.geometry.main_flow_area_m2)
+    assert friction_flow_gain_bound(quadratic, x, 0.1) == pytest.approx(
+        2.0 * v_e / np.array(quadratic.wm.geometry.main_flow_area_m2))
 
 
 def test_quadratic_law_is_eq_46(quadratic):
