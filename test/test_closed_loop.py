@@ -49,9 +49,6 @@ def test_trip_completes_with_bhp_in_pressure_window(two_runs):
     assert summary["max_string_speed_mps"] < 0.6
 
 
-@pytest.mark.xfail(strict=True, reason="known gap: on the full graph the NMPC's quadratic-friction "
-                   "model mispredicts the yield-dominated swab, so BHP leaves the +-2 bar control "
-                   "band for several seconds (see docs/nmpc.md)")
 def test_bhp_held_in_control_band(two_runs):
     summary = report.summarise(report.load_series(_mcap(two_runs[0])))
     # control band = reference +- 2 bar (DESIGN section 6): no more than 1 bar outside, 2 s in all

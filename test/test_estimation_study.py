@@ -100,9 +100,9 @@ def test_bhp_estimate_bounded_with_a_steady_final_bias(recording):
     assert surge > 2.0e6                  # the run-in is a real pressure transient (> 20 bar)
     # bounded: through the transient and after it, never off by more than a third of it
     assert np.abs(error).max() < surge / 3.0
-    # converged to a constant bias (the quadratic friction model has no gel strength to hold
-    # the truth's static friction): over the last 20 s the error varies by less than the
-    # BHP sensor's standard deviation and does not drift
+    # converged to a constant bias (neither friction law of the estimation model has gel
+    # strength to hold the truth's static friction): over the last 20 s the error varies
+    # by less than the BHP sensor's standard deviation and does not drift
     final = t_est >= t_est[-1] - FINAL_WINDOW_S
     late = t_est >= t_est[-1] - FINAL_WINDOW_S / 2.0
     assert np.std(error[final]) < BHP_SENSOR_STD_PA

@@ -171,6 +171,27 @@ class Actuators:
 
 
 # ---------------------------------------------------------------------- estimator
+FRICTION_LAWS = ("quadratic", "scaled_rheology")
+
+
+@dataclass(frozen=True)
+class FrictionLawTuning:
+    """UKF tuning that belongs to one annular friction law: its random-walk parameters
+    theta_i, in the law's unit (quadratic: Pa s^2/m^2; scaled_rheology: 1, a factor), and
+    the process noise of the flow states, whose momentum balances carry the law's error."""
+    theta_initial: float = param("law unit", 0.0, doc="theta_i(0)")
+    theta_initial_std: float = param("law unit", 0.0, lo_open=True)
+    theta_process_std: float = param("law unit", 0.0, doc="per-step std of the random walk at rest")
+    theta_max: float = param("law unit", 0.0, lo_open=True, doc="upper projection bound of theta")
+    flow_process_std_m3s: float = param("m^3/s", 0.0, doc="per-step std of flow states")
+    theta_motion_std: float = param("law unit", 0.0, default=0.0,
+                                    doc="extra per-step std while the string moves at "
+                                        "motion_reference_speed_mps or faster")
+    theta_correlation: float = param("1", 0.0, 0.999, default=0.0,
+                                     doc="correlation of the theta_i random walks and initial "
+                                         "errors (near 1: one common factor)")
+
+
 @dataclass(frozen=True)
 class Estimator:
     """UKF tuning (paper Tables 3 and 6), SI units."""
@@ -179,13 +200,18 @@ class Estimator:
     kappa_offset: float = param("1", -100.0, 100.0, doc="kappa = kappa_offset - n_x (paper: 3)")
     rig_process_std: tuple[float, ...] = param("m, m/s, m s", 0.0, doc="per-step std of z1..z3")
     pressure_process_std_pa: float = param("Pa", 0.0, doc="per-step std of pressure states")
-    flow_process_std_m3s: float = param("m^3/s", 0.0, doc="per-step std of flow states")
-    friction_parameter_process_std: float = param("Pa s^2/m^2", 0.0, doc="per-step std of theta")
     bottom_influx_process_std_m3s: float = param("m^3/s", 0.0, doc="per-step std of d (NMPC2)")
-    initial_friction_parameter: float = param("Pa s^2/m^2", 0.0)
+    annular_friction_law: str = param(
+        choices=FRICTION_LAWS,
+        doc="annular friction of the shared estimation model (UKF and NMPC): quadratic "
+            "theta_i |v_e| v_e (paper eq. 46) or scaled_rheology theta_i F_nom,i (docs/model.md)")
+    annular_friction_smoothing_mps: float = param(
+        "m/s", 0.0, 1.0, lo_open=True,
+        doc="scaled_rheology: yield-jump smoothing velocity of F_nom (RK4 stiffness, docs/nmpc.md)")
+    quadratic_friction: FrictionLawTuning = param(doc="tuning under the quadratic law")
+    scaled_rheology_friction: FrictionLawTuning = param(doc="tuning under the scaled_rheology law")
     initial_pressure_std_pa: float = param("Pa", 0.0, lo_open=True)
     initial_flow_std_m3s: float = param("m^3/s", 0.0, lo_open=True)
-    initial_friction_parameter_std: float = param("Pa s^2/m^2", 0.0, lo_open=True)
     measurement_noise: MeasurementNoise = param()
     nis_window: int = param("samples", 1, 10000)
     nis_alarm_probability: float = param("1", 0.5, 0.999999)
@@ -197,9 +223,6 @@ class Estimator:
     initial_bottom_influx_std_m3s: float = param("m^3/s", 0.0, lo_open=True, default=1.0e-4)
     max_std_factor: float = param("1", 1.0, 1.0e6, default=10.0,
                                   doc="each state's std is capped at this times its initial std")
-    friction_parameter_motion_std: float = param(
-        "Pa s^2/m^2", 0.0, default=0.0,
-        doc="extra per-step std of theta while the string moves at motion_reference_speed_mps or faster")
     motion_reference_speed_mps: float = param("m/s", 0.0, 10.0, lo_open=True, default=0.1)
     block_input: str = param(choices=("reference", "block_position"), default="reference",
                              doc="time-update input u[0]: drawworks reference u_r or its output u_b")
@@ -207,10 +230,6 @@ class Estimator:
         "1", 1, 100, default=2,
         doc="RK4 steps of the time update per sensor frame; the actuators' per-plant-step "
             "outputs are averaged over each")
-    max_friction_parameter: float = param(
-        "Pa s^2/m^2", 0.0, lo_open=True, default=1.0e9,
-        doc="upper projection bound of theta (a quadratic law cannot hold a gelled, static "
-            "pressure difference, so with no flow theta would otherwise grow without bound)")
 
     def validate(self) -> None:
         for key in ("rig_process_std", "initial_rig_std"):
@@ -220,6 +239,11 @@ class Estimator:
         if self.alpha ** 2 * self.kappa_offset <= 0.0:
             raise FieldError("kappa_offset", f"value {self.kappa_offset} must be positive "
                              "(n_x + lambda = alpha^2 kappa_offset is the sigma-point spread)")
+
+    @property
+    def friction_tuning(self) -> FrictionLawTuning:
+        """Tuning of the selected annular friction law."""
+        return getattr(self, f"{self.annular_friction_law}_friction")
 
 
 # --------------------------------------------------------------------------- nmpc
@@ -427,5 +451,6 @@ def replace(obj: object, **changes: object) -> object:
 
 
 __all__ = ["ConfigError", "RigConfig", "Well", "StringSection", "Mud", "Turbulence", "Plant",
-           "MeasurementNoise", "Lag", "Actuators", "Estimator", "Nmpc", "InputVector",
-           "OutputVector", "Protection", "load_rig", "load_section", "load_yaml", "merge", "replace"]
+           "MeasurementNoise", "Lag", "Actuators", "Estimator", "FrictionLawTuning", "FRICTION_LAWS",
+           "Nmpc", "InputVector", "OutputVector", "Protection", "load_rig", "load_section",
+           "load_yaml", "merge", "replace"]

@@ -1,10 +1,17 @@
 """Estimation model shared by the UKF and the NMPC (paper eqs. 45-48; DESIGN section 5).
 
 The truth-plant equations (drill_core.hydraulics) with the annular friction replaced
-by F_i = theta_i |v_e,i| v_e,i, v_e,i = q_i / A_f,i - K_c v_s (eq. 46 with the
-physical clinging sign), random-walk parameters theta_i, the block-position
-controller in place of the drawworks lag, and optionally an unmeasured influx into
-the bottom volume (input disturbance on BHP, NMPC2).
+by a law with random-walk parameters theta_i (config ``annular_friction_law``):
+
+* ``quadratic``: F_i = theta_i |v_e,i| v_e,i, v_e,i = q_i / A_f,i - K_c v_s (eq. 46 with
+  the physical clinging sign), theta_i in Pa s^2/m^2;
+* ``scaled_rheology``: F_i = theta_i F_nom,i(q_i, v_s), F_nom,i the Herschel-Bulkley
+  friction of path i from the well description (mud report, the truth's function family,
+  drill_core.rheology) with its yield jump smoothed over a wider velocity for the RK4
+  steps, tabulated (:class:`NominalFriction`); theta_i ~ 1 is a factor.
+
+plus the block-position controller in place of the drawworks lag, and optionally an
+unmeasured influx into the bottom volume (input disturbance on BHP, NMPC2).
 
 State  x = [z1 m, z2 m/s, z3 m s, p_1, q_2, p_2, ..., q_n, p_n, q_d, p_I, theta_2..theta_n (, d)]
 Input  u = [u_r block reference m, q_c choke flow m^3/s, q_bpp m^3/s, p_in pump pressure Pa]
@@ -14,28 +21,98 @@ numpy rows (all sigma points at once) and on CasADi symbols.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
 
 from drill_core import hydraulics as hy
-from drill_core.backend import CASADI
+from drill_core.backend import CASADI, NUMPY
 from drill_core.block_control import block_command, integral_rate
-from drill_core.config import RigConfig
+from drill_core.config import FRICTION_LAWS, RigConfig
 from drill_core.integrators import euler_step, rk4_step
+from drill_core.rheology import wall_stress_magnitude
 
 MEASUREMENT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa", "string_flow_m3s")
 INPUT_NAMES = ("block_position_ref_m", "choke_flow_m3s", "bpp_flow_m3s", "pump_pressure_pa")
 
 
+class NominalFriction:
+    """Nominal annular friction F_nom,i(q_i, v_s) of paths 2..n from the well description.
+
+    F_nom,i = sum over the path's sections of 4 L/d_h tau(q_i/A_f - K_c v_s) (the truth's
+    path_pressure_loss), with tau(v) = tau_HB(|v|) tanh(v/v_sm): the Herschel-Bulkley wall
+    stress (drill_core.rheology, laminar to turbulent) whose yield jump is smoothed over
+    v_sm instead of the truth's v/sqrt(v^2 + v_reg^2) with v_reg = 5 mm/s. The peak flow
+    gain of a path is then about 4 L tau_y/(d_h v_sm A_f), so its flow mode's rate scales
+    with 1/v_sm (docs/nmpc.md: RK4 stability at the NMPC's 0.25 s step); tanh makes the
+    law exact to 1e-4 from 3 v_sm on. tau depends on a section only through its hydraulic
+    diameter, so each distinct section is one cubic B-spline of its relative velocity
+    (checked against the exact function at build time, ``max_error_pa`` per path).
+    """
+
+    def __init__(self, wm: hy.WellModel, smoothing_mps: float, v_max_mps: float = 8.0):
+        self.smoothing_mps = smoothing_mps
+        fluid, g = wm.annulus_fluid, wm.geometry
+        sections = {sec.hydraulic_diameter_m: sec for path in g.annulus_paths for sec in path}
+        outer = np.geomspace(0.5, v_max_mps, 161)[1:]     # uniform 0.5 mm steps below 0.5 m/s
+        grid = np.concatenate([-outer[::-1], np.linspace(-0.5, 0.5, 2001), outer])
+
+        def stress(v, sec):
+            return np.asarray(wall_stress_magnitude(NUMPY, np.abs(v), fluid, sec), dtype=float) \
+                * np.tanh(v / smoothing_mps)
+
+        self._exact = stress
+        self._tables = {d: ca.interpolant(f"annulus_stress_{k}", "bspline", [grid], stress(grid, sec))
+                        for k, (d, sec) in enumerate(sorted(sections.items()))}
+        self._paths = []                  # per path: (4 L/d_h, A_f, K_c, d_h), alike sections merged
+        for path in g.annulus_paths:
+            merged: dict[tuple, float] = {}
+            for sec in path:
+                key = (sec.flow_area_m2, sec.clinging, sec.hydraulic_diameter_m)
+                merged[key] = merged.get(key, 0.0) + 4.0 * sec.length_m / sec.hydraulic_diameter_m
+            self._paths.append(tuple((c, *key) for key, c in merged.items()))
+        q = np.linspace(-0.06, 0.06, 2401)
+        self.max_error_pa = max(
+            float(np.max(np.abs(self.loss(NUMPY, k, q, v) - self._exact_loss(k, q, v, sections))))
+            for k in range(len(self._paths)) for v in (-0.5, 0.0, 0.5))
+        self._gain_flow = 0.5 * (q[1:] + q[:-1])
+        self._gain = [np.diff(self.loss(NUMPY, k, q, 0.0)) / np.diff(q) for k in range(len(self._paths))]
+        self.peak_flow_gain = tuple(float(np.max(g)) for g in self._gain)
+
+    def peak_gain_near(self, k: int, flow_m3s: float, half_width_m3s: float) -> float:
+        """Largest dF_nom/dq of path k + 2 (string still) within +-half_width of ``flow_m3s``."""
+        lo = min(flow_m3s - half_width_m3s, self._gain_flow[-1])
+        hi = max(flow_m3s + half_width_m3s, self._gain_flow[0])
+        near = (self._gain_flow >= lo) & (self._gain_flow <= hi)
+        return float(np.max(self._gain[k][near]))
+
+    def _exact_loss(self, k, q, v_s, sections):
+        return sum(c * self._exact(q / a - kc * v_s, sections[d]) for c, a, kc, d in self._paths[k])
+
+    def loss(self, xp, k: int, flow_m3s, string_velocity_mps):
+        """F_nom of path k + 2 [Pa] (numpy rows or CasADi symbols)."""
+        total = 0.0
+        for c, a, kc, d in self._paths[k]:
+            v = flow_m3s / a - kc * string_velocity_mps
+            if xp is CASADI:
+                tau = self._tables[d](v)
+            else:
+                v = np.asarray(v, dtype=float)
+                tau = np.asarray(self._tables[d](v.reshape(1, -1)), dtype=float).reshape(v.shape)
+            total = total + c * tau
+        return total
+
+
 @dataclass(frozen=True)
 class EstimationModel:
-    """Estimation model of a well: equations' parameters and state layout."""
+    """Estimation model of a well: equations' parameters, friction law and state layout."""
     wm: hy.WellModel
     block_kp: float
     block_ki_per_s: float
     with_disturbance: bool
+    friction_law: str = "quadratic"
+    nominal_friction: NominalFriction | None = field(default=None, compare=False, repr=False)
 
     @property
     def n(self) -> int:
@@ -79,7 +156,9 @@ class EstimationModel:
                 names.append(f"annulus_flow_{i}_m3s")
             names.append(f"annulus_pressure_{i}_pa")
         names += ["string_flow_m3s", "string_bottom_pressure_pa"]
-        names += [f"friction_parameter_{i}_pa_s2_m2" for i in range(2, self.n + 1)]
+        theta = "friction_parameter_{}_pa_s2_m2" if self.friction_law == "quadratic" \
+            else "friction_factor_{}"
+        names += [theta.format(i) for i in range(2, self.n + 1)]
         if self.with_disturbance:
             names.append("bottom_influx_m3s")
         return names
@@ -95,28 +174,67 @@ class EstimationModel:
         s[self.string_flow] = 1e-2
         s[self.string_pressure] = 1e5
         for i in range(2, self.n + 1):
-            s[self.theta(i)] = 1e6
+            s[self.theta(i)] = 1e6 if self.friction_law == "quadratic" else 1.0
         if self.with_disturbance:
             s[self.disturbance] = 1e-3
         return s
 
 
 def build_estimation_model(config: RigConfig, with_disturbance: bool = False) -> EstimationModel:
+    """The shared model of ``config`` with the annular friction law of config/estimator.yaml."""
     wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                              config.plant.choke_regularisation_pa)
+    est = config.estimator
+    law = est.annular_friction_law
+    if law not in FRICTION_LAWS:
+        raise ValueError(f"annular_friction_law {law!r} must be one of {FRICTION_LAWS}")
+    nominal = NominalFriction(wm, est.annular_friction_smoothing_mps) \
+        if law == "scaled_rheology" else None
     return EstimationModel(wm, config.actuators.block_kp, config.actuators.block_ki_per_s,
-                           with_disturbance)
+                           with_disturbance, law, nominal)
+
+
+def _unit_friction(xp, em: EstimationModel, k: int, flow_m3s, string_velocity_mps, theta=1.0):
+    """Annular friction of path k + 2: theta |v_e| v_e (eq. 46) or theta F_nom [Pa]."""
+    if em.friction_law == "quadratic":
+        g = em.wm.geometry
+        v_e = flow_m3s / g.main_flow_area_m2[k] - g.main_clinging[k] * string_velocity_mps
+        return theta * xp.fabs(v_e) * v_e
+    return theta * em.nominal_friction.loss(xp, k, flow_m3s, string_velocity_mps)
 
 
 def annulus_friction(xp, em: EstimationModel, x):
-    """Quadratic friction F_i = theta_i |v_e| v_e of paths 2..n (eq. 46) [Pa]."""
+    """Annular friction F_i = theta_i f_i(q_i, v_s) of paths 2..n [Pa]: f_i = |v_e| v_e
+    (quadratic, eq. 46) or the nominal HB friction F_nom,i (scaled_rheology)."""
+    return [_unit_friction(xp, em, k, x[em.flow(i)], x[1], x[em.theta(i)])
+            for k, i in enumerate(range(2, em.n + 1))]
+
+
+def fitted_friction_parameters(em: EstimationModel, flows_m3s, friction_pa,
+                               string_velocity_mps: float = 0.0) -> np.ndarray:
+    """theta_2..theta_n that reproduce the friction ``friction_pa`` at ``flows_m3s`` (0 where
+    the law gives no friction)."""
+    out = []
+    for k, (q, f) in enumerate(zip(flows_m3s, friction_pa)):
+        unit = float(_unit_friction(NUMPY, em, k, q, string_velocity_mps))
+        out.append(float(f) / unit if unit != 0.0 else 0.0)
+    return np.array(out)
+
+
+def friction_flow_gain_bound(em: EstimationModel, x, speed_floor_mps: float) -> np.ndarray:
+    """Upper bound of dF_i/dq_i per unit theta [Pa s/m^3] near state ``x`` (flow-mode stiffness):
+    quadratic 2 max(|v_e|, floor)/A_f; scaled_rheology the largest gain of F_nom within
+    +-floor of the state's v_e (the peak, at v_e = 0, only where the flow is that close)."""
     g = em.wm.geometry
-    v_s = x[1]
     out = []
     for k, i in enumerate(range(2, em.n + 1)):
-        v_e = x[em.flow(i)] / g.main_flow_area_m2[k] - g.main_clinging[k] * v_s
-        out.append(x[em.theta(i)] * xp.fabs(v_e) * v_e)
-    return out
+        area = g.main_flow_area_m2[k]
+        v_e = x[em.flow(i)] / area - g.main_clinging[k] * x[1]
+        if em.friction_law == "quadratic":
+            out.append(2.0 * max(abs(v_e), speed_floor_mps) / area)
+        else:
+            out.append(em.nominal_friction.peak_gain_near(k, area * v_e, area * speed_floor_mps))
+    return np.array(out)
 
 
 def drift(xp, em: EstimationModel, x, u):

@@ -109,8 +109,8 @@ def hydraulic_rates(xp, wm: WellModel, pressures, flows, string_flow_m3s, string
                     friction_pa) -> HydraulicRates:
     """Mass and momentum balances of annulus and drill string (DESIGN section 3).
 
-    ``friction_pa`` is the annular friction of paths 2..n (HB in the plant, quadratic
-    in the estimation model). The bit rises with the string, so the string column is
+    ``friction_pa`` is the annular friction of paths 2..n (HB in the plant, the
+    configured law in the estimation model). The bit rises with the string, so the string column is
     D_bit - x_s high and the annulus pressure at the bit is p_n - rho g x_s.
     """
     w, g = wm.well, wm.geometry

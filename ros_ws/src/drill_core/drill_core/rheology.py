@@ -96,9 +96,8 @@ def reynolds_number(xp, speed_mps, laminar_stress_pa, fluid: Fluid, section: Flo
     return factor * fluid.density_kgm3 * speed_mps * speed_mps / laminar_stress_pa
 
 
-def wall_stress(xp, velocity_mps, fluid: Fluid, section: FlowSection, regularisation_mps: float):
-    """Signed wall stress [Pa] for mean (effective) velocity ``velocity_mps``, laminar to turbulent."""
-    speed = xp.fabs(velocity_mps)
+def wall_stress_magnitude(xp, speed, fluid: Fluid, section: FlowSection):
+    """Wall stress [Pa] for mean speed ``speed`` >= 0, laminar to turbulent (no yield smoothing)."""
     tau_lam = laminar_wall_stress(xp, speed, fluid, section)
     re = reynolds_number(xp, speed, tau_lam, fluid, section)
     tau_turb = fluid.turbulence_a * fluid.density_kgm3 * speed * speed \
@@ -107,7 +106,12 @@ def wall_stress(xp, velocity_mps, fluid: Fluid, section: FlowSection, regularisa
     re_high = 4270.0 - 1370.0 * fluid.flow_index
     s = clip(xp, (re - re_low) / (re_high - re_low), 0.0, 1.0)
     weight = s * s * (3.0 - 2.0 * s)
-    tau = (1.0 - weight) * tau_lam + weight * tau_turb
+    return (1.0 - weight) * tau_lam + weight * tau_turb
+
+
+def wall_stress(xp, velocity_mps, fluid: Fluid, section: FlowSection, regularisation_mps: float):
+    """Signed wall stress [Pa] for mean (effective) velocity ``velocity_mps``, laminar to turbulent."""
+    tau = wall_stress_magnitude(xp, xp.fabs(velocity_mps), fluid, section)
     return tau * velocity_mps / xp.sqrt(velocity_mps * velocity_mps + regularisation_mps ** 2)
 
 

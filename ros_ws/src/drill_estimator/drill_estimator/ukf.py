@@ -29,14 +29,21 @@ specialised as follows.
   explode because every state's standard deviation is capped at ``max_std_factor``
   times its initial value (rows/columns of P scaled down, which keeps P positive
   semi-definite), and the model's string dynamics are stable, so the mean stays bounded.
-* **Friction parameters.** theta_i is a random walk whose per-step std is
-  ``friction_parameter_process_std`` at rest plus ``friction_parameter_motion_std`` x
-  min(1, |v_s| / motion_reference_speed_mps): the quadratic law's coefficient belongs to
-  an operating point, and the truth's yield-dominated friction changes the fitted value
-  several-fold the moment the string moves (at rest theta settles; while tripping it
-  tracks, so the BHP estimate keeps following the measurement). The mean is projected
-  onto [0, max_friction_parameter] (a quadratic law cannot hold a gelled, static pressure
-  difference, so with no flow theta would otherwise grow without bound).
+* **Friction parameters.** theta_i (the shared model's annular friction law,
+  ``annular_friction_law``; tuning per law in ``<law>_friction``, with the flow states'
+  process noise) is a random walk whose per-step std is ``theta_process_std`` at rest
+  plus ``theta_motion_std`` x min(1, |v_s| / motion_reference_speed_mps). Quadratic law:
+  its coefficient belongs to an operating point, and the truth's yield-dominated friction
+  changes the fitted value several-fold the moment the string moves (at rest theta
+  settles; while tripping it tracks, so the BHP estimate keeps following the
+  measurement). scaled_rheology: theta is a factor ~ 1 on the mud report's friction and
+  only corrects it slowly (no motion term). With only the choke dp and the BHP measured,
+  just the sum of the path frictions is observable at steady circulation, so the theta_i
+  random walks (and their initial spread) are correlated with ``theta_correlation``:
+  near 1 they move together, one correction of the one mud's rheology, instead of
+  drifting apart along the unobservable direction. The mean is projected onto
+  [0, theta_max] (a quadratic law cannot hold a gelled, static pressure difference, so
+  with no flow theta would otherwise grow without bound).
 * **Guards.** A measurement with a NaN/inf value is rejected (counted, no update, the
   prediction is kept). The normalised innovation squared (NIS) is summed over a window
   of ``nis_window`` accepted updates; when the sum exceeds the chi-square quantile
@@ -195,11 +202,11 @@ class RigUkf:
             q_std[em.pressure(i)] = est.pressure_process_std_pa
             p_std[em.pressure(i)] = est.initial_pressure_std_pa
             if i > 1:
-                q_std[em.flow(i)] = est.flow_process_std_m3s
+                q_std[em.flow(i)] = est.friction_tuning.flow_process_std_m3s
                 p_std[em.flow(i)] = est.initial_flow_std_m3s
-                q_std[em.theta(i)] = est.friction_parameter_process_std
-                p_std[em.theta(i)] = est.initial_friction_parameter_std
-        q_std[em.string_flow] = est.flow_process_std_m3s
+                q_std[em.theta(i)] = est.friction_tuning.theta_process_std
+                p_std[em.theta(i)] = est.friction_tuning.theta_initial_std
+        q_std[em.string_flow] = est.friction_tuning.flow_process_std_m3s
         p_std[em.string_flow] = est.initial_flow_std_m3s
         q_std[em.string_pressure] = est.pressure_process_std_pa
         p_std[em.string_pressure] = est.initial_pressure_std_pa
@@ -210,7 +217,13 @@ class RigUkf:
         self._P0 = np.diag((p_std / self.scale) ** 2)
         self._max_std = est.max_std_factor * p_std / self.scale
         self._theta_index = np.array([em.theta(i) for i in range(2, em.n + 1)])
-        self._theta_max = est.max_friction_parameter / self.scale[self._theta_index]
+        rho = est.friction_tuning.theta_correlation
+        self._theta_block = np.ix_(self._theta_index, self._theta_index)
+        self._theta_corr = rho + (1.0 - rho) * np.eye(em.n - 1)
+        for M, std in ((self._Q, q_std), (self._P0, p_std)):
+            s = std[self._theta_index] / self.scale[self._theta_index]
+            M[self._theta_block] = np.outer(s, s) * self._theta_corr
+        self._theta_max = est.friction_tuning.theta_max / self.scale[self._theta_index]
 
         points = _SigmaPoints(self.n_x, est.alpha, est.beta, est.kappa_offset - self.n_x,
                               sqrt_method=self._factor)
@@ -218,7 +231,8 @@ class RigUkf:
                               points=points)
         self._lam_n = est.alpha ** 2 * (self.n_x + points.kappa)   # n_x + lambda
         self._ukf.Q = self._Q.copy()
-        self._theta_motion_var = (est.friction_parameter_motion_std / self.scale[self._theta_index]) ** 2
+        self._theta_motion_var = (est.friction_tuning.theta_motion_std
+                                  / self.scale[self._theta_index]) ** 2
         self._theta_base_std = q_std[self._theta_index] / self.scale[self._theta_index]
         self._ukf.R = self._R.copy()
 
@@ -275,7 +289,7 @@ class RigUkf:
             x[em.pressure(i)] = static[i - 1] + extra * share[i - 1]
             if i > 1:
                 x[em.flow(i)] = flow
-                x[em.theta(i)] = self.est.initial_friction_parameter
+                x[em.theta(i)] = self.est.friction_tuning.theta_initial
         x[em.string_flow] = flow
         if flow > 0.0:
             a = 0.5 * w.mud.density_kgm3 / w.bit_nozzle_coefficient_m2 ** 2
@@ -394,7 +408,7 @@ class RigUkf:
 
     @property
     def theta(self) -> np.ndarray:
-        """Quadratic friction coefficients theta_2..theta_n [Pa s^2/m^2]."""
+        """Friction parameters theta_2..theta_n (quadratic: Pa s^2/m^2; scaled_rheology: 1)."""
         return self.mean[self._theta_index]
 
     @property
@@ -448,7 +462,7 @@ class RigUkf:
         return ca.vertcat(u_r, u[1], u[2], u[3])
 
     def _set_process_noise(self) -> None:
-        """theta random walk: base std plus friction_parameter_motion_std scaled by
+        """theta random walk: base std plus the law's theta_motion_std scaled by
         min(1, |v_s| / motion_reference_speed_mps). The quadratic law's coefficient is a
         property of the operating point; it moves fast only when the string moves."""
         if not np.any(self._theta_motion_var):
@@ -456,7 +470,7 @@ class RigUkf:
         speed = abs(float(self._ukf.x[1] * self.scale[1]))
         w = min(1.0, speed / self.est.motion_reference_speed_mps)
         std = self._theta_base_std + w * np.sqrt(self._theta_motion_var)
-        self._ukf.Q[self._theta_index, self._theta_index] = std ** 2
+        self._ukf.Q[self._theta_block] = np.outer(std, std) * self._theta_corr
 
     def _transition_for(self, steps: int) -> ca.Function:
         """All sigma points (columns, scaled) through ``steps`` model steps with inputs
@@ -526,7 +540,7 @@ class RigUkf:
         except (np.linalg.LinAlgError, ValueError):
             reset = self._lam_n * self._P0
             self._repaired = (reset, True)
-            return np.sqrt(reset)                   # P0 is diagonal
+            return np.linalg.cholesky(reset).T      # P0 is positive definite
 
     def _absorb_repair(self) -> None:
         """Replace P by the repaired covariance if the last square root needed one."""
@@ -541,7 +555,7 @@ class RigUkf:
             self.repairs += 1
 
     def _project(self) -> None:
-        """Keep 0 <= theta <= max_friction_parameter (mean) and the standard deviations capped."""
+        """Keep 0 <= theta <= the law's theta_max (mean) and the standard deviations capped."""
         x = self._ukf.x
         x[self._theta_index] = np.clip(x[self._theta_index], 0.0, self._theta_max)
         if np.all(np.isfinite(self._ukf.P)):

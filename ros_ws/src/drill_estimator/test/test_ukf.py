@@ -171,6 +171,9 @@ def test_circulating_at_rest_bhp_theta_nees_nis(cfg, plant):
     noise = cfg.plant.measurement_noise.bhp_pa
     assert rmse < 0.4 * noise
     assert np.all(theta_change < 0.1)
+    if cfg.estimator.annular_friction_law == "scaled_rheology":
+        # one common correction (theta_correlation): the paths' factors stay together
+        assert np.ptp(theta[-1]) < 0.02 and np.all(np.abs(theta[-1] - 1.0) < 0.1)
     assert nees_inside > 0.6 and nees_below > 0.9
     assert nis_inside > 0.85
     assert all(a["observable"])

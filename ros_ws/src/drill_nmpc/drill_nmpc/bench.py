@@ -27,7 +27,8 @@ import numpy as np
 
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, load_rig
-from drill_core.estimation_model import EstimationModel, build_estimation_model
+from drill_core.estimation_model import (EstimationModel, build_estimation_model,
+                                         fitted_friction_parameters)
 from drill_core.scenario import ActiveSetpoints, Initial
 from drill_nmpc.ocp import ActuatorLags, PredictionModel, StringFrictionTable, Supervisor, outputs
 
@@ -44,7 +45,7 @@ def steady_estimate(em: EstimationModel, initial: Initial) -> tuple[np.ndarray, 
 
     Design knowledge, not truth: the closed-form steady circulation of the well
     (drill_plant.plant_model.steady_state) mapped to the estimation layout, with
-    theta_i = F_i / v_i^2 from the Herschel-Bulkley friction at that flow.
+    theta_i fitted to the Herschel-Bulkley friction at that flow (the model's law).
     """
     from drill_plant.plant_model import steady_state   # design knowledge of the well
     wm = em.wm
@@ -52,11 +53,9 @@ def steady_estimate(em: EstimationModel, initial: Initial) -> tuple[np.ndarray, 
     x = np.zeros(em.size)
     x[0:2] = ss.state[0:2]
     x[3:3 + 2 * wm.n + 1] = ss.state[2:]
-    q = initial.circulation_m3s
-    friction = hy.annulus_friction(np, wm, np.array([q] * (wm.n - 1)), 0.0)
-    for k, i in enumerate(range(2, wm.n + 1)):
-        v = q / wm.geometry.main_flow_area_m2[k]
-        x[em.theta(i)] = float(friction[k]) / v ** 2 if v > 0.0 else 0.0
+    flows = np.full(wm.n - 1, initial.circulation_m3s)
+    friction = hy.annulus_friction(np, wm, flows, 0.0)
+    x[em.theta(2):em.theta(wm.n) + 1] = fitted_friction_parameters(em, flows, friction)
     u = np.array([0.0, ss.choke_flow_m3s, initial.bpp_flow_m3s, ss.inputs[3]])
     return x, u
 

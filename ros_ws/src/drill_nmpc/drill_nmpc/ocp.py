@@ -56,7 +56,7 @@ import numpy as np
 from drill_core import hydraulics as hy
 from drill_core.backend import CASADI, NUMPY
 from drill_core.config import Nmpc, RigConfig
-from drill_core.estimation_model import EstimationModel, drift
+from drill_core.estimation_model import EstimationModel, drift, friction_flow_gain_bound
 from drill_core.block_control import block_command, integral_rate
 from drill_core.integrators import euler_step, rk4_step
 from drill_core.scenario import ActiveSetpoints
@@ -73,7 +73,7 @@ RELAXED_DROPS = ("bhp_band", "choke_dp_band", "choke_capacity")
 _INTEGRAL_OUTPUTS = (1, 2)        # NMPC1 integrates the pressure outputs (see docs/nmpc.md)
 TRIP_RANGE_MARGIN_M = 0.5         # the block reference may pass the string / target by this
 THETA_STIFFNESS_LIMIT = 2.0       # |lambda| h of the annular flow modes kept below this (RK4: 2.78)
-THETA_SPEED_FLOOR_MPS = 0.1       # effective annular speed used for the cap near zero flow
+THETA_SPEED_FLOOR_MPS = 0.1       # quadratic law: effective annular speed used for the cap near zero flow
 _INF = float("inf")
 
 
@@ -1001,17 +1001,17 @@ class Supervisor:
 
     def _clamp_friction(self, x, par) -> str:
         """Cap the friction parameters theta_i (in ``par``) where the annular flow mode
-        d(q_i)/dt = -(2 theta_i |v_e,i| / (A_i M_i)) q_i + ... becomes too stiff for the
+        d(q_i)/dt = -(theta_i dF_i/dq_i / M_i) q_i + ... becomes too stiff for the
         prediction's RK4 step h (|lambda| h <= 2, inside RK4's stability region): an
         estimate several times the circulating value would make the prediction diverge.
-        Returns a note when it acted."""
+        dF_i/dq_i is the law's bound (em.friction_flow_gain_bound: 2|v_e|/A_i for the
+        quadratic law). Returns a note when it acted."""
         em, g = self.em, self.em.wm.geometry
         h = self.problem.ts / self.problem.substeps
+        gain = friction_flow_gain_bound(em, x, THETA_SPEED_FLOOR_MPS)
         notes = []
         for k, i in enumerate(range(2, em.n + 1)):
-            v_e = abs(x[em.flow(i)] / g.main_flow_area_m2[k] - g.main_clinging[k] * x[1])
-            limit = THETA_STIFFNESS_LIMIT / h * g.main_flow_area_m2[k] \
-                * g.annulus_inertance_kg_m4[k] / (2.0 * max(v_e, THETA_SPEED_FLOOR_MPS))
+            limit = THETA_STIFFNESS_LIMIT / h * g.annulus_inertance_kg_m4[k] / gain[k]
             if par[k] > limit:
                 notes.append(f"theta_{i} {par[k]:.3g} -> {limit:.3g}")
                 par[k] = limit
