@@ -71,7 +71,8 @@ def plant_actuators_rtf(domain_id: int) -> dict:
         wait = [f"sub@/actuators/{n}/frame:1" for n in launcher.ACTUATOR_NODES] \
             + [f"pub@/actuators/{n}/frame:1" for n in launcher.ACTUATOR_NODES] \
             + ["sub@/rig/measurement:4"]
-        nodes.append(launcher.NodeSpec("plant", "drill_plant.plant_node", {"wait_for": wait}))
+        nodes.append(launcher.NodeSpec("plant", "drill_plant.plant_node", {"wait_for": wait},
+                                       finishes=True))
         for node in nodes:
             node.params.update(common)
             node.params["use_sim_time"] = launcher.uses_sim_time(node.name, fast=True)

@@ -4,7 +4,8 @@ Every node runs as ``python -m <module> --ros-args -p ...`` on an isolated
 ROS_DOMAIN_ID with localhost discovery; each node's output goes to
 ``<run>/logs/<node>.log``. The recorder starts first and stops last. In fast mode
 the plant starts the lockstep once every subscription the graph needs is
-connected, and exits when the scenario ends; the launcher then stops the rest.
+connected, and exits when the scenario ends (so does the estimator, once it has
+estimated the last sample); the launcher then stops the rest.
 A node that dies makes the launch fail with its name, exit code and last log lines.
 """
 from __future__ import annotations
@@ -44,6 +45,7 @@ class NodeSpec:
     name: str
     module: str
     params: dict = field(default_factory=dict)
+    finishes: bool = False        # exits (code 0) by itself at the scenario's end
 
 
 def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -> list[NodeSpec]:
@@ -79,7 +81,10 @@ def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -
         wait_for.append(f"pub@{topics.actuator_frame(name)}:1")
     if not fast:
         nodes.append(NodeSpec("console", "drill_bringup.console", {"port": 8080}))
-    nodes.append(NodeSpec("plant", "drill_plant.plant_node", {"wait_for": [w for w in wait_for if w]}))
+    nodes.append(NodeSpec("plant", "drill_plant.plant_node", {"wait_for": [w for w in wait_for if w]},
+                          finishes=True))
+    if fast:        # the estimator ends after the last sample: nothing else waits for it
+        next(n for n in nodes if n.name == "estimator").finishes = True
     for node in nodes:
         node.params.update(common)
         node.params["use_sim_time"] = uses_sim_time(node.name, fast)
@@ -168,16 +173,22 @@ class Launch:
                 f"{self.logs / (name + '.log')}:\n{tail(self.logs / (name + '.log'))}")
 
     def watch(self, timeout_s: float, on_poll=None) -> tuple[bool, str]:
-        """Wait for the plant to finish; fail if any node dies first or time runs out."""
+        """Wait for every finishing node (the plant; in fast mode the estimator too) to end
+        the scenario; fail if any node dies first or time runs out."""
+        finishing = {spec.name for spec in self.nodes if spec.finishes}
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
+            finished = set()
             for name, proc in self.procs.items():
                 code = proc.poll()
                 if code is None:
                     continue
-                if name == "plant" and code == 0:
-                    return True, "scenario finished"
+                if code == 0 and name in finishing:
+                    finished.add(name)
+                    continue
                 return False, self.failure(name, code)
+            if finishing and finished == finishing:
+                return True, "scenario finished"
             if on_poll is not None:
                 on_poll()
             time.sleep(0.1)

@@ -19,6 +19,7 @@ def test_fast_graph_clock_readers_match_the_plants_wait_list():
     assert "sub@/clock:1" in nodes["plant"].params["wait_for"]
     assert not any(nodes[a].params["use_sim_time"] for a in launcher.ACTUATOR_NODES)
     assert list(nodes)[0] == "recorder" and list(nodes)[-1] == "plant"
+    assert sorted(name for name, n in nodes.items() if n.finishes) == ["estimator", "plant"]
 
 
 def test_open_loop_graph_has_sequencer_and_protection_but_no_supervisor():
@@ -31,6 +32,7 @@ def test_realtime_graph_runs_on_wall_time_with_a_console():
     nodes = launcher.graph("baseline", dict(COMMON, mode="realtime"), Path("/r/x.mcap"), fast=False)
     assert not any(n.params["use_sim_time"] for n in nodes)
     assert "console" in _by_name(nodes)
+    assert [n.name for n in nodes if n.finishes] == ["plant"]   # realtime: the estimator runs on
 
 
 def test_repeated_node_names_are_refused(tmp_path):

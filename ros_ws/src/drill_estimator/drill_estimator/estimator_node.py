@@ -30,7 +30,9 @@ import time
 
 import numpy as np
 from drill_msgs.msg import ActuatorFrame, RigMeasurement, StateEstimate
+import rclpy
 from rclpy.clock import Clock, ClockType
+from rclpy.duration import Duration
 
 from drill_core import hydraulics as hy
 from drill_core.ros import topics
@@ -54,6 +56,9 @@ class EstimatorNode(RigNode):
         self.wm = self.ukf.em.wm
         self.steps = cfg.plant.steps_per_frame
         self.step_ns = int(round(cfg.plant.step_s * 1e9))
+        frame_ns = int(round(cfg.plant.sensor_period_s * 1e9))
+        self.end_ns = int(round(ctx.scenario.duration_s / cfg.plant.sensor_period_s)) * frame_ns
+        self.exit_code = 0
         self.status = StatusReporter(self, ctx.mode)
 
         self.frames = StampedInbox(topics.ACTUATORS)           # fast mode
@@ -108,6 +113,17 @@ class EstimatorNode(RigNode):
             else:
                 frames = {}
             self._process(self.pending.pop(stamp), frames)
+            if stamp == self.end_ns:
+                self._finish()
+                return
+
+    def _finish(self) -> None:
+        """Fast mode: the scenario's last sample is estimated; once the recorder (and every
+        reader) has acknowledged it, exit, so a run never ends with the estimator behind
+        (nothing waits for it in open-loop and baseline runs)."""
+        self.pub.wait_for_all_acked(Duration(seconds=5.0))
+        self.get_logger().info(f"last sample estimated (t = {self.end_ns * 1e-9:.1f} s); exiting")
+        rclpy.try_shutdown()
 
     # -------------------------------------------------------------- filtering
     def _process(self, msg: RigMeasurement, frames) -> None:
