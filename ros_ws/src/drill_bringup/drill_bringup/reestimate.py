@@ -41,49 +41,38 @@ def reestimate(run_dir: Path, config_dir: Path, rate: float, domain_id: int) -> 
               "use_sim_time": True}
     nodes = [launcher.NodeSpec("recorder", "drill_bringup.recorder",
                                {"output": str(new_mcap), "topics": [topics.ESTIMATE], **common}),
-             launcher.NodeSpec("estimator", "drill_estimator.estimator_node", dict(common))]
+             launcher.NodeSpec("estimator", "drill_estimator.estimator_node", dict(common),
+                               finishes=True)]
     launch = launcher.Launch(nodes, out_dir, domain_id)
-    launch.start()
     expected = mcap_io.topics(original)[topics.MEASUREMENT].message_count
+    first_ns, last_ns = mcap_io.time_range_ns(original)
     replay_cmd = [sys.executable, "-m", "drill_bringup.replay", str(original), "--rate", str(rate),
                   "--topics", *REPLAYED, "--wait-for-subscribers"]
+    launch.start()
+    replay_log = launch.logs / "replay.log"
+    with open(replay_log, "w", encoding="utf-8") as log:
+        replay = subprocess.Popen(replay_cmd, env=launch.env, stdout=log, stderr=subprocess.STDOUT)
     try:
-        count = _count_estimates(domain_id, expected, replay_cmd, launch.env)
+        # the estimator exits once it has estimated the recording's last sample
+        ok, message = launch.watch((last_ns - first_ns) * 1e-9 / rate + 120.0,
+                                   on_poll=lambda: _check(replay, replay_log))
     finally:
+        if replay.poll() is None:
+            replay.terminate()
+        replay.wait(timeout=10)
         codes = launch.stop()
+    if not ok:
+        raise RuntimeError(f"re-estimation did not finish: {message}")
     if codes.get("recorder") != 0:
         raise RuntimeError(launch.failure("recorder", codes.get("recorder")))
     return {"recorded_bhp_estimate_rmse_pa": bhp_estimate_rmse_pa(original, original),
             "new_bhp_estimate_rmse_pa": bhp_estimate_rmse_pa(new_mcap, original),
-            "estimates": count, "measurements": expected, "mcap": str(new_mcap)}
+            "estimates": mcap_io.topics(new_mcap)[topics.ESTIMATE].message_count,
+            "measurements": expected, "mcap": str(new_mcap)}
 
 
-def _count_estimates(domain_id: int, expected: int, replay_cmd: list, env: dict,
-                     idle_timeout_s: float = 30.0) -> int:
-    """Run the replay while counting the new estimator's estimates until all arrived."""
-    import rclpy
-    from drill_msgs.msg import StateEstimate
-
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=domain_id)
-    node = rclpy.create_node("reestimate_monitor", context=context)
-    received = []
-    node.create_subscription(StateEstimate, topics.ESTIMATE, received.append, topics.RELIABLE)
-    executor = rclpy.executors.SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    try:
-        replay = subprocess.Popen(replay_cmd, env=env, stdout=subprocess.PIPE,
-                                  stderr=subprocess.STDOUT, text=True)
-        last_count, last_change = 0, time.monotonic()
-        while len(received) < expected and time.monotonic() - last_change < idle_timeout_s:
-            executor.spin_once(timeout_sec=0.1)
-            if len(received) != last_count:
-                last_count, last_change = len(received), time.monotonic()
-            if replay.poll() not in (None, 0):
-                raise RuntimeError(f"replay failed: {replay.stdout.read()[-2000:]}")
-        replay.wait(timeout=60)
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown(context=context)
-    return len(received)
+def _check(replay: subprocess.Popen, log: Path) -> None:
+    """Fail the re-estimation as soon as the replay process fails."""
+    code = replay.poll()
+    if code not in (None, 0):
+        raise RuntimeError(f"replay exited with code {code}:\n{launcher.tail(log)}")
