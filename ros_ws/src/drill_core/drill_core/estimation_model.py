@@ -29,7 +29,7 @@ import numpy as np
 from drill_core import hydraulics as hy
 from drill_core.backend import CASADI, NUMPY
 from drill_core.block_control import block_command, integral_rate
-from drill_core.config import FRICTION_LAWS, RigConfig
+from drill_core.config import RigConfig
 from drill_core.integrators import euler_step, rk4_step
 from drill_core.rheology import wall_stress_magnitude
 
@@ -185,9 +185,7 @@ def build_estimation_model(config: RigConfig, with_disturbance: bool = False) ->
     wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                              config.plant.choke_regularisation_pa)
     est = config.estimator
-    law = est.annular_friction_law
-    if law not in FRICTION_LAWS:
-        raise ValueError(f"annular_friction_law {law!r} must be one of {FRICTION_LAWS}")
+    law = est.annular_friction_law                # validated by the config (FRICTION_LAWS)
     nominal = NominalFriction(wm, est.annular_friction_smoothing_mps) \
         if law == "scaled_rheology" else None
     return EstimationModel(wm, config.actuators.block_kp, config.actuators.block_ki_per_s,

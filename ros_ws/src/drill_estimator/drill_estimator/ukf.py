@@ -166,14 +166,13 @@ class RigUkf:
         self.em = em if em is not None else build_estimation_model(config, use_bottom_influx(config))
         em = self.em
         self.n_x = em.size
-        self.plant_step_s = config.plant.step_s
         self.plant_steps_per_frame = config.plant.steps_per_frame
         self.model_steps_per_frame = est.model_steps_per_frame
         self.model_step_s = config.plant.sensor_period_s / est.model_steps_per_frame   # RK4 step
         self.scale = em.state_scale()
         self.p0 = em.wm.well.choke_downstream_pressure_pa
 
-        # discrete model on scaled states; one plant step, chained per frame length
+        # discrete model on scaled states: one RK4 model step, chained per interval
         self._n_sigma = 2 * self.n_x + 1
         self._jit = jit
         F = build_discrete_model(em, self.model_step_s, 1, "rk4")
