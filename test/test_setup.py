@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SETUP = ROOT / "scripts" / "setup"
 STAMPS = ROOT / ".venv" / ".rig-stamps"
 BUILD_LOG = ROOT / "ros_ws" / "colcon-build.log"
-WORK_MARKERS = ("colcon build", "installing", "creating")   # lines that mean setup did work
+WORK_MARKERS = ("colcon build", "installing", "creating", "byte-compiling")   # setup did work
 
 
 def run_setup(timeout: float = 600.0) -> tuple[float, str]:
@@ -94,3 +94,16 @@ def test_python_edit_needs_no_rebuild(up_to_date):
         probe.unlink(missing_ok=True)
         for cache in package.glob(f"__pycache__/{probe_name}.*"):
             cache.unlink(missing_ok=True)
+
+
+def test_virtualenv_is_byte_compiled(up_to_date):
+    """Every node starts as its own process: setup compiles the venv once so no start
+    compiles numpy/scipy/casadi/rclpy from source (PYTHONDONTWRITEBYTECODE may be set)."""
+    check = subprocess.run(
+        [str(ROOT / ".venv" / "bin" / "python"), "-c",
+         "import importlib.util as u, os; "
+         "spec = u.find_spec('numpy.f2py.crackfortran'); "      # a module the rig never imports
+         "print(os.path.exists(u.cache_from_source(spec.origin)))"],
+        capture_output=True, text=True, timeout=60)
+    assert check.returncode == 0, check.stderr
+    assert check.stdout.strip() == "True"
