@@ -50,16 +50,20 @@ def reestimate(run_dir: Path, config_dir: Path, rate: float, domain_id: int) -> 
                   "--topics", *REPLAYED, "--wait-for-subscribers"]
     launch.start()
     replay_log = launch.logs / "replay.log"
-    with open(replay_log, "w", encoding="utf-8") as log:
-        replay = subprocess.Popen(replay_cmd, env=launch.env, stdout=log, stderr=subprocess.STDOUT)
+    replay = None
     try:
+        _wait_for_subscriber(domain_id, topics.ESTIMATE, timeout_s=120.0)   # the recorder's
+        with open(replay_log, "w", encoding="utf-8") as log:
+            replay = subprocess.Popen(replay_cmd, env=launch.env, stdout=log,
+                                      stderr=subprocess.STDOUT)
         # the estimator exits once it has estimated the recording's last sample
         ok, message = launch.watch((last_ns - first_ns) * 1e-9 / rate + 120.0,
                                    on_poll=lambda: _check(replay, replay_log))
     finally:
-        if replay.poll() is None:
-            replay.terminate()
-        replay.wait(timeout=10)
+        if replay is not None:
+            if replay.poll() is None:
+                replay.terminate()
+            replay.wait(timeout=10)
         codes = launch.stop()
     if not ok:
         raise RuntimeError(f"re-estimation did not finish: {message}")
@@ -69,6 +73,26 @@ def reestimate(run_dir: Path, config_dir: Path, rate: float, domain_id: int) -> 
             "new_bhp_estimate_rmse_pa": bhp_estimate_rmse_pa(new_mcap, original),
             "estimates": mcap_io.topics(new_mcap)[topics.ESTIMATE].message_count,
             "measurements": expected, "mcap": str(new_mcap)}
+
+
+def _wait_for_subscriber(domain_id: int, topic: str, timeout_s: float) -> None:
+    """Block until ``topic`` has a subscriber in the ROS graph, then let the reliable match
+    complete: the estimator publishes as soon as the replay starts, and the recorder
+    subscribes only once it has discovered the estimate topic."""
+    import rclpy
+
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain_id)
+    try:
+        node = rclpy.create_node("reestimate_wait", context=context)
+        deadline = time.monotonic() + timeout_s
+        while node.count_subscribers(topic) < 1:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"nothing subscribed to {topic} within {timeout_s:.0f} s")
+            time.sleep(0.1)
+        time.sleep(topics.MATCH_SETTLE_S)
+    finally:
+        rclpy.try_shutdown(context=context)
 
 
 def _check(replay: subprocess.Popen, log: Path) -> None:

@@ -28,8 +28,6 @@ from drill_core.ros.status import StatusReporter
 from drill_plant.plant_model import PlantLayout, steady_state
 from drill_plant.simulator import PlantDiverged, PlantSimulator
 
-SETTLE_S = 2.0          # discovery precedes endpoint matching: let reliable matches complete
-
 
 class PlantNode(RigNode):
     def __init__(self):
@@ -83,7 +81,7 @@ class PlantNode(RigNode):
         now = time.monotonic()
         if self._ready_since is None:
             self._ready_since = now
-        if now - self._ready_since >= SETTLE_S:
+        if now - self._ready_since >= topics.MATCH_SETTLE_S:
             self._start_timer.cancel()
             self.get_logger().info("graph connected; starting lockstep")
             self._progress = (self.k, now)

@@ -5,6 +5,8 @@ with keep-all history; setpoints are latched (transient local, depth 1).
 """
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+MATCH_SETTLE_S = 2.0    # discovery precedes endpoint matching: let reliable matches complete
+
 MEASUREMENT = "/rig/measurement"        # drill_msgs/RigMeasurement, plant -> estimator, actuators
 TRUTH = "/rig/truth"                    # drill_msgs/PlantTruth, evaluation only
 COMMAND = "/supervisor/command"         # drill_msgs/RigCommand, advisor (nmpc, baseline) -> protection
