@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from drill_bringup import cli, launcher
+from drill_bringup import launcher, runs
 from drill_core import hydraulics as hy
 from drill_core.scenario import load_scenario_config
 from drill_plant.plant_model import steady_state
@@ -28,7 +28,7 @@ PAPER_SOLVE_S = 16.4
 
 def plant_frame_cost(repetitions: int = 2000) -> dict:
     """Wall time of one 0.1 s plant frame (10 steps x 2 SRK substeps) in-process."""
-    _, config = load_scenario_config(cli.ROOT / "config/scenarios/case2.yaml", cli.ROOT / "config")
+    _, config = load_scenario_config(runs.ROOT / "config/scenarios/case2.yaml", runs.ROOT / "config")
     wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                              config.plant.choke_regularisation_pa)
     ss = steady_state(wm, 0.016667, 2.0e6, 0.0)
@@ -49,16 +49,16 @@ def graph_rtf(scenario: str, domain_id: int, friction_law: str | None = None) ->
     the processes to the recorder closing its file (the report afterwards is timed apart).
     ``friction_law`` runs the scenario with that annular friction law instead of the
     configured one (a copy of the scenario file with the estimator override)."""
-    path = cli.scenario_path(scenario)
+    path = runs.scenario_path(scenario)
     with tempfile.TemporaryDirectory() as tmp:
         if friction_law is not None:
             data = yaml.safe_load(path.read_text())
             data.setdefault("overrides", {}).setdefault("estimator", {})["annular_friction_law"] = friction_law
             path = Path(tmp) / path.name
             path.write_text(yaml.safe_dump(data))
-        scenario_obj, config = load_scenario_config(path, cli.ROOT / "config")
+        scenario_obj, config = load_scenario_config(path, runs.ROOT / "config")
         start = time.monotonic()
-        code, run_dir = cli.run_scenario(path, runs_dir=Path(tmp), domain_id=domain_id, quiet=True)
+        code, run_dir = runs.run_scenario(path, runs_dir=Path(tmp), domain_id=domain_id, quiet=True)
         total = time.monotonic() - start
         launch = json.loads((run_dir / "launch.json").read_text())
         if code != 0:
@@ -71,9 +71,9 @@ def graph_rtf(scenario: str, domain_id: int, friction_law: str | None = None) ->
 
 def plant_actuators_rtf(domain_id: int) -> dict:
     """Plant + the four actuator processes alone (no estimator/controller) over Case 2's 600 s."""
-    path = cli.scenario_path("case2")
+    path = runs.scenario_path("case2")
     with tempfile.TemporaryDirectory() as tmp:
-        common = {"config_dir": str(cli.ROOT / "config"), "scenario": str(path), "mode": "fast"}
+        common = {"config_dir": str(runs.ROOT / "config"), "scenario": str(path), "mode": "fast"}
         nodes = [launcher.NodeSpec(n, "drill_plant.actuator_node",
                                    {"actuator": n, "command_period_s": 0.0})
                  for n in launcher.ACTUATOR_NODES]
@@ -138,7 +138,7 @@ def write_doc(results: dict, path: Path) -> None:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="bench", description=__doc__)
-    parser.add_argument("--output", type=Path, default=cli.ROOT / "docs" / "benchmarks.md")
+    parser.add_argument("--output", type=Path, default=runs.ROOT / "docs" / "benchmarks.md")
     parser.add_argument("--skip-graph", action="store_true", help="skip the 10-minute Case 2 run")
     args = parser.parse_args(argv)
     domain = launcher.default_domain_id()

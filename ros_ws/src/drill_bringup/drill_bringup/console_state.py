@@ -51,6 +51,7 @@ def m3s_to_lpm(m3s: float) -> float:
 
 # --------------------------------------------------------------------------- form input
 SETPOINT_FIELDS = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
+                   "choke_dp_band_upper_pa",
                    "block_position_target_m", "trip_speed_limit_mps", "controller_enabled",
                    "mud_pump_on")
 

@@ -31,7 +31,8 @@ _held_domains: list = []         # open lock files: a domain is ours while this 
 # In fast mode these nodes act on (and stamp their events with) the stamps of their inputs
 # and never read the clock, so they do not subscribe to /clock (each subscription costs a
 # callback per frame). The recorder keeps /clock for its log times.
-STAMP_DRIVEN = (*ACTUATOR_NODES, "estimator", "sequencer", "nmpc", "baseline", "protection")
+STAMP_DRIVEN = (*ACTUATOR_NODES, "estimator", "sequencer", "nmpc", "automated_mpd", "baseline",
+                "protection")
 
 
 def uses_sim_time(name: str, fast: bool) -> bool:
@@ -56,11 +57,13 @@ def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -
     nodes.append(NodeSpec("estimator", "drill_estimator.estimator_node"))
     if scenario_controller == "nmpc":
         nodes.append(NodeSpec("nmpc", "drill_nmpc.nmpc_node"))
+    elif scenario_controller == "automated_mpd":
+        nodes.append(NodeSpec("automated_mpd", "drill_nmpc.automated_mpd_node"))
     elif scenario_controller == "baseline":
         nodes.append(NodeSpec("baseline", "drill_nmpc.baseline_node"))
     elif scenario_controller == "open_loop":
         nodes.append(NodeSpec("sequencer", "drill_nmpc.sequencer_node"))
-    controller = scenario_controller in ("nmpc", "baseline", "open_loop")
+    controller = scenario_controller in ("nmpc", "automated_mpd", "baseline", "open_loop")
     if controller:
         nodes.append(NodeSpec("protection", "drill_protection.protection_node"))
     clock_readers = sum(uses_sim_time(n.name, fast) for n in nodes)
@@ -69,7 +72,7 @@ def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -
     wait_for = [
         f"sub@{topics.MEASUREMENT}:{measurement_readers}",
         f"sub@{topics.TRUTH}:1",
-        f"sub@{topics.ESTIMATE}:{1 + (scenario_controller == 'nmpc')}",
+        f"sub@{topics.ESTIMATE}:{1 + (scenario_controller in ('nmpc', 'automated_mpd'))}",
         f"sub@/clock:{clock_readers}" if fast else "",
     ]
     if controller:

@@ -19,6 +19,7 @@ PA_PER_BAR = 1e5
 ARRIVAL_TOLERANCE_M = 0.5     # a trip leg ends when the string is this close to its target
 LPM_PER_M3S = 60000.0
 FINAL_WINDOW_S = 30.0           # the estimator's final bias: mean error over the run's last 30 s
+SETTLE_S = 30.0                 # band time "settled": after the first 30 s of a run (issue targets)
 OPEN_LOOP_ADVISOR = "sequencer"
 
 
@@ -121,11 +122,18 @@ def trip_legs(t, pos, target, tolerance_m: float = ARRIVAL_TOLERANCE_M) -> list:
 def _tracking(s: Series, t, bhp, pos) -> dict:
     """Table 7 errors and control-band violations against the setpoints in force."""
     ref, band, target = references(s, t)
+    return tracking_metrics(t, bhp, pos, ref, band, target)
+
+
+def tracking_metrics(t, bhp, pos, ref, band, target) -> dict:
+    """Table 7 errors, control-band statistics (all of the run, and after the first
+    SETTLE_S) and trip legs, from truth samples and the references held at their times."""
     e_bhp = bhp - ref
     e_pos = pos - target
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     outside = np.abs(e_bhp) > band
     excursion = np.where(outside, np.abs(e_bhp) - band, 0.0)
+    settled = t - t[0] >= SETTLE_S if len(t) else outside
     return {
         "block_position_mean_error_m": float(np.mean(e_pos)),
         "block_position_rmse_m": float(np.sqrt(np.mean(e_pos ** 2))),
@@ -135,6 +143,7 @@ def _tracking(s: Series, t, bhp, pos) -> dict:
                                      + int(outside[0])) if len(outside) else 0,
         "bhp_worst_excursion_pa": float(np.max(excursion)) if len(excursion) else 0.0,
         "bhp_time_outside_s": float(np.count_nonzero(outside) * dt),
+        "bhp_time_outside_settled_s": float(np.count_nonzero(outside & settled) * dt),
         "trip_legs": trip_legs(t, pos, target),
     }
 
@@ -185,6 +194,7 @@ def summarise(s: Series) -> dict:
         out.update({
             "solve_time_median_s": float(np.median(solve)),
             "solve_time_p95_s": float(np.percentile(solve, 95)),
+            "solve_time_p99_s": float(np.percentile(solve, 99)),
             "solve_time_max_s": float(np.max(solve)),
             "solves": int(len(solve)),
             "fallbacks": int(np.sum(fallback)),

@@ -168,6 +168,13 @@ class Actuators:
     bpp: Lag = param(doc="back-pressure pump flow [m^3/s]")
     mud_pump: Lag = param(doc="stand-pipe pressure [Pa]")
     watchdog_timeout_s: float = param("s", 0.0, 60.0, lo_open=True)
+    choke_pressure_kp: float = param(
+        "1", 0.0, 100.0, default=0.0,
+        doc="pressure mode: PI gain, opening per unit normalised choke-dp error")
+    choke_pressure_ti_s: float = param("s", 0.0, 1000.0, lo_open=True, default=2.0,
+                                       doc="pressure mode: PI integral time")
+    choke_pressure_scale_pa: float = param("Pa", 0.0, 1.0e7, lo_open=True, default=1.0e5,
+                                           doc="pressure mode: choke-dp error normalisation")
 
 
 # ---------------------------------------------------------------------- estimator
@@ -260,6 +267,21 @@ class InputVector:
 
 
 @dataclass(frozen=True)
+class ChokeDpSetpoint:
+    """The NMPC's choke input when the choke is on its pressure loop (choke_control
+    pressure): the choke-dp set-point, in place of the choke flow in the input vectors."""
+    minimum_pa: float = param("Pa", 0.0)
+    maximum_pa: float = param("Pa", 0.0, lo_open=True)
+    slew_pa: float = param("Pa", 0.0, lo_open=True, doc="largest change per sample")
+    span_pa: float = param("Pa", 0.0, lo_open=True, doc="u_span (eq. 55)")
+    move_weight: float = param("1", 0.0, doc="r_c tilde (eq. 55)")
+    time_constant_s: float = param("s", 0.0, 60.0, lo_open=True,
+                                   doc="closed-loop time constant of the choke pressure loop "
+                                       "as the prediction models it")
+    reference_weight: float = param("1", 0.0, default=0.0, doc="r_r tilde (eq. 55)")
+
+
+@dataclass(frozen=True)
 class OutputVector:
     """A value per tracked output [block position m, choke dp Pa, BHP Pa]."""
     block_position_m: float = param("m")
@@ -305,12 +327,28 @@ class Nmpc:
     integral_limit_s: float = param("s", 0.0, 1.0e4, lo_open=True, default=5.0,
                                     doc="NMPC1 anti-windup: |e_i| <= limit (e in output spans x s)")
     jit: bool = param(default=False, doc="compile the NLP functions with the C compiler (JIT)")
+    expand: bool = param(default=False, doc="expand the NLP's MX graph to SX before solving "
+                                            "(sqpmethod, ipopt): faster evaluation")
     hessian: str = param(choices=("exact", "gauss-newton"), default="gauss-newton",
                          doc="Lagrangian Hessian for ipopt/sqpmethod (fatrop: always exact)")
     actuator_lags_in_model: bool = param(default=True,
                                          doc="predict with the drawworks/pump lags (docs/nmpc.md)")
+    bhp_bias_gain: float = param("1", 0.0, 1.0, default=0.0,
+                                 doc="offset-free BHP: share of the last one-step prediction "
+                                     "error added to the model's BHP bias each sample (0: off)")
+    bhp_bias_limit_pa: float = param("Pa", 0.0, 1.0e7, default=1.0e6, doc="largest |BHP bias|")
+    block_reference: str = param(choices=("exponential", "profile"), default="exponential",
+                                 doc="block-position reference over the horizon: eq. 59's "
+                                     "exponential approach or the trip's motion profile")
+    choke_control: str = param(choices=("flow", "pressure"), default="flow",
+                               doc="the choke input: flow reference of the choke's PI flow loop "
+                                   "(the paper's) or set-point of its pressure loop")
+    choke_dp_setpoint: ChokeDpSetpoint | None = param(
+        default=None, doc="the choke input's limits and weights with choke_control pressure")
 
     def validate(self) -> None:
+        if self.choke_control == "pressure" and self.choke_dp_setpoint is None:
+            raise FieldError("choke_dp_setpoint", "is required with choke_control pressure")
         if self.control_horizon_s > self.prediction_horizon_s:
             raise ValueError("control_horizon_s must not exceed prediction_horizon_s")
         for name in ("prediction_horizon_s", "control_horizon_s"):
@@ -349,6 +387,22 @@ class Protection:
             raise ValueError("pore_pressure_pa + 2 pressure_margin_pa must stay below fracture_pressure_pa")
 
 
+@dataclass(frozen=True)
+class AutomatedMpd:
+    """Automated MPD controller (drill_nmpc.automated_mpd): planned trip, model-based
+    choke-dp set-point for the choke's pressure loop."""
+    acceleration_mps2: float = param("m/s^2", 0.0, 5.0, lo_open=True,
+                                     doc="planned trip acceleration (capped by the protection's)")
+    feedforward_lead_s: float = param(
+        "s", 0.0, 30.0, doc="the set-point follows the plan's string speed this much ahead")
+    flow_filter_time_constant_s: float = param(
+        "s", 0.0, 1.0e3, lo_open=True, doc="low-pass of the estimated bit flow")
+    trim_time_constant_s: float = param("s", 0.0, 1.0e4, lo_open=True,
+                                        doc="integral time of the BHP trim on the estimated error")
+    trim_limit_pa: float = param("Pa", 0.0, 1.0e7, doc="largest |trim| of the choke-dp set-point")
+    choke_dp_min_pa: float = param("Pa", 0.0, 1.0e7, doc="lowest choke-dp set-point")
+
+
 # ----------------------------------------------------------------------- the whole
 @dataclass(frozen=True)
 class RigConfig:
@@ -359,11 +413,12 @@ class RigConfig:
     estimator: Estimator
     nmpc: Nmpc
     protection: Protection
+    automated_mpd: AutomatedMpd
     directory: str
 
 
 _FILES = {"well": Well, "plant": Plant, "actuators": Actuators, "estimator": Estimator, "nmpc": Nmpc,
-          "protection": Protection}
+          "protection": Protection, "automated_mpd": AutomatedMpd}
 
 
 class _Loader(yaml.SafeLoader):
@@ -452,5 +507,5 @@ def replace(obj: object, **changes: object) -> object:
 
 __all__ = ["ConfigError", "RigConfig", "Well", "StringSection", "Mud", "Turbulence", "Plant",
            "MeasurementNoise", "Lag", "Actuators", "Estimator", "FrictionLawTuning", "FRICTION_LAWS",
-           "Nmpc", "InputVector", "OutputVector", "Protection", "load_rig", "load_section",
+           "Nmpc", "AutomatedMpd", "ChokeDpSetpoint", "InputVector", "OutputVector", "Protection", "load_rig", "load_section",
            "load_yaml", "merge", "replace"]

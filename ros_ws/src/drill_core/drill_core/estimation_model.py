@@ -192,7 +192,7 @@ def build_estimation_model(config: RigConfig, with_disturbance: bool = False) ->
                            with_disturbance, law, nominal)
 
 
-def _unit_friction(xp, em: EstimationModel, k: int, flow_m3s, string_velocity_mps, theta=1.0):
+def path_friction(xp, em: EstimationModel, k: int, flow_m3s, string_velocity_mps, theta=1.0):
     """Annular friction of path k + 2: theta |v_e| v_e (eq. 46) or theta F_nom [Pa]."""
     if em.friction_law == "quadratic":
         g = em.wm.geometry
@@ -204,7 +204,7 @@ def _unit_friction(xp, em: EstimationModel, k: int, flow_m3s, string_velocity_mp
 def annulus_friction(xp, em: EstimationModel, x):
     """Annular friction F_i = theta_i f_i(q_i, v_s) of paths 2..n [Pa]: f_i = |v_e| v_e
     (quadratic, eq. 46) or the nominal HB friction F_nom,i (scaled_rheology)."""
-    return [_unit_friction(xp, em, k, x[em.flow(i)], x[1], x[em.theta(i)])
+    return [path_friction(xp, em, k, x[em.flow(i)], x[1], x[em.theta(i)])
             for k, i in enumerate(range(2, em.n + 1))]
 
 
@@ -214,7 +214,7 @@ def fitted_friction_parameters(em: EstimationModel, flows_m3s, friction_pa,
     the law gives no friction)."""
     out = []
     for k, (q, f) in enumerate(zip(flows_m3s, friction_pa)):
-        unit = float(_unit_friction(NUMPY, em, k, q, string_velocity_mps))
+        unit = float(path_friction(NUMPY, em, k, q, string_velocity_mps))
         out.append(float(f) / unit if unit != 0.0 else 0.0)
     return np.array(out)
 

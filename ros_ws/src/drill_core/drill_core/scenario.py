@@ -12,7 +12,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from drill_core.config import ConfigError, RigConfig, load_rig, load_yaml
+from drill_core.config import ConfigError, RigConfig, load_rig, load_yaml, merge
 from drill_core.open_loop import OpenLoopPlan, start_command
 from drill_core.schema import FieldError, build, param
 
@@ -36,6 +36,9 @@ class SetpointChange:
     bhp_band_pa: float = param("Pa", 0.0, 1.0e7, lo_open=True, default=_NAN)
     choke_dp_ref_pa: float = param("Pa", 0.0, 1.0e8, default=_NAN)
     choke_dp_band_pa: float = param("Pa", 0.0, 1.0e7, lo_open=True, default=_NAN)
+    choke_dp_band_upper_pa: float = param(
+        "Pa", 0.0, 1.0e9, default=_NAN,
+        doc="width of the choke-dp band above its target; 0: choke_dp_band_pa (symmetric)")
     block_position_target_m: float = param("m", -100.0, 100.0, default=_NAN)
     trip_speed_limit_mps: float = param("m/s", 0.0, 5.0, lo_open=True, default=_NAN)
     controller_enabled: bool | None = param(default=None)
@@ -61,6 +64,7 @@ class SetpointChange:
 
 
 CLOSED_LOOP_FIELDS = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
+                      "choke_dp_band_upper_pa",
                       "trip_speed_limit_mps", "controller_enabled")
 OPEN_LOOP_FIELDS = ("block_speed_mps", "block_acceleration_mps2", "bpp_flow_m3s", "bpp_ramp_s",
                     "choke_opening", "choke_flow_ref_m3s")
@@ -73,7 +77,7 @@ class Scenario:
     description: str = param()
     duration_s: float = param("s", 0.0, 1.0e5, lo_open=True)
     seed: int = param("1", 0, 2 ** 31 - 1)
-    controller: str = param(choices=("nmpc", "baseline", "open_loop"))
+    controller: str = param(choices=("nmpc", "automated_mpd", "baseline", "open_loop"))
     initial: Initial = param()
     schedule: tuple[SetpointChange, ...] = param()
     baseline_trip_speed_mps: float = param("m/s", 0.0, 5.0, lo_open=True, default=0.5)
@@ -107,6 +111,15 @@ class ActiveSetpoints:
     trip_speed_limit_mps: float
     controller_enabled: bool
     mud_pump_on: bool
+    choke_dp_band_upper_pa: float = 0.0     # 0: choke_dp_band_pa (symmetric band)
+
+    def choke_dp_limits(self, choke_dp_min_pa: float) -> tuple[float, float]:
+        """The choke-dp band [Pa]: target - band (not below ``choke_dp_min_pa``) to target +
+        upper width (the paper's Table 6 lets Cases 1-3 rise to the BHP band's bottom)."""
+        upper = self.choke_dp_band_upper_pa if self.choke_dp_band_upper_pa > 0.0 \
+            else self.choke_dp_band_pa
+        low = max(self.choke_dp_ref_pa - self.choke_dp_band_pa, choke_dp_min_pa)
+        return low, max(self.choke_dp_ref_pa + upper, low)
 
 
 def setpoints_at(scenario: Scenario, time_s: float, start: ActiveSetpoints) -> ActiveSetpoints:
@@ -132,7 +145,21 @@ def load_scenario(path: str | Path) -> tuple[Scenario, dict]:
     return build(Scenario, data, str(path)), overrides
 
 
-def load_scenario_config(path: str | Path, config_dir: str | Path) -> tuple[Scenario, RigConfig]:
-    """The scenario and the rig configuration with the scenario's overrides applied."""
+def load_scenario_config(path: str | Path, config_dir: str | Path,
+                         extra_overrides: dict | None = None) -> tuple[Scenario, RigConfig]:
+    """The scenario and the rig configuration with the scenario's overrides applied (and
+    ``extra_overrides`` over those: file stem -> mapping)."""
     scenario, overrides = load_scenario(path)
+    if extra_overrides:
+        overrides = merge(overrides, extra_overrides)
     return scenario, load_rig(config_dir, overrides)
+
+
+def initial_setpoints(config: RigConfig, scenario: Scenario) -> ActiveSetpoints:
+    """What is in force before the schedule's first entry (config defaults, initial point)."""
+    n = config.nmpc
+    ini = scenario.initial
+    return ActiveSetpoints(bhp_ref_pa=math.nan, bhp_band_pa=n.bhp_band_pa,
+                           choke_dp_ref_pa=ini.choke_dp_pa, choke_dp_band_pa=n.choke_dp_band_pa,
+                           block_position_target_m=0.0, trip_speed_limit_mps=n.velocity_limit_mps,
+                           controller_enabled=True, mud_pump_on=ini.circulation_m3s > 0.0)

@@ -96,7 +96,9 @@ def test_shipped_config_loads_with_paper_values():
     assert rig.actuators.choke_kp == 0.08
     assert rig.actuators.choke_ti_s == 2.0
     assert rig.nmpc.configuration in ("NMPC0", "NMPC1", "NMPC2")
-    assert rig.nmpc.prediction_steps == 15 and rig.nmpc.control_steps == 3
+    # prediction horizon: the paper's 15 samples; control horizon: the whole horizon (paper
+    # 3), so the choke set-point can follow the planned trip (docs/nmpc.md)
+    assert rig.nmpc.prediction_steps == 15 and rig.nmpc.control_steps == 15
     assert rig.estimator.estimate_bottom_influx is False
     assert rig.estimator.nis_window == 50 and isinstance(rig.estimator.nis_window, int)
 
@@ -360,3 +362,31 @@ def test_bad_scenario_override_names_the_file(cfg):
         load_rig(cfg, overrides={"nmpc": {"configuration": "NMPC9"}})
     assert_names(str(info.value), str(cfg / "nmpc.yaml"), "configuration", "'NMPC9'", "NMPC2")
     assert load_rig(cfg, overrides={"nmpc": {"configuration": "NMPC2"}}).nmpc.configuration == "NMPC2"
+
+
+# ------------------------------------------------------------- choke and MPD controller
+def test_pressure_controlled_choke_needs_its_set_point_limits(cfg):
+    file = cfg / "nmpc.yaml"
+    data = yaml.safe_load(file.read_text())
+    del data["choke_dp_setpoint"]
+    file.write_text(yaml.safe_dump(data), encoding="utf-8")
+    assert_names(load_error(cfg), str(file), "choke_dp_setpoint", "choke_control pressure")
+
+
+@pytest.mark.parametrize("stem, path, value, words", [
+    ("nmpc", ("choke_control",), "valve", ("choke_control", "'valve'", "flow", "pressure")),
+    ("nmpc", ("choke_dp_setpoint", "time_constant_s"), 0.0, ("time_constant_s", "(0, 60]")),
+    ("automated_mpd", ("trim_time_constant_s",), -1.0, ("trim_time_constant_s", "-1")),
+    ("automated_mpd", ("feedforward_lead_s",), 45.0, ("feedforward_lead_s", "[0, 30]")),
+    ("actuators", ("choke_pressure_scale_pa",), 0.0, ("choke_pressure_scale_pa",)),
+])
+def test_bad_controller_values_name_the_key_and_range(cfg, stem, path, value, words):
+    file = set_key(cfg, stem, path, value)
+    assert_names(load_error(cfg), str(file), *words)
+
+
+def test_shipped_controllers_use_the_pressure_loop(cfg):
+    rig = load_rig(cfg)
+    assert rig.nmpc.choke_control == "pressure" and rig.nmpc.block_reference == "profile"
+    assert rig.automated_mpd.acceleration_mps2 <= rig.protection.trip_acceleration_max_mps2
+    assert rig.actuators.choke_pressure_kp > 0.0

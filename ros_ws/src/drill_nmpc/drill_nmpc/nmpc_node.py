@@ -72,6 +72,8 @@ class NmpcNode(RigNode):
         # Build (and, with jit, compile) the solver before any subscription exists, so the
         # graph's lockstep starts only once the supervisor can answer.
         self.supervisor = Supervisor(cfg, self.em)
+        self.pressure_control = cfg.nmpc.choke_control == "pressure"
+        self.choke_flow_m3s = math.nan     # flow feedforward of the choke pressure loop [m^3/s]
         self.envelope = Envelope.from_config(cfg, self.em.wm.geometry)
         self.gate = SampleGate(seconds_to_ns(cfg.nmpc.sample_time_s), ctx.fast)
         self.frame_ns = seconds_to_ns(cfg.plant.sensor_period_s)
@@ -84,7 +86,7 @@ class NmpcNode(RigNode):
         use = bool(self.declare_parameter("use_actuator_frames", True).value)
         self.frame_keys = {name: key for name, (key, index) in wanted.items()
                            if use and index is not None}
-        self.frames: dict[str, dict[int, float]] = {name: {} for name in self.frame_keys}
+        self.frames: dict[str, dict[int, dict]] = {name: {} for name in self.frame_keys}
         self.pending: StateEstimate | None = None
         self.status = StatusReporter(self, ctx.mode, topic=topics.NMPC_NODE_STATUS)
         self.start = initial_setpoints(ctx)
@@ -198,7 +200,9 @@ class NmpcNode(RigNode):
         point -- the values the actuators and the protection layer start from too."""
         ini = self.ctx.scenario.initial
         op = steady_state(self.em.wm, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
-        u = np.array([x[0], op.choke_flow_m3s, ini.bpp_flow_m3s, op.inputs[3]])
+        choke = ini.choke_dp_pa if self.pressure_control else op.choke_flow_m3s
+        self.choke_flow_m3s = float(op.choke_flow_m3s)
+        u = np.array([x[0], choke, ini.bpp_flow_m3s, op.inputs[3]])
         return self.supervisor.safe_input(u)
 
     def _on_estimate(self, msg: StateEstimate) -> None:
@@ -213,7 +217,11 @@ class NmpcNode(RigNode):
         if len(msg.output):
             stamp = to_ns(msg.header.stamp)
             slot = self.frames[name]
-            slot[stamp] = float(msg.output[-1])          # output at t + t_m - dt
+            values = {self.frame_keys[name]: float(msg.output[-1])}   # output at t + t_m - dt
+            if name == "drawworks":         # the block controller's state behind the output
+                values.update(block_command_m=float(msg.command),
+                              block_reference_m=float(msg.reference))
+            slot[stamp] = values
             for old in [k for k in slot if k < stamp - 10 * self.frame_ns]:
                 del slot[old]
         self._process_pending()
@@ -221,7 +229,7 @@ class NmpcNode(RigNode):
     def _actuators(self, stamp: int):
         """(ready, measured actuator outputs) for the estimate stamped ``stamp``."""
         out = {}
-        for name, key in self.frame_keys.items():
+        for name in self.frame_keys:
             slot = self.frames[name]
             if self.ctx.fast:
                 due = stamp - self.frame_ns
@@ -229,11 +237,11 @@ class NmpcNode(RigNode):
                     continue                             # first sample: no frame before t_0
                 if due not in slot:
                     return False, {}
-                out[key] = slot[due]
+                out.update(slot[due])
             elif slot:
                 latest = max(slot)
                 if stamp - latest <= 2 * self.frame_ns:
-                    out[key] = slot[latest]
+                    out.update(slot[latest])
         return True, out
 
     def _process_pending(self) -> None:
@@ -283,10 +291,19 @@ class NmpcNode(RigNode):
     def _publish(self, stamp: int, r: SolveResult) -> None:
         u = np.asarray(r.u, dtype=float)
         assert np.all(np.isfinite(u)), "refusing to publish a non-finite command"
+        plan = np.asarray(r.planned_inputs, dtype=float).reshape(-1, 4)
         cmd = RigCommand(block_position_ref_m=float(u[0]), choke_flow_ref_m3s=float(u[1]),
                          bpp_flow_m3s=float(u[2]), spp_pa=float(u[3]),
                          mud_pump_on=bool(self.active.mud_pump_on), choke_manual=False,
                          source="nmpc")
+        if self.pressure_control:     # u[1] is the set-point of the choke's pressure loop
+            if math.isfinite(r.choke_flow_m3s):
+                self.choke_flow_m3s = float(r.choke_flow_m3s)
+            cmd.choke_pressure_control = True
+            cmd.choke_dp_ref_pa = float(u[1])
+            cmd.choke_dp_ref_rate_pa_s = float(plan[1, 1] - u[1]) / self.supervisor.problem.ts \
+                if plan.shape[0] > 1 else 0.0
+            cmd.choke_flow_ref_m3s = self.choke_flow_m3s
         cmd.header.stamp = from_ns(stamp)
         self.cmd_pub.publish(cmd)
         self.commands += 1
@@ -309,9 +326,10 @@ class NmpcNode(RigNode):
         st.predicted_choke_dp_pa = [float(v) for v in pred.get("choke_dp_pa", [])]
         st.predicted_block_position_m = [float(v) for v in pred.get("block_position_m", [])]
         st.predicted_string_velocity_mps = [float(v) for v in pred.get("string_velocity_mps", [])]
-        plan = np.asarray(r.planned_inputs, dtype=float).reshape(-1, 4)
         st.planned_block_position_ref_m = [float(v) for v in plan[:, 0]]
-        st.planned_choke_flow_m3s = [float(v) for v in plan[:, 1]]
+        choke = [float(v) for v in plan[:, 1]]
+        st.planned_choke_flow_m3s = [math.nan] * len(choke) if self.pressure_control else choke
+        st.planned_choke_dp_ref_pa = choke if self.pressure_control else [math.nan] * len(choke)
         st.planned_bpp_flow_m3s = [float(v) for v in plan[:, 2]]
         st.planned_spp_pa = [float(v) for v in plan[:, 3]]
         ref = np.asarray(r.reference, dtype=float)

@@ -60,9 +60,11 @@ from drill_core.estimation_model import EstimationModel, drift, friction_flow_ga
 from drill_core.block_control import block_command, integral_rate
 from drill_core.integrators import euler_step, rk4_step
 from drill_core.scenario import ActiveSetpoints
+from drill_nmpc.motion_profile import MotionProfile
 
 OUTPUT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa")
 INPUT_NAMES = ("block_position_ref_m", "choke_flow_m3s", "bpp_flow_m3s", "spp_pa")
+PRESSURE_INPUT_NAMES = ("block_position_ref_m", "choke_dp_ref_pa", "bpp_flow_m3s", "spp_pa")
 SLACK_NAMES = ("velocity", "bhp_band", "choke_dp_band", "string_pressure", "choke_capacity")
 # Unit of each slack variable inside the OCP (its SI value = unit * scaled value).
 SLACK_UNITS = {"velocity": 0.01, "bhp_band": 1.0e4, "choke_dp_band": 1.0e5,
@@ -94,6 +96,7 @@ class SolveResult:
     reference: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))       # (N+1) x 3, y_ref,j
     integral: np.ndarray = field(default_factory=lambda: np.zeros(0))             # NMPC1 e_0 [span s]
     configuration: str = ""
+    choke_flow_m3s: float = float("nan")   # predicted choke flow under u at t_k (pressure-loop feedforward)
 
 
 # ----------------------------------------------------------------------------- model pieces
@@ -166,6 +169,20 @@ class ActuatorLags:
 ACTUATOR_KEYS = ("block_m", "bpp_flow_m3s", "spp_pa")    # measured actuator outputs
 
 
+def input_arrays(cfg: Nmpc) -> dict[str, np.ndarray]:
+    """The input vectors' limits and weights (min, max, slew, span, move_weight,
+    reference_weight), the choke entry the dp set-point's with choke_control pressure."""
+    out = {key: np.array(getattr(cfg, f"input_{key}").as_tuple(), dtype=float)
+           for key in ("min", "max", "slew", "span", "move_weight", "reference_weight")}
+    if cfg.choke_control == "pressure":
+        c = cfg.choke_dp_setpoint
+        for key, value in (("min", c.minimum_pa), ("max", c.maximum_pa), ("slew", c.slew_pa),
+                           ("span", c.span_pa), ("move_weight", c.move_weight),
+                           ("reference_weight", c.reference_weight)):
+            out[key][1] = value
+    return out
+
+
 class PredictionModel:
     """The NMPC's prediction model: the shared drift plus the actuator lags.
 
@@ -186,10 +203,12 @@ class PredictionModel:
     """
 
     def __init__(self, em: EstimationModel, lags: ActuatorLags | None = None,
-                 table: StringFrictionTable | None = None):
+                 table: StringFrictionTable | None = None,
+                 choke_time_constant_s: float | None = None):
         self.em = em
         self.lags = lags or ActuatorLags()
         self.table = table
+        self.choke_time_constant_s = choke_time_constant_s
         self.nd_model = em.theta(2)
         index = self.nd_model
         self.block = self.bpp = self.pump = None
@@ -219,7 +238,7 @@ class PredictionModel:
         em = self.em
         full = self.full(x, par)
         spp_cmd = u[3] * pump_on
-        inputs = [u[0], u[1], x[self.bpp] if self.bpp is not None else u[2],
+        inputs = [u[0], self.choke_flow(x, u), x[self.bpp] if self.bpp is not None else u[2],
                   x[self.pump] if self.pump is not None else spp_cmd]
         if self.block is not None:
             inputs[0] = (x[self.block] - self.block_command(0.0, x[0], x[2])) / self._slope
@@ -233,6 +252,21 @@ class PredictionModel:
         if self.pump is not None:
             out.append((spp_cmd - x[self.pump]) / self.lags.pump_s)
         return out
+
+    def choke_flow(self, x, u):
+        """The choke flow [m^3/s] under input u: the flow reference itself (flow control), or,
+        with the choke on its pressure loop, the flow that takes the top annulus pressure
+        to the set-point u[1] as a first-order lag (time constant T_c): what leaves the top
+        volume plus the back-pressure pump's flow plus (dp - dp_ref) V_1 / (beta T_c)."""
+        if self.choke_time_constant_s is None:
+            return u[1]
+        em = self.em
+        g, w = em.wm.geometry, em.wm.well
+        bpp = x[self.bpp] if self.bpp is not None else u[2]
+        dp = x[em.pressure(1)] - w.choke_downstream_pressure_pa
+        return (x[em.flow(2)] - g.displacement_area_m2[0] * x[1] + bpp
+                + (dp - u[1]) * g.annulus_volume_m3[0]
+                / (w.mud.bulk_modulus_pa * self.choke_time_constant_s))
 
     def function(self, step_s: float, substeps: int, integrator: str) -> ca.Function:
         """F(x, u, par, pump_on) -> x after one sample (inputs held), ``substeps`` RK4/Euler steps."""
@@ -267,13 +301,19 @@ class PredictionModel:
         comes from the quasi-static hoisting balance (string at rest relative to the block:
         b = z1 + s_0 + c_eq z2 / k_eq) and the pumps are taken at their last commands.
         """
-        x0 = np.asarray(x_full, dtype=float)[:self.nd_model]
+        x0 = np.asarray(x_full, dtype=float)[:self.nd_model].copy()
         extra = []
         actuators = actuators or {}
 
         def measured(key):
             v = actuators.get(key)
             return float(v) if v is not None and math.isfinite(float(v)) else None
+
+        command, reference = measured("block_command_m"), measured("block_reference_m")
+        if command is not None and reference is not None and self.em.block_ki_per_s > 0.0:
+            # the controller integral behind the drawworks' last command (the UKF, fed the
+            # block position, cannot observe it): c = block_command(u_r, z1, z3) solved for z3
+            x0[2] = (command - self.block_command(reference, x0[0], 0.0)) / self.em.block_ki_per_s
 
         if self.block is not None:
             w = self.em.wm.well
@@ -442,7 +482,9 @@ class NmpcProblem:
         table = StringFrictionTable(em.wm) if tabulate_string_friction else None
         if table is not None and not table.applies():
             table = None
-        self.model = PredictionModel(em, lags, table)
+        choke_tau = cfg.choke_dp_setpoint.time_constant_s if cfg.choke_control == "pressure" \
+            else None
+        self.model = PredictionModel(em, lags, table, choke_tau)
         if self.model.check() > 1e-9:
             raise RuntimeError("drawworks-lag construction does not reproduce the hoisting law")
         self.nd = self.model.nd
@@ -454,8 +496,9 @@ class NmpcProblem:
         self.nw = 1 if acceleration_limit_mps2 else 0
         self.ns = self.nd + 4 + self.nw + self.ne   # stage state: x~, u~_{k-1}, u~_r,k-2, e
         self.Sx = self.model.scale()
-        self.Su = np.array(cfg.input_slew.as_tuple(), dtype=float)
-        self.u_span = np.array(cfg.input_span.as_tuple(), dtype=float)
+        self.inputs = input_arrays(cfg)
+        self.Su = self.inputs["slew"]
+        self.u_span = self.inputs["span"]
         self.y_span = np.array(cfg.output_span.as_tuple(), dtype=float)
         self.F = self.model.function(self.ts, self.substeps, self.integrator)
         self._state_box = self._trust_region()
@@ -493,8 +536,8 @@ class NmpcProblem:
     def _build(self, jit: bool, solver_options: dict) -> None:
         em, cfg, N, Nc, nd = self.em, self.cfg, self.N, self.Nc, self.nd
         w_y = np.array(cfg.output_weight.as_tuple(), dtype=float)
-        r_c = np.array(cfg.input_move_weight.as_tuple(), dtype=float)
-        r_r = np.array(cfg.input_reference_weight.as_tuple(), dtype=float)
+        r_c = self.inputs["move_weight"]
+        r_r = self.inputs["reference_weight"]
         q_e = cfg.integral_weight_factor * w_y[list(_INTEGRAL_OUTPUTS)]
         t_w = {"velocity": cfg.slack_weight_velocity, "bhp_band": cfg.slack_weight_bhp,
                "choke_dp_band": cfg.slack_weight_choke_dp,
@@ -502,8 +545,8 @@ class NmpcProblem:
                "choke_capacity": cfg.slack_weight_choke_capacity}
 
         # parameters: x_0, par (theta, d), pump_on, u_{-1}, e_0, y_ref (N x 3, stages 1..N),
-        # y_sp, u_ref
-        P = ca.MX.sym("p", nd + self.npar + 1 + 4 + self.nw + self.ne + 3 * N + 3 + 4)
+        # y_sp, u_ref, BHP bias
+        P = ca.MX.sym("p", nd + self.npar + 1 + 4 + self.nw + self.ne + 3 * N + 3 + 4 + 1)
         off = 0
         x0 = P[off:off + nd]; off += nd
         par = P[off:off + self.npar]; off += self.npar
@@ -514,6 +557,7 @@ class NmpcProblem:
         y_ref = ca.reshape(P[off:off + 3 * N], 3, N); off += 3 * N
         y_sp = P[off:off + 3]; off += 3
         u_ref = P[off:off + 4]; off += 4
+        bhp_bias = P[off]; off += 1
         self.np_ = off
         Sx = ca.DM(self.Sx)
         Su = ca.DM(self.Su)
@@ -584,6 +628,8 @@ class NmpcProblem:
             u_phys = u_prev + Su * u_scaled
             xl = self.model.full(x_phys, par)
             y = outputs(em, xl)
+            if k >= 1:
+                y[2] = y[2] + bhp_bias        # the model's BHP offset, learnt from its errors
             row_start = ng
             if k < N:
                 x_next = self.F(x_phys, u_phys, par, pump_on)
@@ -604,7 +650,8 @@ class NmpcProblem:
                     st.rows["acceleration"] = add_rows((u_vars[k][0] - up[0]) - (up[0] - w[0]),
                                                        -limit, limit)
             if "choke_capacity" in slack:
-                cap = (choke_capacity(em, y[1]) - u_phys[1]) / SLACK_UNITS["choke_capacity"]
+                cap = (choke_capacity(em, y[1]) - self.model.choke_flow(x_phys, u_phys)) \
+                    / SLACK_UNITS["choke_capacity"]
                 st.rows["choke_capacity"] = add_rows(cap + slack["choke_capacity"], 0.0, _INF)
             if "velocity" in slack:
                 v = x_phys[1] / SLACK_UNITS["velocity"]
@@ -673,6 +720,8 @@ class NmpcProblem:
                          "jit_options": {"flags": ["-O1"], "verbose": False,
                                          "directory": tempfile.gettempdir() + os.sep}})
         max_iter = self.cfg.max_iterations
+        if name in _COMPILABLE:
+            opts["expand"] = self.cfg.expand
         if name == "ipopt":
             opts["ipopt"] = {"print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-6,
                              "acceptable_tol": 1e-4, "acceptable_iter": 5,
@@ -724,12 +773,13 @@ class NmpcProblem:
 
     # -- numeric data of one instance ---------------------------------------------------
     def parameters(self, x0, par, u_prev, e0, y_ref, y_sp, u_ref, pump_on: bool = True,
-                   reference_speed: float = 0.0) -> np.ndarray:
+                   reference_speed: float = 0.0, bhp_bias_pa: float = 0.0) -> np.ndarray:
         """Parameter vector: prediction state x_0, par = [theta (, d)], pump_on, u_{-1},
-        (u_r,-2 scaled from the last block-reference speed), e_0, y_ref[1..N], y_sp, u_ref."""
+        (u_r,-2 scaled from the last block-reference speed), e_0, y_ref[1..N], y_sp, u_ref,
+        the BHP bias added to the predicted BHP of stages 1..N."""
         w0 = [-reference_speed * self.ts / self.Su[0]] * self.nw
         return np.concatenate([x0, par, [1.0 if pump_on else 0.0], u_prev, w0, np.asarray(e0, dtype=float).ravel()[:self.ne],
-                               np.asarray(y_ref, dtype=float).ravel(), y_sp, u_ref])
+                               np.asarray(y_ref, dtype=float).ravel(), y_sp, u_ref, [bhp_bias_pa]])
 
     def bounds(self, u_prev, velocity_limit, bhp_band, dp_band, string_pressure: bool,
                relaxed: bool = False, block_range: tuple | None = None):
@@ -738,8 +788,8 @@ class NmpcProblem:
         cfg = self.cfg
         lbz = np.full(self.nz, -_INF)
         ubz = np.full(self.nz, _INF)
-        lo = np.array(cfg.input_min.as_tuple(), dtype=float)
-        hi = np.array(cfg.input_max.as_tuple(), dtype=float)
+        lo = self.inputs["min"].copy()
+        hi = self.inputs["max"].copy()
         if block_range is not None:
             lo[0], hi[0] = max(lo[0], block_range[0]), min(hi[0], block_range[1])
         u_lo = (lo - u_prev) / self.Su
@@ -929,9 +979,9 @@ class Supervisor:
         self.em = self.problem.em
         self.model = self.problem.model
         self.configuration = self.problem.configuration
-        self.u_min = np.array(cfg.input_min.as_tuple(), dtype=float)
-        self.u_max = np.array(cfg.input_max.as_tuple(), dtype=float)
-        self.slew = np.array(cfg.input_slew.as_tuple(), dtype=float)
+        self.u_min = self.problem.inputs["min"]
+        self.u_max = self.problem.inputs["max"]
+        self.slew = self.problem.inputs["slew"]
         self.alpha = np.array(cfg.reference_smoothing.as_tuple(), dtype=float)
         self.fallback_count = 0
         self.solve_count = 0
@@ -944,6 +994,9 @@ class Supervisor:
         self._speed = 0.0                            # block-reference speed of the last period
         self.theta_clamps = 0                        # estimates whose theta had to be capped
         self._trip: tuple[float, float] | None = None  # (block target m, furthest string position on the way m)
+        self._profile: MotionProfile | None = None     # block reference's motion profile (block_reference profile)
+        self.bhp_bias = 0.0                            # model's BHP offset (bhp_bias_gain > 0) [Pa]
+        self._predicted_bhp: float | None = None       # the last solve's BHP prediction for now [Pa]
 
     # -- helpers ------------------------------------------------------------------------
     def reset(self) -> None:
@@ -953,6 +1006,9 @@ class Supervisor:
         self._applied = None
         self.integral = np.zeros(self.problem.ne)
         self._trip = None
+        self._profile = None
+        self.bhp_bias = 0.0
+        self._predicted_bhp = None
 
     def safe_input(self, u_prev) -> np.ndarray:
         """u_{-1} made finite and clipped into the input bounds."""
@@ -992,12 +1048,11 @@ class Supervisor:
             vlim = min(vlim, setpoints.trip_speed_limit_mps)
         band = setpoints.bhp_band_pa if (math.isfinite(setpoints.bhp_band_pa)
                                          and setpoints.bhp_band_pa > 0.0) else cfg.bhp_band_pa
-        dp_band = setpoints.choke_dp_band_pa if (math.isfinite(setpoints.choke_dp_band_pa)
-                                                 and setpoints.choke_dp_band_pa > 0.0) \
-            else cfg.choke_dp_band_pa
-        dp_lo = max(y_sp[1] - dp_band, cfg.choke_dp_min_pa)
-        dp_hi = max(y_sp[1] + dp_band, dp_lo)
-        return vlim, (y_sp[2] - band, y_sp[2] + band), (dp_lo, dp_hi)
+        if not (math.isfinite(setpoints.choke_dp_band_pa) and setpoints.choke_dp_band_pa > 0.0):
+            setpoints = dataclasses.replace(setpoints, choke_dp_band_pa=cfg.choke_dp_band_pa)
+        dp_limits = dataclasses.replace(setpoints, choke_dp_ref_pa=float(y_sp[1])) \
+            .choke_dp_limits(cfg.choke_dp_min_pa)
+        return vlim, (y_sp[2] - band, y_sp[2] + band), dp_limits
 
     def _clamp_friction(self, x, par) -> str:
         """Cap the friction parameters theta_i (in ``par``) where the annular flow mode
@@ -1049,6 +1104,18 @@ class Supervisor:
         else:
             lo, hi = min(lo, float(u_prev[0])), max(hi, float(u_prev[0]))
         return lo, hi
+
+    def block_profile(self, position_m: float, target_m: float, speed_mps: float) -> np.ndarray:
+        """Block-position reference over the horizon (block_reference profile): the trip's
+        motion profile (drill_nmpc.motion_profile) toward the target at the speed limit and
+        the protection's acceleration, stepped once per sample from where the string was
+        when the supervisor started."""
+        if self._profile is None:
+            self._profile = MotionProfile(position_m)
+        accel = self.acceleration or math.inf
+        self._profile.step(target_m, speed_mps, accel, self.problem.ts)
+        return np.array([s.position_m for s in self._profile.ahead(
+            target_m, speed_mps, accel, self.problem.ts, self.problem.N)])
 
     def _initial_guess(self, x0, par, u_prev, pump_on=True):
         """Cold start: inputs held at u_{-1}, states simulated, slacks and multipliers zero."""
@@ -1117,6 +1184,8 @@ class Supervisor:
         y_ref = np.array([self.alpha ** j * y_now + (1.0 - self.alpha ** j) * y_sp
                           for j in range(pb.N + 1)])
         vlim, bhp_band, dp_band = self.levels(setpoints, y_sp)
+        if self.cfg.block_reference == "profile":
+            y_ref[:, 0] = self.block_profile(float(x[0]), float(y_sp[0]), vlim)
         if pb.ne:
             # NMPC1: integrate the estimated error *outside the band* (the part the model
             # failed to prevent): riding the band edge on purpose does not wind it up, a
@@ -1127,8 +1196,15 @@ class Supervisor:
             self.integral = np.clip(self.integral + pb.ts * err, -self.cfg.integral_limit_s,
                                     self.cfg.integral_limit_s)
         u_ref = np.array([y_sp[0], u_prev[1], 0.0, self.spp_nominal])
+        if self._predicted_bhp is not None:
+            # offset-free: integrate the error of the last one-step BHP prediction
+            error = y_now[2] - self._predicted_bhp
+            limit = self.cfg.bhp_bias_limit_pa
+            self.bhp_bias = float(np.clip(self.bhp_bias + self.cfg.bhp_bias_gain * error,
+                                          -limit, limit))
+        self._predicted_bhp = None
         p = pb.parameters(x0, par, u_prev, self.integral, y_ref[1:], y_sp, u_ref, pump_on,
-                          self._speed)
+                          self._speed, self.bhp_bias)
         circulating = pump_on
 
         last = None
@@ -1160,11 +1236,17 @@ class Supervisor:
                 self._warm = {"X": X, "U": U, "E": E, "slacks": slacks,
                               "lam_z": sol["lam_z"], "lam_g": sol["lam_g"]}
             u = self.limit(U[0], u_prev, self._speed)
+            U[0] = u
             if self.model.nd > self.model.nd_model:     # actuators one sample ahead under u
                 xa = np.asarray(pb.F(x0, u, par, 1.0 if pump_on else 0.0), dtype=float).ravel()
                 self._next_actuators = (self.model.actuator_state(xa), u.copy())
             result = self._result(u, "relaxed" if relaxed else "none", sol, t0, par, X, U, slacks,
                                   y_ref, converged)
+            result.choke_flow_m3s = float(self.model.choke_flow(x0, u))
+            if self.cfg.bhp_bias_gain > 0.0:
+                x1 = np.asarray(pb.F(x0, u, par, 1.0 if pump_on else 0.0), dtype=float).ravel()
+                self._predicted_bhp = float(outputs(em, self.model.full(x1, par))[2]) \
+                    + self.bhp_bias
             if clamped:
                 result.status = f"{result.status}; {clamped}"
             if relaxed:

@@ -9,17 +9,13 @@ from drill_msgs.msg import Setpoints
 
 from drill_core.ros.stamps import from_ns
 from drill_core.scenario import ActiveSetpoints
+from drill_core.scenario import initial_setpoints as scenario_initial_setpoints
 from drill_nmpc.setpoint_validation import NUMERIC_FIELDS
 
 
 def initial_setpoints(ctx) -> ActiveSetpoints:
     """What is in force before the schedule's first entry (config defaults, initial point)."""
-    n = ctx.config.nmpc
-    ini = ctx.scenario.initial
-    return ActiveSetpoints(bhp_ref_pa=math.nan, bhp_band_pa=n.bhp_band_pa,
-                           choke_dp_ref_pa=ini.choke_dp_pa, choke_dp_band_pa=n.choke_dp_band_pa,
-                           block_position_target_m=0.0, trip_speed_limit_mps=n.velocity_limit_mps,
-                           controller_enabled=True, mud_pump_on=ini.circulation_m3s > 0.0)
+    return scenario_initial_setpoints(ctx.config, ctx.scenario)
 
 
 def merge_request(active: ActiveSetpoints, msg: Setpoints) -> ActiveSetpoints:

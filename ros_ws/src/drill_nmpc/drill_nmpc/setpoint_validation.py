@@ -56,6 +56,7 @@ class Envelope:
 
 
 NUMERIC_FIELDS = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
+                  "choke_dp_band_upper_pa",
                   "block_position_target_m", "trip_speed_limit_mps")
 
 
@@ -73,6 +74,9 @@ def validate_setpoints(sp, envelope: Envelope) -> tuple[bool, str]:
         return False, f"bhp_band_pa = {_bar(sp.bhp_band_pa)} must be positive"
     if sp.choke_dp_band_pa <= 0.0:
         return False, f"choke_dp_band_pa = {_bar(sp.choke_dp_band_pa)} must be positive"
+    if sp.choke_dp_band_upper_pa < 0.0:
+        return False, (f"choke_dp_band_upper_pa = {_bar(sp.choke_dp_band_upper_pa)} must not be "
+                       "negative (0: the band is symmetric)")
     if sp.bhp_ref_pa < e.hydrostatic_pa:
         return False, (f"bhp_ref_pa = {_bar(sp.bhp_ref_pa)} is below the static mud column "
                        f"{_bar(e.hydrostatic_pa)}: unreachable (BHP can only be raised above it)")

@@ -4,8 +4,10 @@ On each measurement stamped t_k it publishes its output over the coming frame,
 stamped t_k. In fast mode, when a supervisor command is due at t_k (t_k a multiple
 of ``command_period_s``) it waits for the command stamped t_k first, so commands act
 from the sample they were computed at. The choke honours the command's manual mode
-(``choke_manual``: drive to ``choke_opening_ref``) and otherwise runs its PI flow
-controller on ``choke_flow_ref_m3s``. If commands stop for longer than the
+(``choke_manual``: drive to ``choke_opening_ref``), its pressure controller
+(``choke_pressure_control``: hold the measured choke dp at ``choke_dp_ref_pa``, ramped at
+``choke_dp_ref_rate_pa_s``, with ``choke_flow_ref_m3s`` as flow feedforward) and otherwise
+its PI flow controller on ``choke_flow_ref_m3s``. If commands stop for longer than the
 watchdog timeout it holds a safe state (block held where it is, choke opening and
 pumps held) and says so on its status topic.
 """
@@ -137,7 +139,13 @@ class ActuatorNode(RigNode):
                 opening = self.model.lag.value
                 return FrameOutput(opening, target, self.model.lag.advance(opening, self.step_s,
                                                                            self.steps))
-            manual = self.command.choke_opening_ref if self.command.choke_manual else None
+            cmd = self.command
+            if cmd.choke_pressure_control and not cmd.choke_manual:
+                since_s = (to_ns(m.header.stamp) - to_ns(cmd.header.stamp)) * 1e-9
+                return self.model.pressure_frame(cmd.choke_dp_ref_pa, cmd.choke_dp_ref_rate_pa_s,
+                                                 since_s, target, m.choke_dp_pa, self.step_s,
+                                                 self.steps)
+            manual = cmd.choke_opening_ref if cmd.choke_manual else None
             return self.model.frame(target, m.choke_dp_pa, self.step_s, self.steps, manual)
         return self.model.frame(target, self.step_s, self.steps)
 

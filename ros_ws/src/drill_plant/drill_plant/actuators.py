@@ -93,13 +93,18 @@ class Drawworks:
 
 
 class Choke:
-    """PI flow controller (velocity form) + choke-valve lag; the reference is a choke flow [m^3/s].
+    """Choke panel: PI flow controller (velocity form), PI pressure controller, or manual;
+    then the choke-valve lag.
 
-    The controlled flow is inferred from the valve law with the measured differential
-    pressure and the current opening (the choke flow itself is not measured). Like a choke
-    panel, it has a manual mode that drives the valve to a given opening, bypassing the PI
-    (the paper's estimation study, sec. 4.3, holds the choke at 50 %); back in automatic
-    the velocity-form PI continues from the opening it was left at (bumpless).
+    Flow mode (the paper's): the reference is a choke flow [m^3/s]; the controlled flow is
+    inferred from the valve law with the measured differential pressure and the current
+    opening (the choke flow itself is not measured). Pressure mode (an MPD choke
+    controller's surface back-pressure loop): at every sensor frame a PI on the measured
+    choke dp against a set-point that ramps from the command's value at its rate, plus
+    the opening the valve law gives for a feedforward flow at that set-point. Manual mode
+    drives the valve to a given opening (the paper's estimation study, sec. 4.3, holds the
+    choke at 50 %). Every switch is bumpless: each mode continues from the opening the
+    valve was left at.
     """
 
     def __init__(self, config: Actuators, wm: hy.WellModel, initial_opening: float):
@@ -108,6 +113,7 @@ class Choke:
         self.lag = FirstOrderLag(config.choke, initial_opening)
         self.opening_command = self.lag.value
         self.previous_error: float | None = None
+        self.pressure_integral: float | None = None     # pressure mode's integral [1]
 
     def frame(self, flow_ref_m3s: float, measured_dp_pa: float, step_s: float,
               steps: int, manual_opening: float | None = None) -> FrameOutput:
@@ -116,8 +122,10 @@ class Choke:
         if manual_opening is not None:
             self.opening_command = self.lag.limit(manual_opening)
             self.previous_error = None
+            self.pressure_integral = None
             return FrameOutput(self.opening_command, math.nan,
                                self.lag.advance(self.opening_command, step_s, steps))
+        self.pressure_integral = None
         c = self.config
         flow = float(hy.choke_flow(self.wm, self.lag.value, measured_dp_pa))
         error = (flow_ref_m3s - flow) / c.choke_flow_scale_m3s
@@ -127,6 +135,34 @@ class Choke:
             self.opening_command + c.choke_kp * ((error - previous) + dt / c.choke_ti_s * error))
         self.previous_error = error
         return FrameOutput(self.opening_command, flow_ref_m3s,
+                           self.lag.advance(self.opening_command, step_s, steps))
+
+
+    def pressure_frame(self, dp_ref_pa: float, dp_ref_rate_pa_s: float, since_command_s: float,
+                       flow_feedforward_m3s: float, measured_dp_pa: float, step_s: float,
+                       steps: int) -> FrameOutput:
+        """One frame in pressure mode; the frame's reference is the choke-dp set-point [Pa]
+        in force, dp_ref + rate * (time since the command). A non-finite input (a bad
+        sample or set-point) holds the opening and leaves the controller's state as it was."""
+        c = self.config
+        setpoint = max(dp_ref_pa + dp_ref_rate_pa_s * since_command_s, 0.0)
+        if not all(math.isfinite(v) for v in (setpoint, flow_feedforward_m3s, measured_dp_pa)):
+            return FrameOutput(self.opening_command, setpoint,
+                               self.lag.advance(self.opening_command, step_s, steps))
+        error = (measured_dp_pa - setpoint) / c.choke_pressure_scale_pa   # too high: open
+        feedforward = hy.choke_opening_for_flow(self.wm, max(flow_feedforward_m3s, 0.0),
+                                                max(setpoint, self.wm.choke_regularisation_pa))
+        proportional = c.choke_pressure_kp * error
+        if self.pressure_integral is None:      # bumpless entry from the opening in force
+            self.pressure_integral = self.opening_command - feedforward - proportional
+        trial = self.pressure_integral + c.choke_pressure_kp * step_s * steps \
+            / c.choke_pressure_ti_s * error
+        command = feedforward + proportional + trial
+        if self.lag.limit(command) == command:   # anti-windup: integrate only while unsaturated
+            self.pressure_integral = trial
+        self.opening_command = self.lag.limit(feedforward + proportional + self.pressure_integral)
+        self.previous_error = None
+        return FrameOutput(self.opening_command, setpoint,
                            self.lag.advance(self.opening_command, step_s, steps))
 
 

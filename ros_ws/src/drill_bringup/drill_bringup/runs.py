@@ -1,0 +1,94 @@
+"""Run one scenario through the whole graph: launch, record, report (the rig's main job,
+shared by ``rig run``/``rig demo`` and ``rig compare``)."""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from datetime import datetime
+from pathlib import Path
+
+from drill_bringup import launcher, report
+from drill_core.scenario import load_scenario
+
+ROOT = Path(os.environ.get("RIG_ROOT", Path.cwd()))
+
+
+def scenario_path(name: str) -> Path:
+    path = Path(name)
+    if path.suffix in (".yaml", ".yml") and path.exists():
+        return path.resolve()
+    candidate = ROOT / "config" / "scenarios" / f"{name}.yaml"
+    if not candidate.exists():
+        known = ", ".join(sorted(p.stem for p in (ROOT / "config" / "scenarios").glob("*.yaml")))
+        raise SystemExit(f"unknown scenario '{name}'; known: {known}")
+    return candidate
+
+
+def console_url(log_path: Path, timeout_s: float = 10.0) -> str:
+    """The console's address, as it prints it once it serves (CONSOLE_URL <url>)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if log_path.exists():
+            for line in log_path.read_text(errors="replace").splitlines():
+                if "CONSOLE_URL" in line:
+                    return line.split("CONSOLE_URL", 1)[1].strip()
+        time.sleep(0.2)
+    return f"not reported yet (see {log_path})"
+
+
+def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = None,
+                 seed: int | None = None, domain_id: int | None = None,
+                 timeout_s: float | None = None, quiet: bool = False,
+                 controller: str | None = None) -> tuple[int, Path]:
+    """Launch a scenario, record it and report; returns (exit code, run directory).
+    ``seed`` replaces the scenario's plant seed and ``controller`` its controller (the same
+    trip under another controller: ``rig compare``)."""
+    scenario, _ = load_scenario(path)
+    controller = controller or scenario.controller
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    tags = "".join(f"-{tag}" for tag in (
+        controller if controller != scenario.controller else None,
+        f"seed{seed}" if seed is not None else None) if tag)
+    run_dir = (runs_dir or ROOT / "runs") / f"{scenario.name}{tags}-{stamp}-{os.getpid()}"
+    run_dir.mkdir(parents=True, exist_ok=True)
+    mcap_path = run_dir / f"{scenario.name}.mcap"
+    mode = "realtime" if realtime else "fast"
+    common = {"config_dir": str(ROOT / "config"), "scenario": str(path), "mode": mode}
+    nodes = launcher.graph(controller, common, mcap_path, fast=not realtime)
+    if seed is not None:
+        nodes[-1].params["seed"] = seed
+    launch = launcher.Launch(nodes, run_dir, domain_id or launcher.default_domain_id())
+    say = (lambda *_: None) if quiet else (lambda text: print(text, flush=True))
+    say(f"[rig] {scenario.name}: {scenario.description} ({mode} mode, logs in {run_dir / 'logs'})")
+    started = time.monotonic()
+    launch.start()
+    if realtime:
+        say(f"[rig] ROS_DOMAIN_ID {launch.env['ROS_DOMAIN_ID']} (operator CLI: "
+            f"python -m drill_bringup.operator_cli --domain {launch.env['ROS_DOMAIN_ID']} watch)")
+        say(f"[rig] console: {console_url(run_dir / 'logs' / 'console.log')}")
+    limit = timeout_s or (scenario.duration_s * 1.5 + 120 if realtime else 900.0)
+    try:
+        ok, message = launch.watch(limit)
+    except KeyboardInterrupt:
+        ok, message = False, "interrupted"
+    codes = launch.stop()
+    wall = time.monotonic() - started
+    (run_dir / "launch.json").write_text(json.dumps(
+        {"ok": ok, "message": message, "wall_time_s": wall, "exit_codes": codes,
+         "scenario": str(path), "mode": mode, "controller": controller, "seed": seed},
+        indent=2))
+    if not ok:
+        print(f"[rig] FAILED: {message}", file=sys.stderr, flush=True)
+        return 1, run_dir
+    say(f"[rig] finished in {wall:.1f} s wall for {scenario.duration_s:.0f} s simulated "
+        f"(real-time factor {wall / scenario.duration_s:.3f})")
+    summary, plots, table = report.write_report(mcap_path, run_dir, scenario.name)
+    say(table)
+    say(f"[rig] MCAP: {mcap_path}")
+    say(f"[rig] plots: {', '.join(str(p) for p in plots)}")
+    say(f"[rig] summary: {run_dir / 'summary.json'}")
+    return 0, run_dir
+
+

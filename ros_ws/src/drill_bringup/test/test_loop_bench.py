@@ -1,0 +1,25 @@
+"""The in-process closed loop (drill_bringup.loop_bench) that the ladder of docs/nmpc.md
+stands on: the truth plant, the actuator models, a state source and a controller."""
+import numpy as np
+import pytest
+
+from drill_bringup import loop_bench
+
+
+@pytest.mark.slow
+def test_automated_mpd_holds_the_short_trip_in_band_from_the_true_state():
+    r = loop_bench.run("short_trip", "automated_mpd", "truth")
+    assert r["trip_legs"][0][1] is not None                     # the 8 m leg completed
+    assert r["bhp_worst_excursion_pa"] < 1.0e5 and r["bhp_rmse_pa"] < 1.0e5
+    assert r["bhp_estimate_rmse_pa"] == 0.0                     # the oracle reads the truth
+
+
+@pytest.mark.slow
+def test_nmpc_on_the_ukf_state_trips_and_holds_bhp():
+    r = loop_bench.run("short_trip", "nmpc", "ukf")
+    trace = r["trace"]
+    assert np.max(trace["pos"]) > 7.5                           # pulled the 8 m
+    assert r["bhp_rmse_pa"] < 1.0e5 and r["fallbacks"] == 0
+    assert 0.0 < r["bhp_estimate_rmse_pa"] < 0.5e5              # a real estimate, not the truth
+    # the choke ran on its pressure loop: the set-point moved with the trip
+    assert np.nanmax(trace["choke_dp_ref"]) - np.nanmin(trace["choke_dp_ref"]) > 1.0e5

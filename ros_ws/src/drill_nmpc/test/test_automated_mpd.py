@@ -1,0 +1,128 @@
+"""Automated MPD core: the trip's motion profile and the model-based choke-dp set-point."""
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drill_core.config import load_rig
+from drill_core.estimation_model import build_estimation_model
+from drill_core.scenario import ActiveSetpoints
+from drill_core.surge_swab import SurgeSwabModel
+from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
+from drill_nmpc.motion_profile import MotionProfile
+
+CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+FLOW = 1000.0 / 60000.0
+
+
+def test_profile_is_trapezoidal_within_its_limits_and_stops_on_target():
+    p = MotionProfile(0.0)
+    positions, speeds = [0.0], [0.0]
+    for _ in range(80):
+        p.step(28.0, 0.5, 0.1, 1.0)
+        positions.append(p.position_m)
+        speeds.append(p.speed_mps)
+    assert positions[-1] == 28.0 and speeds[-1] == 0.0
+    assert max(speeds) == pytest.approx(0.5)
+    assert np.all(np.abs(np.diff(speeds)) <= 0.1 + 1e-12)       # the protection's acceleration
+    assert np.all(np.diff(positions) >= 0.0)                    # never backs up
+    # each sample moves by that sample's speed: 1.5 m in the first 5 s (0.1 + ... + 0.5)
+    assert positions[5] == pytest.approx(1.5)
+    arrival = next(k for k, x in enumerate(positions) if x == 28.0)
+    # cruise 0.5 m/s with 5 s to speed up and 5 s to brake: 28/0.5 + 5 s, within a sample
+    assert abs(arrival - 61) <= 1
+
+
+def test_profile_preview_does_not_move_the_profile():
+    p = MotionProfile(3.0, 0.2)
+    ahead = p.ahead(0.0, 0.5, 0.1, 1.0, 30)
+    assert (p.position_m, p.speed_mps) == (3.0, 0.2)
+    assert ahead[0].position_m == 3.0 and ahead[-1].position_m == 0.0
+    assert max(s.position_m for s in ahead) > 3.0                # it brakes before it turns
+    assert p.speeds_ahead(0.0, 0.5, 0.1, 1.0, 30) == [s.speed_mps for s in ahead]
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return load_rig(CONFIG_DIR)
+
+
+@pytest.fixture(scope="module")
+def em(rig):
+    return build_estimation_model(rig)
+
+
+def _setpoints(target=0.0, upper=0.0):
+    return ActiveSetpoints(bhp_ref_pa=6.85e7, bhp_band_pa=2.0e5, choke_dp_ref_pa=2.0e6,
+                           choke_dp_band_pa=5.0e5, block_position_target_m=target,
+                           trip_speed_limit_mps=0.5, controller_enabled=True, mud_pump_on=True,
+                           choke_dp_band_upper_pa=upper)
+
+
+def _estimate(em, bhp_pa, position=0.0, velocity=0.0):
+    return EstimateView(bhp_pa=bhp_pa, string_position_m=position, string_velocity_mps=velocity,
+                        string_flow_m3s=FLOW, friction_factor=(1.0,) * (em.n - 1))
+
+
+def test_at_rest_the_set_point_is_the_steady_dp_of_the_reference(rig, em):
+    mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
+    model = SurgeSwabModel(em)
+    steady = model.choke_dp_for_bhp(6.85e7, (1.0,) * 3, FLOW, 0.0, 0.0)
+    c = mpd.step(_estimate(em, 6.85e7), _setpoints(), 6.85e7)
+    assert c.choke_dp_ref_pa == pytest.approx(steady)
+    assert c.choke_dp_ref_rate_pa_s == 0.0 and c.trim_pa == 0.0
+    assert c.choke_flow_feedforward_m3s == pytest.approx(FLOW)
+    assert (c.bpp_flow_m3s, c.spp_pa) == (0.0, 1.06e7)          # the pumps hold
+
+
+def test_pulling_out_raises_the_set_point_by_the_swab_ahead_of_the_string(rig, em):
+    mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
+    model = SurgeSwabModel(em)
+    est = _estimate(em, 6.85e7)
+    sp = _setpoints(target=28.0, upper=6.63e7)
+    commands = [mpd.step(est, sp, 6.85e7) for _ in range(40)]
+    dp = np.array([c.choke_dp_ref_pa for c in commands])
+    assert np.all(np.diff(dp[:15]) >= -1e-6)                     # rising while speeding up
+    cruise = model.choke_dp_for_bhp(6.85e7, (1.0,) * 3, FLOW, 0.5, 0.0)
+    assert dp[-1] == pytest.approx(cruise, abs=0.05e5)           # the steady swab at 0.5 m/s
+    assert dp[-1] - dp[0] > 4.0e5                                # several bar
+    # the set-point leads: the string (lagging the reference by the drawworks) is slower
+    # than the reference speed, but the set-point uses the speed feedforward_lead_s later
+    assert commands[3].choke_dp_ref_rate_pa_s > 0.0
+    assert all(c.block_position_ref_m <= 28.0 for c in commands)
+
+
+def test_the_dp_band_caps_the_set_point_and_the_trip_speed(rig, em):
+    mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
+    sp = _setpoints(target=28.0)                                 # symmetric +-5 bar band
+    model = SurgeSwabModel(em)
+    out_limit, in_limit = mpd.speed_envelope(6.85e7, (1.0,) * 3, FLOW, 0.5, 15.0e5, 21.0e5)
+    assert 0.0 < out_limit < 0.5 and in_limit == 0.5
+    dp_at_limit = model.choke_dp_for_bhp(6.85e7, (1.0,) * 3, FLOW, out_limit, 0.0)
+    assert dp_at_limit <= 21.0e5
+    c = None
+    for _ in range(30):
+        c = mpd.step(_estimate(em, 6.85e7), sp, 6.85e7)
+    assert c.choke_dp_ref_pa <= 25.0e5 + 1e-6
+
+
+def test_trim_integrates_the_estimated_error_and_is_limited(rig, em):
+    mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
+    cfg = rig.automated_mpd
+    low = 6.85e7 - 1.0e5                                          # BHP estimated 1 bar low
+    c = mpd.step(_estimate(em, low), _setpoints(), 6.85e7)
+    assert c.trim_pa == pytest.approx(1.0e5 * rig.nmpc.sample_time_s / cfg.trim_time_constant_s)
+    for _ in range(10000):
+        c = mpd.step(_estimate(em, low), _setpoints(), 6.85e7)
+    assert c.trim_pa == pytest.approx(cfg.trim_limit_pa)
+    nan = mpd.step(_estimate(em, math.nan), _setpoints(), 6.85e7)   # a NaN BHP changes nothing
+    assert nan.trim_pa == c.trim_pa and math.isfinite(nan.choke_dp_ref_pa)
+
+
+def test_manual_hands_the_string_back_where_it_is(rig, em):
+    mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
+    sp = dataclasses.replace(_setpoints(target=28.0), controller_enabled=False)
+    c = mpd.step(_estimate(em, 6.85e7, position=3.2), sp, 6.85e7)
+    assert c.block_position_ref_m == 3.2
