@@ -227,7 +227,8 @@ def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
             f"{summary['bhp_rmse_pa'] / PA_PER_BAR:9.3f}",
             f"  BHP window violations         {summary['bhp_window_violations']} "
             f"(worst {summary['bhp_worst_excursion_pa'] / PA_PER_BAR:.2f} bar outside, "
-            f"{summary['bhp_time_outside_s']:.1f} s outside)",
+            f"{summary['bhp_time_outside_s']:.1f} s outside, "
+            f"{summary['bhp_time_outside_settled_s']:.1f} s after the first {SETTLE_S:.0f} s)",
             f"  trip legs                     {format_legs(summary['trip_legs'])}",
         ]
     else:
@@ -251,7 +252,8 @@ def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
                         "(circulation off)")
     if "solves" in summary:
         rows.append(f"  NMPC solve time               median {summary['solve_time_median_s'] * 1e3:.1f} ms, "
-                    f"p95 {summary['solve_time_p95_s'] * 1e3:.1f} ms, max {summary['solve_time_max_s'] * 1e3:.1f} ms "
+                    f"p95 {summary['solve_time_p95_s'] * 1e3:.1f} ms, p99 {summary['solve_time_p99_s'] * 1e3:.1f} ms, "
+                    f"max {summary['solve_time_max_s'] * 1e3:.1f} ms "
                     f"({summary['solves']} solves, {summary['fallbacks']} fallbacks; paper: 16.4 s)")
     if baseline:
         rows.append(f"  baseline peak surge / swab    {baseline['peak_surge_pa'] / PA_PER_BAR:+.2f} / "
