@@ -9,7 +9,9 @@ machines respects the most conservative of
   window (with margin), and a limit on the change of trip speed (acceleration).
 
 A manual choke opening (choke panel in manual) is kept inside the choke's range; its
-rate is limited by the choke actuator's own lag.
+rate is limited by the choke actuator's own lag. A choke-dp set-point (the choke on its
+pressure loop) passes when finite; a non-finite one puts the choke back on its flow loop.
+Both are held, like the pressures, under an emergency stop or outside closed loop.
 
 Every clamp is reported with its reason. Plain Python; the node wires it to topics.
 """
@@ -34,6 +36,8 @@ class Decision:
     clamps: tuple[str, ...]             # one reason per limit that acted
     trip_speed_limits_mps: tuple[float, float]  # allowed speed running in, pulling out
     manual_choke_opening: float | None = None   # choke in manual at this opening [1]; None: PI
+    choke_dp_setpoint: tuple[float, float] | None = None  # pressure loop: (dp set-point Pa,
+                                                          # its ramp Pa/s); None: not in force
 
 
 def surge_swab_pa(wm: hy.WellModel, speeds_mps: np.ndarray, circulation_m3s: float) -> np.ndarray:
@@ -56,6 +60,7 @@ class ProcessProtection:
         self.wm = wm
         self.previous = np.asarray(initial_command, dtype=float).copy()
         self.previous_manual_opening: float | None = None
+        self.previous_dp_setpoint: tuple[float, float] | None = None
         self.previous_speed_mps = 0.0
         self.emergency_stop = False
         self.automation_level = "closed_loop"
@@ -99,9 +104,11 @@ class ProcessProtection:
 
     def apply(self, request, position_m: float, string_velocity_mps: float, bhp_pa: float,
               circulation_m3s: float, operator_speed_limit_mps: float,
-              manual_choke_opening: float | None = None) -> Decision:
-        """Limit ``request`` [u_r, q_c, q_bpp, p_spp] and the requested manual choke opening
-        (None: the choke on its PI flow controller); returns the command to send and why."""
+              manual_choke_opening: float | None = None,
+              choke_dp_setpoint: tuple[float, float] | None = None) -> Decision:
+        """Limit ``request`` [u_r, q_c, q_bpp, p_spp], the requested manual choke opening and
+        choke-dp set-point (dp Pa, ramp Pa/s) (both None: the choke on its PI flow
+        controller; a manual opening wins); returns the command to send and why."""
         p = self.config.protection
         period = p.command_period_s
         request = np.asarray(request, dtype=float)
@@ -118,8 +125,16 @@ class ProcessProtection:
             request = self.previous.copy()
             request[0] = position_m if self.emergency_stop else self.previous[0]
             manual_choke_opening = self.previous_manual_opening
+            held = self.previous_dp_setpoint
+            choke_dp_setpoint = (held[0], 0.0) if held is not None else None
+        elif choke_dp_setpoint is not None and not np.all(np.isfinite(choke_dp_setpoint)):
+            clamps.append(f"non-finite choke dp set-point {choke_dp_setpoint[0]} Pa: choke on "
+                          "its flow controller")
+            choke_dp_setpoint = None
         command = request.copy()
         manual_choke_opening = self._limit_opening(manual_choke_opening, clamps)
+        if manual_choke_opening is not None:
+            choke_dp_setpoint = None
 
         for i in (1, 2, 3):
             limited = np.clip(command[i], self.previous[i] - self.slew[i], self.previous[i] + self.slew[i])
@@ -149,7 +164,9 @@ class ProcessProtection:
         self.previous_speed_mps = (ref - self.previous[0]) / period
         self.previous = command.copy()
         self.previous_manual_opening = manual_choke_opening
-        return Decision(command, tuple(clamps), (down, up), manual_choke_opening)
+        self.previous_dp_setpoint = choke_dp_setpoint
+        return Decision(command, tuple(clamps), (down, up), manual_choke_opening,
+                        choke_dp_setpoint)
 
     def _limit_opening(self, opening: float | None, clamps: list[str]) -> float | None:
         """A manual choke opening inside the choke's range [1] (None stays None)."""

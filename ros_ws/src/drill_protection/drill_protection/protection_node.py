@@ -42,7 +42,6 @@ class ProtectionNode(RigNode):
         initial = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
         start = np.array([0.0, initial.choke_flow_m3s, ini.bpp_flow_m3s, initial.inputs[3]])
         self.protection = ProcessProtection(ctx.config, ctx.well_model, start)
-        self.pressure = (False, 0.0, 0.0)   # choke pressure control in force: on, dp set-point Pa, rate Pa/s
         self.operator_speed_limit = ctx.config.protection.trip_speed_max_mps
         self.positions: deque = deque()
         self.inbox = StampedInbox(("command", "measurement"))
@@ -124,29 +123,23 @@ class ProtectionNode(RigNode):
         decision = self.protection.apply(
             [request.block_position_ref_m, request.choke_flow_ref_m3s, request.bpp_flow_m3s,
              request.spp_pa], m.block_position_m, self._velocity(), m.bhp_pa, max(circulation, 0.0),
-            self.operator_speed_limit, request.choke_opening_ref if request.choke_manual else None)
+            self.operator_speed_limit, request.choke_opening_ref if request.choke_manual else None,
+            (request.choke_dp_ref_pa, request.choke_dp_ref_rate_pa_s)
+            if request.choke_pressure_control else None)
         manual = decision.manual_choke_opening
-        clamps = list(decision.clamps)
-        pressure = (request.choke_pressure_control and manual is None,
-                    float(request.choke_dp_ref_pa), float(request.choke_dp_ref_rate_pa_s))
-        if self.protection.emergency_stop or self.protection.automation_level != "closed_loop":
-            pressure = (self.pressure[0], self.pressure[1], 0.0)    # held like the pressures
-        elif pressure[0] and not (math.isfinite(pressure[1]) and math.isfinite(pressure[2])):
-            pressure = (False, 0.0, 0.0)
-            clamps.append(f"non-finite choke dp set-point {request.choke_dp_ref_pa} Pa: choke on "
-                          "its flow controller")
-        self.pressure = pressure
+        dp_setpoint = decision.choke_dp_setpoint
         out = RigCommand(block_position_ref_m=float(decision.command[0]),
                          choke_flow_ref_m3s=float(decision.command[1]),
                          bpp_flow_m3s=float(decision.command[2]), spp_pa=float(decision.command[3]),
                          mud_pump_on=request.mud_pump_on, choke_manual=manual is not None,
                          choke_opening_ref=float(manual) if manual is not None else 0.0,
-                         choke_pressure_control=pressure[0], choke_dp_ref_pa=pressure[1],
-                         choke_dp_ref_rate_pa_s=pressure[2],
+                         choke_pressure_control=dp_setpoint is not None,
+                         choke_dp_ref_pa=float(dp_setpoint[0]) if dp_setpoint else 0.0,
+                         choke_dp_ref_rate_pa_s=float(dp_setpoint[1]) if dp_setpoint else 0.0,
                          source=f"protection<{request.source}")
         out.header.stamp = request.header.stamp
         self.pub_command.publish(out)
-        for text in clamps:
+        for text in decision.clamps:
             self.clamp_count += 1
             self._event("clamp", text, stamp)
         self._check_window(m.bhp_pa, stamp)

@@ -131,3 +131,38 @@ def test_manual_choke_held_by_emergency_stop_and_non_finite_request(setup):
     p.emergency_stop = True
     d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
     assert d.manual_choke_opening == 0.4                   # the choke stays where it was put
+
+
+def test_choke_dp_set_point_passes_and_a_manual_opening_wins(setup):
+    p = fresh(setup)
+    cmd = [0.0, CIRCULATION, 0.0, 1.06e7]
+    d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(2.3e6, 1.0e5))
+    assert d.choke_dp_setpoint == (2.3e6, 1.0e5) and d.clamps == ()
+    d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, manual_choke_opening=0.4,
+                choke_dp_setpoint=(2.3e6, 0.0))
+    assert d.choke_dp_setpoint is None and d.manual_choke_opening == 0.4
+    d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
+    assert d.choke_dp_setpoint is None and d.manual_choke_opening is None   # the flow loop
+
+
+def test_non_finite_choke_dp_set_point_falls_back_to_the_flow_loop(setup):
+    p = fresh(setup)
+    cmd = [0.0, CIRCULATION, 0.0, 1.06e7]
+    p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(2.3e6, 0.0))
+    for bad in ((float("nan"), 0.0), (2.3e6, float("inf"))):
+        d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=bad)
+        assert d.choke_dp_setpoint is None
+        assert any("non-finite choke dp set-point" in c for c in d.clamps)
+
+
+def test_choke_dp_set_point_held_without_its_ramp_by_emergency_stop_and_manual_level(setup):
+    p = fresh(setup)
+    cmd = [0.0, CIRCULATION, 0.0, 1.06e7]
+    p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(2.3e6, 1.0e5))
+    p.emergency_stop = True
+    d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(3.0e6, 2.0e5))
+    assert d.choke_dp_setpoint == (2.3e6, 0.0)               # held, no longer ramping
+    p.emergency_stop = False
+    p.automation_level = "advisory"
+    d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(float("nan"), 0.0))
+    assert d.choke_dp_setpoint == (2.3e6, 0.0)               # the advisor's request is not applied
