@@ -26,7 +26,7 @@ from drill_core.estimation_model import build_estimation_model, fitted_friction_
 from drill_core.scenario import initial_setpoints, load_scenario_config, setpoints_at
 from drill_estimator.ukf import RigUkf, frame_inputs
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
-from drill_nmpc.ocp import Supervisor
+from drill_nmpc.ocp import Supervisor, choke_command, choke_input
 from drill_plant.actuators import Choke, Drawworks, Pump
 from drill_plant.plant_model import PlantLayout, steady_state
 from drill_plant.simulator import PlantSimulator
@@ -135,11 +135,11 @@ class NmpcController:
         self.block_integral = block_integral_from_drawworks
         self.sup = Supervisor(config, build_estimation_model(
             config, with_disturbance=config.nmpc.configuration == "NMPC2"))
-        self.pressure = config.nmpc.choke_control == "pressure"
+        self.cfg = config.nmpc
         u_b, opening, bpp, spp = (float(v) for v in rig.op.inputs)
-        self.flow = float(rig.op.choke_flow_m3s)
+        self.operating_flow_m3s = float(rig.op.choke_flow_m3s)   # before any solve
         self.u = None
-        self.initial = (ini.choke_dp_pa if self.pressure else self.flow, bpp, spp)
+        self.initial = (choke_input(self.cfg, self.operating_flow_m3s, ini.choke_dp_pa), bpp, spp)
         self.solve_times: list[float] = []
         self.fallbacks = 0
 
@@ -154,13 +154,10 @@ class NmpcController:
         self.solve_times.append(r.solve_time_s)
         self.fallbacks += r.fallback != "none"
         u = self.u = np.asarray(r.u, dtype=float)
-        if not self.pressure:
-            return Command(u[0], u[1], u[2], u[3], stamp_s=t)
-        if math.isfinite(r.choke_flow_m3s):
-            self.flow = r.choke_flow_m3s
-        plan = np.asarray(r.planned_inputs).reshape(-1, 4)
-        rate = (plan[1, 1] - u[1]) / self.sup.problem.ts if plan.shape[0] > 1 else 0.0
-        return Command(u[0], self.flow, u[2], u[3], u[1], rate, t)
+        choke = choke_command(self.cfg, r, self.operating_flow_m3s)
+        if not choke.pressure_control:
+            return Command(u[0], choke.flow_m3s, u[2], u[3], stamp_s=t)
+        return Command(u[0], choke.flow_m3s, u[2], u[3], choke.dp_ref_pa, choke.dp_ref_rate_pa_s, t)
 
 
 def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf",

@@ -507,5 +507,5 @@ def replace(obj: object, **changes: object) -> object:
 
 __all__ = ["ConfigError", "RigConfig", "Well", "StringSection", "Mud", "Turbulence", "Plant",
            "MeasurementNoise", "Lag", "Actuators", "Estimator", "FrictionLawTuning", "FRICTION_LAWS",
-           "Nmpc", "AutomatedMpd", "ChokeDpSetpoint", "InputVector", "OutputVector", "Protection", "load_rig", "load_section",
-           "load_yaml", "merge", "replace"]
+           "Nmpc", "ChokeDpSetpoint", "AutomatedMpd", "InputVector", "OutputVector", "Protection",
+           "load_rig", "load_section", "load_yaml", "merge", "replace"]

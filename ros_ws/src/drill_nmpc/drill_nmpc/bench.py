@@ -30,7 +30,8 @@ from drill_core.config import RigConfig, load_rig
 from drill_core.estimation_model import (EstimationModel, build_estimation_model,
                                          fitted_friction_parameters)
 from drill_core.scenario import ActiveSetpoints, Initial
-from drill_nmpc.ocp import ActuatorLags, PredictionModel, StringFrictionTable, Supervisor, outputs
+from drill_nmpc.ocp import (ActuatorLags, PredictionModel, StringFrictionTable, Supervisor,
+                            choke_input, choke_time_constant, outputs)
 
 PAPER_SOLVE_TIME_S = 16.4          # Tengesdal & Holden 2020, sec. 6.3.4 (MATLAB fmincon, NMPC0)
 TRIP_DISTANCE_M = 28.0
@@ -61,11 +62,9 @@ def steady_estimate(em: EstimationModel, initial: Initial) -> tuple[np.ndarray, 
 
 
 def supervisor_input(config: RigConfig, u: np.ndarray, initial: Initial) -> np.ndarray:
-    """The supervisor's input vector at a steady state's inputs: with choke_control
-    pressure the choke entry is the pressure loop's set-point (the initial choke dp)."""
+    """The supervisor's input vector at a steady state's inputs (ocp.choke_input)."""
     u = np.array(u, dtype=float)
-    if config.nmpc.choke_control == "pressure":
-        u[1] = initial.choke_dp_pa
+    u[1] = choke_input(config.nmpc, u[1], initial.choke_dp_pa)
     return u
 
 
@@ -79,10 +78,9 @@ class ModelPlant:
         self.em = em_d
         # exact=False evaluates the string friction from the B-spline table (< 0.01 bar off,
         # builds in a fraction of the time); the rest of the model is the shared drift.
-        n = config.nmpc
-        choke_tau = n.choke_dp_setpoint.time_constant_s if n.choke_control == "pressure" else None
         self.model = PredictionModel(em_d, ActuatorLags.from_config(config),
-                                     None if exact else StringFrictionTable(em_d.wm), choke_tau)
+                                     None if exact else StringFrictionTable(em_d.wm),
+                                     choke_time_constant(config.nmpc))
         self.step_fn = self.model.function(config.nmpc.sample_time_s, substeps, "rk4")
         full = np.zeros(em_d.size)
         full[:em.theta(em.n) + 1] = np.asarray(x0)[:em.theta(em.n) + 1]

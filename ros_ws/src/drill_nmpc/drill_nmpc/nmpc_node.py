@@ -48,7 +48,7 @@ from drill_core.ros.sampling import SampleGate
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
 from drill_core.scenario import ActiveSetpoints
-from drill_nmpc.ocp import SLACK_NAMES, SolveResult, Supervisor
+from drill_nmpc.ocp import SLACK_NAMES, SolveResult, Supervisor, choke_command, choke_input
 from drill_nmpc.setpoint_messages import initial_setpoints, merge_request, to_msg
 from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
 from drill_plant.plant_model import steady_state     # design knowledge of the well
@@ -73,7 +73,7 @@ class NmpcNode(RigNode):
         # graph's lockstep starts only once the supervisor can answer.
         self.supervisor = Supervisor(cfg, self.em)
         self.pressure_control = cfg.nmpc.choke_control == "pressure"
-        self.choke_flow_m3s = math.nan     # flow feedforward of the choke pressure loop [m^3/s]
+        self.operating_choke_flow_m3s = math.nan   # the initial operating point's [m^3/s]
         self.envelope = Envelope.from_config(cfg, self.em.wm.geometry)
         self.gate = SampleGate(seconds_to_ns(cfg.nmpc.sample_time_s), ctx.fast)
         self.frame_ns = seconds_to_ns(cfg.plant.sensor_period_s)
@@ -200,9 +200,9 @@ class NmpcNode(RigNode):
         point -- the values the actuators and the protection layer start from too."""
         ini = self.ctx.scenario.initial
         op = steady_state(self.em.wm, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
-        choke = ini.choke_dp_pa if self.pressure_control else op.choke_flow_m3s
-        self.choke_flow_m3s = float(op.choke_flow_m3s)
-        u = np.array([x[0], choke, ini.bpp_flow_m3s, op.inputs[3]])
+        self.operating_choke_flow_m3s = float(op.choke_flow_m3s)
+        u = np.array([x[0], choke_input(self.ctx.config.nmpc, op.choke_flow_m3s, ini.choke_dp_pa),
+                      ini.bpp_flow_m3s, op.inputs[3]])
         return self.supervisor.safe_input(u)
 
     def _on_estimate(self, msg: StateEstimate) -> None:
@@ -285,25 +285,21 @@ class NmpcNode(RigNode):
                            solve_time_s=0.0, cost=float("nan"),
                            slacks={n: float("nan") for n in SLACK_NAMES},
                            planned_inputs=np.tile(u, (self.supervisor.problem.N, 1)),
-                           configuration=self.supervisor.configuration)
+                           configuration=self.supervisor.configuration,
+                           choke_flow_m3s=self.supervisor.choke_flow_m3s)
 
     # ------------------------------------------------------------------ outputs
     def _publish(self, stamp: int, r: SolveResult) -> None:
         u = np.asarray(r.u, dtype=float)
         assert np.all(np.isfinite(u)), "refusing to publish a non-finite command"
         plan = np.asarray(r.planned_inputs, dtype=float).reshape(-1, 4)
-        cmd = RigCommand(block_position_ref_m=float(u[0]), choke_flow_ref_m3s=float(u[1]),
+        choke = choke_command(self.ctx.config.nmpc, r, self.operating_choke_flow_m3s)
+        cmd = RigCommand(block_position_ref_m=float(u[0]), choke_flow_ref_m3s=choke.flow_m3s,
                          bpp_flow_m3s=float(u[2]), spp_pa=float(u[3]),
                          mud_pump_on=bool(self.active.mud_pump_on), choke_manual=False,
-                         source="nmpc")
-        if self.pressure_control:     # u[1] is the set-point of the choke's pressure loop
-            if math.isfinite(r.choke_flow_m3s):
-                self.choke_flow_m3s = float(r.choke_flow_m3s)
-            cmd.choke_pressure_control = True
-            cmd.choke_dp_ref_pa = float(u[1])
-            cmd.choke_dp_ref_rate_pa_s = float(plan[1, 1] - u[1]) / self.supervisor.problem.ts \
-                if plan.shape[0] > 1 else 0.0
-            cmd.choke_flow_ref_m3s = self.choke_flow_m3s
+                         choke_pressure_control=choke.pressure_control,
+                         choke_dp_ref_pa=choke.dp_ref_pa,
+                         choke_dp_ref_rate_pa_s=choke.dp_ref_rate_pa_s, source="nmpc")
         cmd.header.stamp = from_ns(stamp)
         self.cmd_pub.publish(cmd)
         self.commands += 1
@@ -327,9 +323,9 @@ class NmpcNode(RigNode):
         st.predicted_block_position_m = [float(v) for v in pred.get("block_position_m", [])]
         st.predicted_string_velocity_mps = [float(v) for v in pred.get("string_velocity_mps", [])]
         st.planned_block_position_ref_m = [float(v) for v in plan[:, 0]]
-        choke = [float(v) for v in plan[:, 1]]
-        st.planned_choke_flow_m3s = [math.nan] * len(choke) if self.pressure_control else choke
-        st.planned_choke_dp_ref_pa = choke if self.pressure_control else [math.nan] * len(choke)
+        planned = [float(v) for v in plan[:, 1]]
+        st.planned_choke_flow_m3s = [math.nan] * len(planned) if self.pressure_control else planned
+        st.planned_choke_dp_ref_pa = planned if self.pressure_control else [math.nan] * len(planned)
         st.planned_bpp_flow_m3s = [float(v) for v in plan[:, 2]]
         st.planned_spp_pa = [float(v) for v in plan[:, 3]]
         ref = np.asarray(r.reference, dtype=float)

@@ -64,7 +64,6 @@ from drill_nmpc.motion_profile import MotionProfile
 
 OUTPUT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa")
 INPUT_NAMES = ("block_position_ref_m", "choke_flow_m3s", "bpp_flow_m3s", "spp_pa")
-PRESSURE_INPUT_NAMES = ("block_position_ref_m", "choke_dp_ref_pa", "bpp_flow_m3s", "spp_pa")
 SLACK_NAMES = ("velocity", "bhp_band", "choke_dp_band", "string_pressure", "choke_capacity")
 # Unit of each slack variable inside the OCP (its SI value = unit * scaled value).
 SLACK_UNITS = {"velocity": 0.01, "bhp_band": 1.0e4, "choke_dp_band": 1.0e5,
@@ -181,6 +180,40 @@ def input_arrays(cfg: Nmpc) -> dict[str, np.ndarray]:
                            ("reference_weight", c.reference_weight)):
             out[key][1] = value
     return out
+
+
+def choke_time_constant(cfg: Nmpc) -> float | None:
+    """The choke pressure loop's time constant in the prediction [s]; None: the choke is
+    on its flow loop (u[1] is a flow reference)."""
+    return cfg.choke_dp_setpoint.time_constant_s if cfg.choke_control == "pressure" else None
+
+
+def choke_input(cfg: Nmpc, choke_flow_m3s: float, choke_dp_pa: float) -> float:
+    """The supervisor's choke input u[1] at an operating point: the choke-dp set-point
+    with the choke on its pressure loop, else the flow reference."""
+    return choke_dp_pa if cfg.choke_control == "pressure" else choke_flow_m3s
+
+
+@dataclass(frozen=True)
+class ChokeCommand:
+    """The choke's part of a supervisor command (SI), as drill_msgs/RigCommand carries it."""
+    pressure_control: bool
+    flow_m3s: float              # flow reference, or the pressure loop's flow feedforward
+    dp_ref_pa: float             # pressure loop: set-point at the command's stamp (else 0)
+    dp_ref_rate_pa_s: float      # pressure loop: its ramp to the next planned set-point
+
+
+def choke_command(cfg: Nmpc, result: "SolveResult", fallback_flow_m3s: float) -> ChokeCommand:
+    """What the choke is told for a supervisor result: on the pressure loop u[1] is the
+    set-point, ramped toward the next planned one, with the predicted choke flow (the
+    operating point's ``fallback_flow_m3s`` before any solve predicted one) as feedforward."""
+    u = np.asarray(result.u, dtype=float)
+    if cfg.choke_control != "pressure":
+        return ChokeCommand(False, float(u[1]), 0.0, 0.0)
+    plan = np.asarray(result.planned_inputs, dtype=float).reshape(-1, 4)
+    rate = float(plan[1, 1] - u[1]) / cfg.sample_time_s if plan.shape[0] > 1 else 0.0
+    flow = result.choke_flow_m3s if math.isfinite(result.choke_flow_m3s) else fallback_flow_m3s
+    return ChokeCommand(True, float(flow), float(u[1]), rate)
 
 
 class PredictionModel:
@@ -482,9 +515,7 @@ class NmpcProblem:
         table = StringFrictionTable(em.wm) if tabulate_string_friction else None
         if table is not None and not table.applies():
             table = None
-        choke_tau = cfg.choke_dp_setpoint.time_constant_s if cfg.choke_control == "pressure" \
-            else None
-        self.model = PredictionModel(em, lags, table, choke_tau)
+        self.model = PredictionModel(em, lags, table, choke_time_constant(cfg))
         if self.model.check() > 1e-9:
             raise RuntimeError("drawworks-lag construction does not reproduce the hoisting law")
         self.nd = self.model.nd
@@ -996,6 +1027,7 @@ class Supervisor:
         self._trip: tuple[float, float] | None = None  # (block target m, furthest string position on the way m)
         self._profile: MotionProfile | None = None     # block reference's motion profile (block_reference profile)
         self.bhp_bias = 0.0                            # model's BHP offset (bhp_bias_gain > 0) [Pa]
+        self.choke_flow_m3s = math.nan                 # the last solve's choke flow (held with its input)
         self._predicted_bhp: float | None = None       # the last solve's BHP prediction for now [Pa]
 
     # -- helpers ------------------------------------------------------------------------
@@ -1237,16 +1269,17 @@ class Supervisor:
                               "lam_z": sol["lam_z"], "lam_g": sol["lam_g"]}
             u = self.limit(U[0], u_prev, self._speed)
             U[0] = u
-            if self.model.nd > self.model.nd_model:     # actuators one sample ahead under u
-                xa = np.asarray(pb.F(x0, u, par, 1.0 if pump_on else 0.0), dtype=float).ravel()
-                self._next_actuators = (self.model.actuator_state(xa), u.copy())
+            lagged = self.model.nd > self.model.nd_model
+            if lagged or self.cfg.bhp_bias_gain > 0.0:      # the plant one sample ahead under u
+                x1 = np.asarray(pb.F(x0, u, par, 1.0 if pump_on else 0.0), dtype=float).ravel()
+                if lagged:
+                    self._next_actuators = (self.model.actuator_state(x1), u.copy())
+                if self.cfg.bhp_bias_gain > 0.0:
+                    self._predicted_bhp = float(outputs(em, self.model.full(x1, par))[2]) \
+                        + self.bhp_bias
             result = self._result(u, "relaxed" if relaxed else "none", sol, t0, par, X, U, slacks,
                                   y_ref, converged)
-            result.choke_flow_m3s = float(self.model.choke_flow(x0, u))
-            if self.cfg.bhp_bias_gain > 0.0:
-                x1 = np.asarray(pb.F(x0, u, par, 1.0 if pump_on else 0.0), dtype=float).ravel()
-                self._predicted_bhp = float(outputs(em, self.model.full(x1, par))[2]) \
-                    + self.bhp_bias
+            self.choke_flow_m3s = result.choke_flow_m3s = float(self.model.choke_flow(x0, u))
             if clamped:
                 result.status = f"{result.status}; {clamped}"
             if relaxed:
@@ -1274,7 +1307,8 @@ class Supervisor:
                            solve_time_s=time.perf_counter() - t0, cost=float("nan"),
                            slacks={n: float("nan") for n in SLACK_NAMES},
                            planned_inputs=np.tile(u, (self.problem.N, 1)),
-                           integral=self.integral.copy(), configuration=self.configuration)
+                           integral=self.integral.copy(), configuration=self.configuration,
+                           choke_flow_m3s=self.choke_flow_m3s)
 
     def _result(self, u, fallback, sol, t0, par, X, U, slacks, y_ref, converged) -> SolveResult:
         pb, em, model = self.problem, self.em, self.model

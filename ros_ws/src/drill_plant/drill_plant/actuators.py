@@ -119,13 +119,12 @@ class Choke:
               steps: int, manual_opening: float | None = None) -> FrameOutput:
         """One frame; ``manual_opening`` [1] (not None) is manual mode and the frame's
         reference is then NaN (no flow reference)."""
+        self.pressure_integral = None            # leaving pressure mode
         if manual_opening is not None:
             self.opening_command = self.lag.limit(manual_opening)
             self.previous_error = None
-            self.pressure_integral = None
             return FrameOutput(self.opening_command, math.nan,
                                self.lag.advance(self.opening_command, step_s, steps))
-        self.pressure_integral = None
         c = self.config
         flow = float(hy.choke_flow(self.wm, self.lag.value, measured_dp_pa))
         error = (flow_ref_m3s - flow) / c.choke_flow_scale_m3s
@@ -136,7 +135,6 @@ class Choke:
         self.previous_error = error
         return FrameOutput(self.opening_command, flow_ref_m3s,
                            self.lag.advance(self.opening_command, step_s, steps))
-
 
     def pressure_frame(self, dp_ref_pa: float, dp_ref_rate_pa_s: float, since_command_s: float,
                        flow_feedforward_m3s: float, measured_dp_pa: float, step_s: float,
