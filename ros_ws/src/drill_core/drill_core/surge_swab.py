@@ -39,15 +39,16 @@ class SurgeSwabModel:
         """Bit flow of a state: the string flow q_d plus the mud the moving string carries."""
         return string_flow_m3s + self._string_area * velocity_mps
 
-    def path_flows_m3s(self, bit_flow_m3s: float, velocity_mps: float) -> np.ndarray:
-        """Steady flows of annulus paths 2..n (path i carries volume i's inflow from below)."""
-        n = self.em.n
-        flows = np.empty(n - 1)
-        flow = bit_flow_m3s
-        for i in range(n - 1, 0, -1):                 # volume i (0-based) passes up to path i + 1
-            flow -= self._displacement[i] * velocity_mps
-            flows[i - 1] = flow
-        return flows
+    def path_flows_m3s(self, bit_flow_m3s: float, velocity_mps) -> np.ndarray:
+        """Steady flows of annulus paths 2..n (path i carries volume i's inflow from below),
+        one row per path; ``velocity_mps`` a speed or an array of speeds."""
+        v = np.asarray(velocity_mps, dtype=float)
+        flows = []
+        flow = bit_flow_m3s + 0.0 * v
+        for i in range(self.em.n - 1, 0, -1):        # volume i (0-based) passes up to path i + 1
+            flow = flow - self._displacement[i] * v
+            flows.append(flow)
+        return np.array(flows[::-1])
 
     def choke_flow_m3s(self, bit_flow_m3s: float, bpp_flow_m3s: float,
                        velocity_mps: float) -> float:
@@ -56,11 +57,14 @@ class SurgeSwabModel:
             - self._displacement[0] * velocity_mps
         return float(top + bpp_flow_m3s)
 
-    def friction_pa(self, theta, bit_flow_m3s: float, velocity_mps: float) -> float:
-        """Total steady annular friction of paths 2..n [Pa] with friction parameters theta."""
-        flows = self.path_flows_m3s(bit_flow_m3s, velocity_mps)
-        return float(sum(path_friction(NUMPY, self.em, k, flows[k], velocity_mps, theta[k])
-                         for k in range(self.em.n - 1)))
+    def friction_pa(self, theta, bit_flow_m3s: float, velocity_mps):
+        """Total steady annular friction of paths 2..n [Pa] with friction parameters theta
+        (a float, or an array for an array of speeds)."""
+        v = np.asarray(velocity_mps, dtype=float)
+        flows = self.path_flows_m3s(bit_flow_m3s, v)
+        total = np.asarray(sum(path_friction(NUMPY, self.em, k, flows[k], v, theta[k])
+                               for k in range(self.em.n - 1)), dtype=float)
+        return total if total.ndim else float(total)
 
     def bhp_change_pa(self, theta, bit_flow_m3s: float, velocity_mps: float) -> float:
         """Steady surge (> 0) or swab (< 0) of the BHP against the string at rest [Pa]."""
@@ -68,7 +72,8 @@ class SurgeSwabModel:
             - self.friction_pa(theta, bit_flow_m3s, 0.0)
 
     def choke_dp_for_bhp(self, bhp_pa: float, theta, bit_flow_m3s: float,
-                         velocity_mps: float, downstream_pa: float) -> float:
-        """Steady choke dp [Pa] that puts the BHP at ``bhp_pa`` at this motion and flow."""
+                         velocity_mps, downstream_pa: float):
+        """Steady choke dp [Pa] that puts the BHP at ``bhp_pa`` at this motion and flow (per
+        speed for an array of speeds)."""
         return bhp_pa - self.column_pa - self.friction_pa(theta, bit_flow_m3s, velocity_mps) \
             - downstream_pa

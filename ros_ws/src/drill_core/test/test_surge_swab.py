@@ -73,3 +73,15 @@ def test_swab_lowers_and_surge_raises_bhp_and_the_choke_passes_the_displacement(
     assert model.choke_flow_m3s(BIT_FLOW, 1.0e-3, 0.5) == pytest.approx(BIT_FLOW + 1.0e-3 - withdrawn)
     # the bit flow of a state: the pump's flow plus the mud the string carries
     assert model.bit_flow_m3s(BIT_FLOW, 0.5) == pytest.approx(BIT_FLOW + g.string_top_inner_area_m2 * 0.5)
+
+
+def test_an_array_of_speeds_gives_each_speed_s_own_answer(em):
+    """The automated-MPD envelope evaluates a whole speed grid at once: the same numbers
+    as one speed at a time, to the bit."""
+    model = SurgeSwabModel(em)
+    theta = (1.03, 0.97, 1.01)
+    speeds = np.linspace(-0.6, 0.6, 121)
+    grid = model.choke_dp_for_bhp(6.85e7, theta, BIT_FLOW, speeds, 0.0)
+    one_by_one = [model.choke_dp_for_bhp(6.85e7, theta, BIT_FLOW, float(v), 0.0) for v in speeds]
+    assert grid.shape == speeds.shape and np.array_equal(grid, np.array(one_by_one))
+    assert isinstance(one_by_one[0], float)

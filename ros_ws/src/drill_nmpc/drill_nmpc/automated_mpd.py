@@ -23,6 +23,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from drill_core.config import RigConfig
 from drill_core.estimation_model import EstimationModel
 from drill_core.scenario import ActiveSetpoints
@@ -95,17 +97,18 @@ class AutomatedMpd:
                        ) -> tuple[float, float]:
         """Largest speed pulling out and running in (<= cap, 0.01 m/s grid) at which the
         steady choke dp holding ``bhp_ref_pa`` stays inside [dp_low, dp_high]."""
+        grid = np.minimum(np.arange(1, int(round(speed_cap_mps / 0.01)) + 1) * 0.01,
+                          speed_cap_mps)
         limits = []
         for direction in (1.0, -1.0):
-            best = 0.0
-            for i in range(1, int(round(speed_cap_mps / 0.01)) + 1):
-                v = min(i * 0.01, speed_cap_mps)
-                dp = self.model.choke_dp_for_bhp(bhp_ref_pa, theta, bit_flow_m3s,
-                                                 direction * v, self.downstream_pa) + self.trim_pa
-                if not dp_low_pa <= dp <= dp_high_pa:
-                    break
-                best = v
-            limits.append(best)
+            if not grid.size:                           # a cap below the grid's first speed
+                limits.append(0.0)
+                continue
+            dp = self.model.choke_dp_for_bhp(bhp_ref_pa, theta, bit_flow_m3s, direction * grid,
+                                             self.downstream_pa) + self.trim_pa
+            outside = np.flatnonzero(~((dp_low_pa <= dp) & (dp <= dp_high_pa)))
+            last = outside[0] if outside.size else grid.size     # speeds before the first miss
+            limits.append(float(grid[last - 1]) if last > 0 else 0.0)
         return limits[0], limits[1]
 
     def step(self, est: EstimateView, sp: ActiveSetpoints, bhp_ref_pa: float) -> MpdCommand:
