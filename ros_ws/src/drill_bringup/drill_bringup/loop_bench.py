@@ -26,7 +26,8 @@ from drill_core.estimation_model import build_estimation_model, fitted_friction_
 from drill_core.scenario import initial_setpoints, load_scenario_config, setpoints_at
 from drill_estimator.ukf import RigUkf, frame_inputs
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
-from drill_nmpc.ocp import Supervisor, choke_command, choke_input
+from drill_nmpc.inputs import choke_command, choke_input
+from drill_nmpc.supervisor import Supervisor
 from drill_plant.actuators import Choke, Drawworks, Pump
 from drill_plant.plant_model import PlantLayout, steady_state
 from drill_plant.simulator import PlantSimulator

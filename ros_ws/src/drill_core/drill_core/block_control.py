@@ -15,6 +15,20 @@ def block_command(reference_m, position_m, integral_m_s, static_stretch_m: float
     return reference_m + static_stretch_m + kp * error + ki_per_s * integral_m_s
 
 
+def reference_for_command(command_m, position_m, integral_m_s, static_stretch_m: float,
+                          kp: float, ki_per_s: float):
+    """The reference u_r [m] for which the controller commands ``command_m`` (the law is
+    affine in u_r): u_r = (u_b - s_0 + k_p x_s - k_i z) / (1 + k_p)."""
+    return (command_m - static_stretch_m + kp * position_m - ki_per_s * integral_m_s) / (1.0 + kp)
+
+
+def integral_for_command(command_m, reference_m, position_m, static_stretch_m: float,
+                         kp: float, ki_per_s: float):
+    """The integral z [m s] for which the controller commands ``command_m`` (k_i > 0)."""
+    return (command_m - block_command(reference_m, position_m, 0.0, static_stretch_m, kp, ki_per_s)) \
+        / ki_per_s
+
+
 def integral_rate(reference_m, position_m):
     """d/dt of the controller integrator [m]."""
     return reference_m - position_m

@@ -237,6 +237,8 @@ class Estimator:
         "1", 1, 100, default=2,
         doc="RK4 steps of the time update per sensor frame; the actuators' per-plant-step "
             "outputs are averaged over each")
+    jit: bool = param(default=False, doc="compile the time update to C (cached; needs a C "
+                                         "compiler); same numbers, half the frame time")
 
     def validate(self) -> None:
         for key in ("rig_process_std", "initial_rig_std"):
@@ -326,9 +328,10 @@ class Nmpc:
         doc="r_r tilde (eq. 49/55); u_ref = [block target, previous choke flow, 0, initial spp]")
     integral_limit_s: float = param("s", 0.0, 1.0e4, lo_open=True, default=5.0,
                                     doc="NMPC1 anti-windup: |e_i| <= limit (e in output spans x s)")
-    jit: bool = param(default=False, doc="compile the NLP functions with the C compiler (JIT)")
-    expand: bool = param(default=False, doc="expand the NLP's MX graph to SX before solving "
-                                            "(sqpmethod, ipopt): faster evaluation")
+    jit: bool = param(default=False, doc="compile the prediction step and its Jacobian to C "
+                                         "(cached; needs a C compiler and hessian gauss-newton)")
+    expand: bool = param(default=False, doc="without jit: expand the NLP's MX graph to SX "
+                                            "before solving (sqpmethod, ipopt)")
     hessian: str = param(choices=("exact", "gauss-newton"), default="gauss-newton",
                          doc="Lagrangian Hessian for ipopt/sqpmethod (fatrop: always exact)")
     actuator_lags_in_model: bool = param(default=True,
@@ -349,6 +352,9 @@ class Nmpc:
     def validate(self) -> None:
         if self.choke_control == "pressure" and self.choke_dp_setpoint is None:
             raise FieldError("choke_dp_setpoint", "is required with choke_control pressure")
+        if self.jit and self.hessian != "gauss-newton":
+            raise FieldError("jit", "needs hessian gauss-newton (the compiled step has no "
+                                    "second derivatives)")
         if self.control_horizon_s > self.prediction_horizon_s:
             raise ValueError("control_horizon_s must not exceed prediction_horizon_s")
         for name in ("prediction_horizon_s", "control_horizon_s"):

@@ -260,13 +260,19 @@ def drift(xp, em: EstimationModel, x, u):
     return out
 
 
+def measurement_map(em: EstimationModel) -> tuple[np.ndarray, np.ndarray]:
+    """h(x) = x[index] - offset (eq. 48): each MEASUREMENT_NAMES channel's state index and
+    offset (the choke dp is p_1 less the pressure downstream of the choke)."""
+    return (np.array([0, em.pressure(1), em.pressure(em.n), em.string_flow]),
+            np.array([0.0, em.wm.well.choke_downstream_pressure_pa, 0.0, 0.0]))
+
+
 def measurement(em: EstimationModel, x, circulating: bool):
-    """Noise-free measurement y = h(x) (eq. 48), without q_d when circulation is off."""
-    p0 = em.wm.well.choke_downstream_pressure_pa
-    y = [x[0], x[em.pressure(1)] - p0, x[em.pressure(em.n)]]
-    if circulating:
-        y.append(x[em.string_flow])
-    return y
+    """Noise-free measurement y = h(x) (eq. 48), without q_d when circulation is off; its
+    first three channels are the NMPC's tracked outputs (numpy or CasADi)."""
+    index, offset = measurement_map(em)
+    channels = len(index) if circulating else 3
+    return [x[int(i)] - float(o) for i, o in zip(index[:channels], offset[:channels])]
 
 
 def build_discrete_model(em: EstimationModel, step_s: float, substeps: int = 1,

@@ -171,3 +171,14 @@ def test_law_is_validated_by_name():
         load_rig(CONFIG_DIR, {"estimator": {"annular_friction_law": "cubic"}})
     with pytest.raises(ConfigError, match="annular_friction_smoothing_mps"):
         load_rig(CONFIG_DIR, {"estimator": {"annular_friction_smoothing_mps": 0.0}})
+
+
+def test_the_measurement_is_the_state_map_the_ukf_uses(scaled):
+    from drill_core.estimation_model import MEASUREMENT_NAMES, measurement, measurement_map
+    index, offset = measurement_map(scaled)
+    assert len(index) == len(MEASUREMENT_NAMES)
+    x = np.arange(scaled.size, dtype=float) * 1.0e3
+    y = measurement(scaled, x, circulating=True)
+    assert y == pytest.approx(list(x[index] - offset))
+    assert y[1] == x[scaled.pressure(1)] - scaled.wm.well.choke_downstream_pressure_pa
+    assert len(measurement(scaled, x, circulating=False)) == 3          # no q_d without flow

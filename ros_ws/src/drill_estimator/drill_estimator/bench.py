@@ -81,8 +81,8 @@ def run_benchmark(config_dir: str | os.PathLike | None = None, repetitions: int 
                   jit: bool = False) -> dict:
     """Timings for n = 4 and n = 8 (flat dict, keys prefixed ``ukf_n4_`` / ``ukf_n8_``).
 
-    ``jit`` compiles the mapped model with CasADi's shell compiler (needs a C compiler;
-    adds about a second of build time per filter)."""
+    ``jit`` compiles the time update (drill_core.compiled: needs a C compiler, about a
+    second once per configuration, cached)."""
     config = load_rig(config_dir or _default_config_dir())
     out: dict[str, float] = {}
     for parts, tag in ((1, "n4"), (2, "n8")):

@@ -50,9 +50,8 @@ class EstimatorNode(RigNode):
         super().__init__("estimator")
         ctx = load_context(self)
         self.ctx = ctx
-        jit = bool(self.declare_parameter("jit", False).value)
         cfg = ctx.config
-        self.ukf = RigUkf(cfg, jit=jit)
+        self.ukf = RigUkf(cfg)
         self.wm = self.ukf.em.wm
         self.steps = cfg.plant.steps_per_frame
         self.step_ns = int(round(cfg.plant.step_s * 1e9))

@@ -60,10 +60,6 @@ path above handles it.
 """
 from __future__ import annotations
 
-import atexit
-import contextlib
-import shutil
-import tempfile
 from collections import deque
 from dataclasses import dataclass
 
@@ -73,9 +69,12 @@ from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter, unsce
 from scipy.stats import chi2
 
 from drill_core import hydraulics as hy
+from drill_core.block_control import reference_for_command
+from drill_core.compiled import compiled
 from drill_core.config import Estimator, RigConfig
 from drill_core.estimation_model import (MEASUREMENT_NAMES, EstimationModel, build_discrete_model,
-                                         build_estimation_model, friction_estimate)
+                                         build_estimation_model, friction_estimate,
+                                         measurement_map)
 
 BLOCK_INPUTS = ("reference", "block_position")
 _JITTER = (1e-12, 1e-10, 1e-8, 1e-6)     # relative to the largest diagonal entry (scaled P)
@@ -116,19 +115,6 @@ def frame_inputs(wm: hy.WellModel, block_m, choke_opening, bpp_flow_m3s, pump_pr
     return np.vstack([ref, hy.choke_flow(wm, opening, dp), bpp, pump])
 
 
-def _jit_function(name: str, inputs, outputs) -> ca.Function:
-    """CasADi function compiled with the shell compiler (C compiler needed).
-
-    CasADi writes its generated source and objects into the working directory, so the
-    compilation runs inside a private temporary directory (removed at exit)."""
-    workdir = tempfile.mkdtemp(prefix="drill_ukf_jit_")
-    atexit.register(shutil.rmtree, workdir, True)
-    opts = {"jit": True, "compiler": "shell", "jit_cleanup": False,
-            "jit_options": {"flags": ["-O1"], "verbose": False, "cleanup": False}}
-    with contextlib.chdir(workdir):
-        return ca.Function(name, inputs, outputs, opts)
-
-
 class _SigmaPoints(MerweScaledSigmaPoints):
     """Merwe's scaled sigma points, computed without a Python loop over the dimensions."""
 
@@ -155,7 +141,7 @@ class RigUkf:
     repairs, resets, skipped_predictions.
     """
 
-    def __init__(self, config: RigConfig, em: EstimationModel | None = None, jit: bool = False,
+    def __init__(self, config: RigConfig, em: EstimationModel | None = None, jit: bool | None = None,
                  block_input: str | None = None):
         self.config = config
         est: Estimator = config.estimator
@@ -174,7 +160,7 @@ class RigUkf:
 
         # discrete model on scaled states: one RK4 model step, chained per interval
         self._n_sigma = 2 * self.n_x + 1
-        self._jit = jit
+        self._jit = est.jit if jit is None else jit       # compile the time update
         F = build_discrete_model(em, self.model_step_s, 1, "rk4")
         s, u = ca.SX.sym("s", self.n_x), ca.SX.sym("u", 4)
         scale = ca.DM(self.scale)
@@ -184,8 +170,7 @@ class RigUkf:
         self._transition_for(self.model_steps_per_frame)
 
         # measurement model: channel -> state index; scaled like the state
-        self._y_index = np.array([0, em.pressure(1), em.pressure(em.n), em.string_flow])
-        self._y_offset = np.array([0.0, self.p0, 0.0, 0.0])
+        self._y_index, self._y_offset = measurement_map(em)
         self._y_scale = self.scale[self._y_index]
         noise = est.measurement_noise
         sigma = np.array([noise.block_position_m, noise.choke_dp_pa, noise.bhp_pa,
@@ -455,9 +440,9 @@ class RigUkf:
         em = self.em
         u_r = u[0]
         if self.block_input == "block_position":
-            u_r = (u[0] - em.wm.geometry.static_stretch_m
-                   + em.block_kp * (x[0] + 0.5 * self.model_step_s * x[1])
-                   - em.block_ki_per_s * x[2]) / (1.0 + em.block_kp)
+            u_r = reference_for_command(u[0], x[0] + 0.5 * self.model_step_s * x[1], x[2],
+                                        em.wm.geometry.static_stretch_m, em.block_kp,
+                                        em.block_ki_per_s)
         return ca.vertcat(u_r, u[1], u[2], u[3])
 
     def _set_process_noise(self) -> None:
@@ -481,8 +466,9 @@ class RigUkf:
             for k in range(steps):
                 x = self._step(x, inputs[:, k])
             name = f"ukf_transition_{steps}"
-            fn = _jit_function(name, [s, inputs], [x]) if self._jit else \
-                ca.Function(name, [s, inputs], [x])
+            fn = ca.Function(name, [s, inputs], [x])
+            if self._jit:
+                fn = compiled([fn], name)[name]
             fn = self._transition[steps] = fn.map(f"{name}_all", "serial", self._n_sigma, [1], [])
         return fn
 

@@ -30,8 +30,10 @@ from drill_core.config import RigConfig, load_rig
 from drill_core.estimation_model import (EstimationModel, build_estimation_model,
                                          fitted_friction_parameters)
 from drill_core.scenario import ActiveSetpoints, Initial
-from drill_nmpc.ocp import (ActuatorLags, PredictionModel, StringFrictionTable, Supervisor,
-                            choke_input, choke_time_constant, outputs)
+from drill_nmpc.inputs import choke_input, choke_time_constant
+from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
+                                         outputs)
+from drill_nmpc.supervisor import Supervisor
 
 PAPER_SOLVE_TIME_S = 16.4          # Tengesdal & Holden 2020, sec. 6.3.4 (MATLAB fmincon, NMPC0)
 TRIP_DISTANCE_M = 28.0
@@ -62,7 +64,7 @@ def steady_estimate(em: EstimationModel, initial: Initial) -> tuple[np.ndarray, 
 
 
 def supervisor_input(config: RigConfig, u: np.ndarray, initial: Initial) -> np.ndarray:
-    """The supervisor's input vector at a steady state's inputs (ocp.choke_input)."""
+    """The supervisor's input vector at a steady state's inputs (inputs.choke_input)."""
     u = np.array(u, dtype=float)
     u[1] = choke_input(config.nmpc, u[1], initial.choke_dp_pa)
     return u
@@ -203,7 +205,7 @@ def run_benchmark(samples: int = 150, configurations=("NMPC0", "NMPC1", "NMPC2")
     iterations, fallbacks, BHP RMSE [Pa] and the build time [s] (not in the solve times);
     ``targets_met`` checks median <= 10 ms and p99 <= 30 ms for all (the tripping issue's
     targets).
-    ``jit`` None follows config/nmpc.yaml; True compiles the derivative oracles (cached).
+    ``jit`` None follows config/nmpc.yaml; True compiles the prediction step (cached).
     """
     config = load_rig(config_dir or default_config_dir())
     out: dict = {"solver": solver or config.nmpc.solver,
@@ -241,7 +243,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=150)
     parser.add_argument("--solver", default=None, choices=("ipopt", "fatrop", "sqpmethod"))
-    parser.add_argument("--jit", action="store_true", help="compile the derivative oracles")
+    parser.add_argument("--jit", action="store_true", help="compile the prediction step to C")
     parser.add_argument("--configurations", default="NMPC0,NMPC1,NMPC2")
     parser.add_argument("--config-dir", default=None)
     args = parser.parse_args(argv)

@@ -48,7 +48,9 @@ from drill_core.ros.sampling import SampleGate
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
 from drill_core.scenario import ActiveSetpoints
-from drill_nmpc.ocp import SLACK_NAMES, SolveResult, Supervisor, choke_command, choke_input
+from drill_nmpc.inputs import choke_command, choke_input
+from drill_nmpc.soft_constraints import SLACK_NAMES
+from drill_nmpc.supervisor import SolveResult, Supervisor
 from drill_nmpc.setpoint_messages import initial_setpoints, merge_request, to_msg
 from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
 from drill_plant.plant_model import steady_state     # design knowledge of the well

@@ -129,7 +129,7 @@ def _symbolic_drift(wm: hy.WellModel, x, u):
     return ca.vertcat(*drift(CASADI, wm, [x[i] for i in range(x.numel())], u))
 
 
-def build_frame_function(wm: hy.WellModel, config: RigConfig, jit: bool = False) -> ca.Function:
+def build_frame_function(wm: hy.WellModel, config: RigConfig) -> ca.Function:
     """CasADi function advancing one sensor frame.
 
     plant_frame(x0, U[4 x N], DW[nx x N*substeps]) -> X[nx x N], X[:, k] the state after
@@ -145,9 +145,7 @@ def build_frame_function(wm: hy.WellModel, config: RigConfig, jit: bool = False)
     xn = x
     for k in range(substeps):
         xn = srk_step(lambda s: _symbolic_drift(wm, s, u), lambda s: g, xn, h, dw[:, k])
-    options = {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O1"], "verbose": False}} \
-        if jit else {}
-    step = ca.Function("plant_step", [x, u, dw], [xn], options)
+    step = ca.Function("plant_step", [x, u, dw], [xn])
     return step.mapaccum("plant_frame", config.plant.steps_per_frame)
 
 

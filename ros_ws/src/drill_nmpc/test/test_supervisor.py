@@ -18,8 +18,11 @@ from drill_core.estimation_model import build_estimation_model
 from drill_core.scenario import ActiveSetpoints, Initial
 from drill_nmpc.bench import (ModelPlant, closed_loop, steady_estimate, supervisor_input,
                               trip_setpoints)
-from drill_nmpc.ocp import (SLACK_NAMES, ActuatorLags, PredictionModel, StringFrictionTable,
-                            Supervisor, input_arrays, outputs)
+from drill_nmpc.inputs import input_arrays
+from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
+                                         outputs)
+from drill_nmpc.soft_constraints import SLACK_NAMES
+from drill_nmpc.supervisor import Supervisor
 from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
 
 CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"

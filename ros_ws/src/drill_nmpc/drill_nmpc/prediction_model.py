@@ -1,0 +1,308 @@
+"""The NMPC's prediction model: the shared estimation model plus the actuator lags.
+
+The drift is ``drill_core.estimation_model.drift`` (the equations the UKF runs) with the
+friction parameters theta (and, for NMPC2, the bottom influx d) frozen over the horizon;
+around it the lags of the drawworks, back-pressure pump and mud pump, and the choke's
+pressure loop as a first-order lag. ``PredictionModel.function`` is the one-sample map the
+transcription shoots with (RK4, inputs held) and its explicit Jacobian. Plain module (no
+rclpy); docs/nmpc.md section 1 has the derivation.
+"""
+from __future__ import annotations
+
+import contextlib
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from drill_core import hydraulics as hy
+from drill_core.backend import CASADI, NUMPY
+from drill_core.block_control import (block_command, integral_for_command, integral_rate,
+                                       reference_for_command)
+from drill_core.config import RigConfig
+from drill_core.estimation_model import EstimationModel, drift, measurement
+from drill_core.integrators import euler_step, rk4_step
+
+OUTPUT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa")
+
+
+class StringFrictionTable:
+    """The shared model's string friction tabulated as a cubic B-spline of the relative flow.
+
+    ``hy.string_friction`` (Herschel-Bulkley laminar stress by Newton steps, turbulent blend,
+    per string section) is ~90 % of the expression graph of the model drift, and it is a
+    function of the single scalar q_rel = q_d + A_I v_s (flow relative to the moving pipe).
+    Sampling that one definition on a grid (dense around the regularised yield jump at 0)
+    and interpolating it makes the prediction model and its derivatives ~10x cheaper; the
+    table is checked against the exact function at build time (``max_error_pa``), and
+    :meth:`applies` verifies the relative-flow form so a changed model falls back to the
+    exact expression instead of silently diverging.
+    """
+
+    def __init__(self, wm: hy.WellModel, q_max_m3s: float = 0.2):
+        self.wm = wm
+        self.area = wm.geometry.string_top_inner_area_m2
+        log = np.logspace(-6.0, math.log10(q_max_m3s), 160)
+        grid = np.unique(np.concatenate([-log, [0.0], log, np.linspace(-q_max_m3s, q_max_m3s, 1601)]))
+        values = np.asarray(hy.string_friction(NUMPY, wm, grid, 0.0 * grid), dtype=float)
+        self.scale = 1.0e5
+        self.spline = ca.interpolant("string_friction_table", "bspline", [grid], values / self.scale)
+        check = np.linspace(-0.04, 0.04, 4001)
+        exact = np.asarray(hy.string_friction(NUMPY, wm, check, 0.0 * check), dtype=float)
+        table = np.asarray(self.spline(check), dtype=float).ravel() * self.scale
+        self.max_error_pa = float(np.max(np.abs(table - exact)))
+
+    def applies(self) -> bool:
+        """True when hy.string_friction(q, v) == f(q + A_I v, 0) (the tabulated form)."""
+        q = np.array([0.0, 0.005, 0.0167, 0.03, -0.01, 0.0167])
+        v = np.array([0.3, -0.5, 0.5, -0.2, 0.1, 0.0])
+        a = np.asarray(hy.string_friction(NUMPY, self.wm, q, v), dtype=float)
+        b = np.asarray(hy.string_friction(NUMPY, self.wm, q + self.area * v, 0.0 * q), dtype=float)
+        return bool(np.allclose(a, b, rtol=1e-9, atol=1.0)) and self.max_error_pa < 1.0e3
+
+    def __call__(self, xp, wm, string_flow_m3s, string_velocity_mps):
+        return self.scale * self.spline(string_flow_m3s + self.area * string_velocity_mps)
+
+
+@contextlib.contextmanager
+def _tabulated_string_friction(table: StringFrictionTable | None):
+    """Evaluate the shared drift with the tabulated string friction (symbolic build only)."""
+    if table is None:
+        yield
+        return
+    exact = hy.string_friction
+    hy.string_friction = table
+    try:
+        yield
+    finally:
+        hy.string_friction = exact
+
+
+@dataclass(frozen=True)
+class ActuatorLags:
+    """First-order lags of the actuators between the NMPC's commands and the process
+    (DESIGN section 4); None leaves that input instantaneous in the prediction."""
+    drawworks_s: float | None = None      # block position (lags the block controller output)
+    bpp_s: float | None = None            # back-pressure pump flow
+    pump_s: float | None = None           # stand-pipe pressure
+
+    @classmethod
+    def from_config(cls, config: RigConfig) -> "ActuatorLags":
+        a = config.actuators
+        return cls(a.drawworks.time_constant_s, a.bpp.time_constant_s, a.mud_pump.time_constant_s)
+
+
+ACTUATOR_KEYS = ("block_m", "bpp_flow_m3s", "spp_pa")    # measured actuator outputs
+
+
+class PredictionModel:
+    """The NMPC's prediction model: the shared drift plus the actuator lags.
+
+    State x = [z1, z2, z3, p_1, q_2, ..., p_n, q_d, p_I (, b, q_bpp, p_in)]: the estimation
+    model's evolving states, then the lagged actuator outputs that are modelled (block
+    position b, back-pressure pump flow, stand-pipe pressure); par = [theta_2..theta_n (, d)]
+    frozen over the horizon; ``pump_on`` (0/1) switches the mud pump (off: p_in -> 0).
+
+    The shared estimation model puts the block at the block controller's output and the
+    pumps at their commands instantly; the actuators (and the truth plant) lag them by
+    T_dw = 4 s, T_bpp = 30 s and T_spp = 5 s. Predicting with instantaneous actuators made
+    the supervisor lean on a back-pressure pump that answers in 30 s and drained the annulus
+    (docs/nmpc.md). The shared drift is evaluated unchanged with the lagged pump outputs as
+    its inputs and, for the block, at the *virtual* reference that makes its block command
+    equal the lagged block b (the controller law is affine in the reference); the controller
+    integrator z3 still integrates the real reference. The choke (PI flow loop on a 2 s
+    valve, closed-loop time constant ~0.5 s) stays instantaneous.
+    """
+
+    def __init__(self, em: EstimationModel, lags: ActuatorLags | None = None,
+                 table: StringFrictionTable | None = None,
+                 choke_time_constant_s: float | None = None):
+        self.em = em
+        self.lags = lags or ActuatorLags()
+        self.table = table
+        self.choke_time_constant_s = choke_time_constant_s
+        self.nd_model = em.theta(2)
+        index = self.nd_model
+        self.block = self.bpp = self.pump = None
+        if self.lags.drawworks_s:
+            self.block, index = index, index + 1
+        if self.lags.bpp_s:
+            self.bpp, index = index, index + 1
+        if self.lags.pump_s:
+            self.pump, index = index, index + 1
+        self.nd = index
+        self.npar = em.size - self.nd_model
+        g = em.wm.geometry
+        self._stretch = g.static_stretch_m
+
+    def block_command(self, reference, z1, z3):
+        em = self.em
+        return block_command(reference, z1, z3, self._stretch, em.block_kp, em.block_ki_per_s)
+
+    def full(self, x, par) -> list:
+        """The estimation model's state (list) from a prediction state and par."""
+        return [x[i] for i in range(self.nd_model)] + [par[i] for i in range(self.npar)]
+
+    def rhs(self, x, u, par, pump_on=1.0):
+        """Time derivative of the prediction state (list of expressions)."""
+        em = self.em
+        full = self.full(x, par)
+        spp_cmd = u[3] * pump_on
+        inputs = [u[0], self.choke_flow(x, u), x[self.bpp] if self.bpp is not None else u[2],
+                  x[self.pump] if self.pump is not None else spp_cmd]
+        if self.block is not None:
+            inputs[0] = reference_for_command(x[self.block], x[0], x[2], self._stretch,
+                                              self.em.block_kp, self.em.block_ki_per_s)
+        with _tabulated_string_friction(self.table):
+            out = drift(CASADI, em, full, inputs)[:self.nd_model]
+        if self.block is not None:
+            out[2] = integral_rate(u[0], x[0])
+            out.append((self.block_command(u[0], x[0], x[2]) - x[self.block]) / self.lags.drawworks_s)
+        if self.bpp is not None:
+            out.append((u[2] - x[self.bpp]) / self.lags.bpp_s)
+        if self.pump is not None:
+            out.append((spp_cmd - x[self.pump]) / self.lags.pump_s)
+        return out
+
+    def choke_flow(self, x, u):
+        """The choke flow [m^3/s] under input u: the flow reference itself (flow control), or,
+        with the choke on its pressure loop, the flow that takes the top annulus pressure
+        to the set-point u[1] as a first-order lag (time constant T_c): what leaves the top
+        volume plus the back-pressure pump's flow plus (dp - dp_ref) V_1 / (beta T_c)."""
+        if self.choke_time_constant_s is None:
+            return u[1]
+        em = self.em
+        g, w = em.wm.geometry, em.wm.well
+        bpp = x[self.bpp] if self.bpp is not None else u[2]
+        dp = x[em.pressure(1)] - w.choke_downstream_pressure_pa
+        return (x[em.flow(2)] - g.displacement_area_m2[0] * x[1] + bpp
+                + (dp - u[1]) * g.annulus_volume_m3[0]
+                / (w.mud.bulk_modulus_pa * self.choke_time_constant_s))
+
+    def function(self, step_s: float, substeps: int, integrator: str) -> ca.Function:
+        """F(x, u, par, pump_on) -> x after one sample (inputs held), ``substeps`` RK4/Euler steps."""
+        x = ca.SX.sym("x", self.nd)
+        u = ca.SX.sym("u", 4)
+        par = ca.SX.sym("par", self.npar)
+        on = ca.SX.sym("pump_on")
+
+        def f(s):
+            return ca.vertcat(*self.rhs([s[i] for i in range(self.nd)], u, par, on))
+
+        h = step_s / substeps
+        xn = x
+        for _ in range(substeps):
+            xn = rk4_step(f, xn, h) if integrator == "rk4" else euler_step(f, xn, h)
+        # The explicit Jacobian (one SX function) makes every derivative the NLP needs a call
+        # of it per stage, instead of forward sweeps through the integrator in each direction.
+        out = ca.SX.sym("out", self.nd)
+        jac = ca.Function("jac_predict", [x, u, par, on, out],
+                          [ca.jacobian(xn, x), ca.jacobian(xn, u), ca.jacobian(xn, par),
+                           ca.jacobian(xn, on)],
+                          ["x", "u", "par", "pump_on", "out_x_next"],
+                          ["jac_x_next_x", "jac_x_next_u", "jac_x_next_par", "jac_x_next_pump_on"])
+        return ca.Function("predict", [x, u, par, on], [xn], ["x", "u", "par", "pump_on"],
+                           ["x_next"], {"custom_jacobian": jac, "jac_penalty": 0})
+
+    def initial_state(self, x_full, u_prev=None, actuators: dict | None = None,
+                      pump_on: bool = True) -> np.ndarray:
+        """Prediction state at an estimate and the actuator outputs.
+
+        Measured actuator outputs (``actuators``: ACTUATOR_KEYS) win; otherwise the block
+        comes from the quasi-static hoisting balance (string at rest relative to the block:
+        b = z1 + s_0 + c_eq z2 / k_eq) and the pumps are taken at their last commands.
+        """
+        x0 = np.asarray(x_full, dtype=float)[:self.nd_model].copy()
+        extra = []
+        actuators = actuators or {}
+
+        def measured(key):
+            v = actuators.get(key)
+            return float(v) if v is not None and math.isfinite(float(v)) else None
+
+        command, reference = measured("block_command_m"), measured("block_reference_m")
+        if command is not None and reference is not None and self.em.block_ki_per_s > 0.0:
+            # the controller integral behind the drawworks' last command (the UKF, fed the
+            # block position, cannot observe it): c = block_command(u_r, z1, z3) solved for z3
+            x0[2] = integral_for_command(command, reference, x0[0], self._stretch,
+                                         self.em.block_kp, self.em.block_ki_per_s)
+
+        if self.block is not None:
+            w = self.em.wm.well
+            b = measured("block_m")
+            extra.append(b if b is not None else
+                         x0[0] + self._stretch + w.hoist_damping_n_s_m * x0[1] / w.hoist_stiffness_n_m)
+        if self.bpp is not None:
+            v = measured("bpp_flow_m3s")
+            extra.append(v if v is not None else (float(u_prev[2]) if u_prev is not None else 0.0))
+        if self.pump is not None:
+            v = measured("spp_pa")
+            extra.append(v if v is not None else
+                         (float(u_prev[3]) * float(pump_on) if u_prev is not None else 0.0))
+        return np.concatenate([x0, extra])
+
+    def actuator_state(self, x) -> dict:
+        """The modelled actuator outputs of a prediction state (ACTUATOR_KEYS)."""
+        out = {}
+        for key, index in zip(ACTUATOR_KEYS, (self.block, self.bpp, self.pump)):
+            if index is not None:
+                out[key] = float(x[index])
+        return out
+
+    def scale(self) -> np.ndarray:
+        s = self.em.state_scale()[:self.nd_model]
+        extra = [1.0] * (self.block is not None) + [1.0e-2] * (self.bpp is not None) \
+            + [1.0e5] * (self.pump is not None)
+        return np.concatenate([s, extra])
+
+    def check(self, rng_seed: int = 0) -> float:
+        """Largest relative mismatch of the hoisting acceleration against the shared law
+        (guards the virtual-reference construction); 0 when the block is not modelled."""
+        if self.block is None:
+            return 0.0
+        rng = np.random.default_rng(rng_seed)
+        xs = ca.SX.sym("x", self.nd)
+        us = ca.SX.sym("u", 4)
+        ps = ca.SX.sym("p", self.npar)
+        f = ca.Function("rhs", [xs, us, ps], [ca.vertcat(*self.rhs([xs[i] for i in range(self.nd)],
+                                                                    us, ps))])
+        worst = 0.0
+        for _ in range(3):
+            x = rng.normal(size=self.nd)
+            acc = float(f(x, np.zeros(4), np.zeros(self.npar))[1])
+            ref = float(hy.hoisting_acceleration(self.em.wm, x[0], x[1], x[self.block]))
+            worst = max(worst, abs(acc - ref) / max(1.0, abs(ref)))
+        return worst
+
+
+def full_state(em: EstimationModel, x_hat, disturbance=None) -> np.ndarray:
+    """Estimate as a state of ``em`` (adds/overrides the bottom influx d when ``em`` has it)."""
+    x = np.asarray(x_hat, dtype=float).ravel()
+    nd_theta = em.theta(em.n) + 1
+    out = np.zeros(em.size)
+    out[:nd_theta] = x[:nd_theta]
+    if em.with_disturbance:
+        if disturbance is not None:
+            out[em.disturbance] = float(disturbance)
+        elif x.size > nd_theta:
+            out[em.disturbance] = x[nd_theta]
+    return out
+
+
+def outputs(em: EstimationModel, x) -> list:
+    """Tracked outputs [block position, choke dp, BHP] of a state: h(x) without q_d."""
+    return measurement(em, x, circulating=False)
+
+
+def string_pressure_margin(em: EstimationModel, x):
+    """p_I - (p_n - rho g z1) - K_b q_d: string pressure above annulus-at-bit + BHA loss [Pa]."""
+    w = em.wm.well
+    rho_g = w.mud.density_kgm3 * w.gravity_mps2
+    return (x[em.string_pressure] - (x[em.pressure(em.n)] - rho_g * x[0])
+            - w.bha_loss_coefficient_pa_s_m3 * x[em.string_flow])
+
+
+def choke_capacity(em: EstimationModel, dp):
+    """Flow of the fully open choke at differential pressure dp [m^3/s] (eq. 53)."""
+    return hy.choke_flow(em.wm, 1.0, dp)
