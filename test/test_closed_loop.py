@@ -64,7 +64,7 @@ def test_trip_completes_with_bhp_in_pressure_window(two_runs):
 
 def test_bhp_held_in_control_band(two_runs):
     summary = report.summarise(report.load_series(_mcap(two_runs[0])))
-    # control band = reference +- 2 bar (DESIGN section 6): no more than 1 bar outside, 2 s in all
+    # control band = reference +- 2 bar (docs/design.md §6): no more than 1 bar outside, 2 s in all
     assert summary["bhp_worst_excursion_pa"] < 1.0e5, summary
     assert summary["bhp_time_outside_s"] <= 2.0, summary
 

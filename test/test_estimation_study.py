@@ -1,4 +1,4 @@
-"""Integration over DDS: the paper's estimation study (sec. 4.3, DESIGN section 8) as an
+"""Integration over DDS: the paper's estimation study (sec. 4.3, docs/design.md §8) as an
 open-loop run of the whole graph in fast mode, shortened to 180 s
 (test/scenarios/estimation_study_short.yaml): run in 28 m with circulation off, choke
 50 % in manual, back-pressure pump ramped to 400 L/min.

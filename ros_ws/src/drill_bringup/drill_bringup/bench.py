@@ -18,6 +18,8 @@ import numpy as np
 import yaml
 
 from drill_bringup import launcher, runs
+from drill_core.ros import graph as graph_decl
+from drill_core.ros import topics
 from drill_core import hydraulics as hy
 from drill_core.scenario import load_scenario_config
 from drill_plant.plant_model import steady_state
@@ -74,12 +76,11 @@ def plant_actuators_rtf(domain_id: int) -> dict:
     path = runs.scenario_path("case2")
     with tempfile.TemporaryDirectory() as tmp:
         common = {"config_dir": str(runs.ROOT / "config"), "scenario": str(path), "mode": "fast"}
+        declared = [graph_decl.BY_NAME[n] for n in (*topics.ACTUATORS, "plant")]
         nodes = [launcher.NodeSpec(n, "drill_plant.actuator_node",
                                    {"actuator": n, "command_period_s": 0.0})
-                 for n in launcher.ACTUATOR_NODES]
-        wait = [f"sub@/actuators/{n}/frame:1" for n in launcher.ACTUATOR_NODES] \
-            + [f"pub@/actuators/{n}/frame:1" for n in launcher.ACTUATOR_NODES] \
-            + ["sub@/rig/measurement:4"]
+                 for n in topics.ACTUATORS]
+        wait = graph_decl.lockstep_endpoints(declared, fast=True)
         nodes.append(launcher.NodeSpec("plant", "drill_plant.plant_node", {"wait_for": wait},
                                        finishes=True))
         for node in nodes:

@@ -18,8 +18,8 @@ import numpy as np
 
 from drill_bringup import report, runs
 from drill_core.scenario import load_scenario
+from drill_core.units import PA_PER_BAR
 
-PA_PER_BAR = report.PA_PER_BAR
 TRIP_CASES = ("case1", "case2", "case3")
 STEP_CASES = ("case4",)
 CONTROLLERS = ("nmpc", "automated_mpd", "baseline")

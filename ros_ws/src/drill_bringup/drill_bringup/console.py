@@ -1,4 +1,4 @@
-"""Operator console: a local web page fed by DDS (DESIGN sections 2 and 10).
+"""Operator console: a local web page fed by DDS (docs/design.md §2 and §10).
 
 Run (inside ``source scripts/env.sh``, on the rig's ROS_DOMAIN_ID)::
 
@@ -74,7 +74,7 @@ from std_msgs.msg import Bool, String
 
 from drill_bringup import console_state as cs
 from drill_core.config import load_rig
-from drill_core.ros import topics
+from drill_core.ros import graph, topics
 from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
@@ -83,20 +83,14 @@ from drill_core.scenario import load_scenario_config
 
 DISPLAY = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
                      reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
-WATCHED_NODES = ("plant", "drawworks", "choke", "bpp", "mud_pump", "estimator", "nmpc", "baseline",
-                 "protection", "recorder")
 MAX_BODY_BYTES = 16384
 LOOPBACK_NAMES = ("127.0.0.1", "localhost", "::1")
 
 
 def status_topics() -> list[str]:
-    """NodeStatus topics of the graph's nodes (the nmpc's is not /nmpc/status: that one
-    carries NmpcStatus)."""
-    out = [topics.status(name) for name in WATCHED_NODES if topics.status(name) != topics.NMPC_STATUS]
-    nmpc_node_status = getattr(topics, "NMPC_NODE_STATUS", None)
-    if nmpc_node_status:
-        out.append(nmpc_node_status)
-    return out
+    """NodeStatus topics of the graph's nodes (drill_core.ros.graph; the nmpc's is
+    /nmpc/node_status: /nmpc/status carries NmpcStatus)."""
+    return [node.status_topic for node in graph.NODES if node.name != "console"]
 
 
 def page_html() -> str:
@@ -274,6 +268,10 @@ class ConsoleNode(RigNode):
             topics.RELIABLE)
         sub(String, topics.AUTOMATION_LEVEL, lambda m: self.state.on_level(m.data), topics.LATCHED)
         sub(Bool, topics.EMERGENCY_STOP, lambda m: self.state.on_estop(m.data), topics.LATCHED)
+        sub(String, topics.LEVEL_IN_FORCE, lambda m: self.state.on_level_in_force(m.data),
+            topics.LATCHED)
+        sub(Bool, topics.ESTOP_IN_FORCE, lambda m: self.state.on_estop_in_force(m.data),
+            topics.LATCHED)
         for name in topics.ACTUATORS:
             sub(ActuatorFrame, topics.actuator_frame(name), lambda m, n=name: self._on_frame(n, m), DISPLAY)
         for topic in status_topics():

@@ -21,10 +21,12 @@ import time
 from collections import deque
 from dataclasses import dataclass
 
-PA_PER_BAR = 1.0e5
-M3S_PER_LPM = 1.0e-3 / 60.0
-AUTOMATION_LEVELS = ("manual", "advisory", "closed_loop")
-STAND_LENGTH_M = 28.0          # one stand of drill pipe (DESIGN section 8: ~28 m)
+from drill_core.automation import AUTOMATION_LEVELS
+from drill_core.scenario import SETPOINT_BOOL_FIELDS as BOOL_FIELDS
+from drill_core.scenario import SETPOINT_FIELDS
+from drill_core.units import LPM_PER_M3S, PA_PER_BAR
+
+STAND_LENGTH_M = 28.0          # one stand of drill pipe (docs/design.md §8)
 TREND_POINTS = 1500            # per series: 150 s at the 10 Hz sensor rate
 EVENT_HISTORY = 200
 REPEAT_LOOKBACK = 10           # an event identical to one of the newest 10 is counted, not added
@@ -42,18 +44,14 @@ def pa_to_bar(pa: float) -> float:
 
 
 def lpm_to_m3s(lpm: float) -> float:
-    return float(lpm) * M3S_PER_LPM
+    return float(lpm) / LPM_PER_M3S
 
 
 def m3s_to_lpm(m3s: float) -> float:
-    return float(m3s) / M3S_PER_LPM
+    return float(m3s) * LPM_PER_M3S
 
 
 # --------------------------------------------------------------------------- form input
-SETPOINT_FIELDS = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
-                   "choke_dp_band_upper_pa",
-                   "block_position_target_m", "trip_speed_limit_mps", "controller_enabled",
-                   "mud_pump_on")
 
 
 @dataclass(frozen=True)
@@ -74,7 +72,6 @@ FORM_FIELDS = {
                           -math.inf, False),
     "speed_mps": FormField("trip_speed_limit_mps", float, "trip speed limit [m/s]", 0.0, True),
 }
-BOOL_FIELDS = ("controller_enabled", "mud_pump_on")
 
 
 class FormError(ValueError):
@@ -252,7 +249,8 @@ class ConsoleState:
         self._event_id = 0
         self.requested_level: str | None = None     # latched /operator/automation_level
         self.estop: bool | None = None              # latched /operator/emergency_stop
-        self._protection_level: str | None = None   # last level the protection node reported
+        self._protection_level: str | None = None   # latched /protection/automation_level
+        self._protection_estop = False              # latched /protection/emergency_stop
         self._result: dict | None = None            # last operator action and its outcome
 
     # ---------------------------------------------------------------- trends
@@ -332,10 +330,6 @@ class ConsoleState:
         with self._lock:
             self._nodes[name] = dict(m)
             self._received[f"node/{name}"] = self._clock()
-            if name == "protection":
-                suffix = str(m.get("mode", "")).rsplit("/", 1)[-1]
-                if suffix in AUTOMATION_LEVELS:
-                    self._protection_level = suffix
 
     def on_level(self, level: str) -> None:
         with self._lock:
@@ -344,6 +338,14 @@ class ConsoleState:
     def on_estop(self, engaged: bool) -> None:
         with self._lock:
             self.estop = bool(engaged)
+
+    def on_level_in_force(self, level: str) -> None:
+        with self._lock:
+            self._protection_level = level
+
+    def on_estop_in_force(self, engaged: bool) -> None:
+        with self._lock:
+            self._protection_estop = bool(engaged)
 
     def active_setpoints(self) -> dict | None:
         with self._lock:
@@ -405,18 +407,17 @@ class ConsoleState:
 
     # ---------------------------------------------------------------- level
     def level_in_force(self) -> dict:
-        """The automation level in force: the protection layer's own status when it is
-        fresh (it is the one applying it), else the latched request, else its default."""
+        """The automation level in force: what the protection layer applies (its latched
+        topics) while it is alive (its status fresh), else the latched request, else its
+        default."""
         with self._lock:
             now = self._clock()
-            status = self._nodes.get("protection")
-            fresh = status is not None and now - self._received.get("node/protection", -1e9) < STALE_AFTER_S
-            suffix = status["mode"].rsplit("/", 1)[-1] if status else ""
-            estop = bool(self.estop) or (fresh and suffix == "emergency_stop")
-            if fresh and suffix in AUTOMATION_LEVELS:
-                level, source = suffix, "protection status"
-            elif fresh and suffix == "emergency_stop" and self._protection_level:
-                level, source = self._protection_level, "protection status (under the emergency stop)"
+            fresh = now - self._received.get("node/protection", -1e9) < STALE_AFTER_S
+            estop = bool(self.estop) or (fresh and self._protection_estop)
+            if fresh and self._protection_level in AUTOMATION_LEVELS:
+                level = self._protection_level
+                source = "protection (under the emergency stop)" if self._protection_estop \
+                    else "protection"
             elif self.requested_level in AUTOMATION_LEVELS:
                 level, source = self.requested_level, "latched request"
             else:

@@ -23,9 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from drill_bringup import loop_bench, runs
-from drill_bringup.report import PA_PER_BAR, format_legs, tracking_metrics
+from drill_bringup.report import format_legs, tracking_metrics
 from drill_core.config import RigConfig
 from drill_core.scenario import load_scenario_config
+from drill_core.units import PA_PER_BAR
 from drill_nmpc.bench import closed_loop
 
 # The paper's formulation (Tengesdal & Holden 2020) in this code base, then the design

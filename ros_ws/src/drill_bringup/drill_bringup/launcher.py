@@ -21,24 +21,21 @@ from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from drill_core.ros import graph as graph_decl
 from drill_core.ros import topics
 
-ACTUATOR_NODES = topics.ACTUATORS
 LOG_TAIL_LINES = 15
+CONSOLE_PORT = 8080
 RUN_DOMAINS = range(1, 40)       # safe DDS domain ids (0-101) left free by the tests (40-98)
 LOCK_DIR = Path(tempfile.gettempdir()) / "drill_rig_domains"
 _held_domains: list = []         # open lock files: a domain is ours while this process lives
-# In fast mode these nodes act on (and stamp their events with) the stamps of their inputs
-# and never read the clock, so they do not subscribe to /clock (each subscription costs a
-# callback per frame). The recorder keeps /clock for its log times.
-STAMP_DRIVEN = (*ACTUATOR_NODES, "estimator", "sequencer", "nmpc", "automated_mpd", "baseline",
-                "protection")
 
 
 def uses_sim_time(name: str, fast: bool) -> bool:
-    """Whether node ``name`` runs on /clock: in fast mode, every node that reads its clock
-    (the plant publishes /clock and runs on wall time)."""
-    return fast and name != "plant" and name not in STAMP_DRIVEN
+    """Whether node ``name`` runs on /clock: in fast mode only the nodes that read their
+    clock (the recorder, for its log times); the others act on, and stamp with, the
+    stamps of their inputs (a clock subscription costs a callback per frame)."""
+    return fast and graph_decl.BY_NAME[name].reads_clock
 
 
 @dataclass
@@ -50,44 +47,17 @@ class NodeSpec:
 
 
 def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -> list[NodeSpec]:
-    """The node set of a run, recorder first and plant last."""
-    nodes = [NodeSpec("recorder", "drill_bringup.recorder", {"output": str(mcap_path)})]
-    for name in ACTUATOR_NODES:
-        nodes.append(NodeSpec(name, "drill_plant.actuator_node", {"actuator": name}))
-    nodes.append(NodeSpec("estimator", "drill_estimator.estimator_node"))
-    if scenario_controller == "nmpc":
-        nodes.append(NodeSpec("nmpc", "drill_nmpc.nmpc_node"))
-    elif scenario_controller == "automated_mpd":
-        nodes.append(NodeSpec("automated_mpd", "drill_nmpc.automated_mpd_node"))
-    elif scenario_controller == "baseline":
-        nodes.append(NodeSpec("baseline", "drill_nmpc.baseline_node"))
-    elif scenario_controller == "open_loop":
-        nodes.append(NodeSpec("sequencer", "drill_nmpc.sequencer_node"))
-    controller = scenario_controller in ("nmpc", "automated_mpd", "baseline", "open_loop")
-    if controller:
-        nodes.append(NodeSpec("protection", "drill_protection.protection_node"))
-    clock_readers = sum(uses_sim_time(n.name, fast) for n in nodes)
-    advisor_reads_measurement = scenario_controller in ("baseline", "open_loop")
-    measurement_readers = len(ACTUATOR_NODES) + 2 + controller + advisor_reads_measurement
-    wait_for = [
-        f"sub@{topics.MEASUREMENT}:{measurement_readers}",
-        f"sub@{topics.TRUTH}:1",
-        f"sub@{topics.ESTIMATE}:{1 + (scenario_controller in ('nmpc', 'automated_mpd'))}",
-        f"sub@/clock:{clock_readers}" if fast else "",
-    ]
-    if controller:
-        wait_for += [f"sub@{topics.COMMAND}:2", f"pub@{topics.COMMAND}:1",
-                     f"sub@{topics.MACHINE_COMMAND}:{len(ACTUATOR_NODES) + 1}",
-                     f"pub@{topics.MACHINE_COMMAND}:1"]
-    for name in ACTUATOR_NODES:
-        wait_for.append(f"sub@{topics.actuator_frame(name)}:3")
-        wait_for.append(f"pub@{topics.actuator_frame(name)}:1")
-    if not fast:
-        nodes.append(NodeSpec("console", "drill_bringup.console", {"port": 8080}))
-    nodes.append(NodeSpec("plant", "drill_plant.plant_node", {"wait_for": [w for w in wait_for if w]},
-                          finishes=True))
-    if fast:        # the estimator ends after the last sample: nothing else waits for it
-        next(n for n in nodes if n.name == "estimator").finishes = True
+    """The node set of a run (drill_core.ros.graph), recorder first and plant last; the
+    plant waits for the lockstep's endpoints of exactly this set."""
+    declared = graph_decl.run_nodes(scenario_controller, fast)
+    own = {"recorder": {"output": str(mcap_path)}, "console": {"port": CONSOLE_PORT},
+           "plant": {"wait_for": graph_decl.lockstep_endpoints(declared, fast)},
+           **{name: {"actuator": name} for name in topics.ACTUATORS}}
+    nodes = []
+    for node in declared:
+        # the plant ends the run; in fast mode so does the estimator, after the last sample
+        finishes = node.name == "plant" or (fast and node.name == "estimator")
+        nodes.append(NodeSpec(node.name, node.module, dict(own.get(node.name, {})), finishes))
     for node in nodes:
         node.params.update(common)
         node.params["use_sim_time"] = uses_sim_time(node.name, fast)

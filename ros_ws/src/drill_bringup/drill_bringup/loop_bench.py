@@ -19,11 +19,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from drill_bringup.runs import scenario_path
-from drill_bringup.report import PA_PER_BAR, format_legs, tracking_metrics
+from drill_bringup.report import format_legs, tracking_metrics
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
 from drill_core.estimation_model import build_estimation_model, fitted_friction_parameters
 from drill_core.scenario import initial_setpoints, load_scenario_config, setpoints_at
+from drill_core.units import PA_PER_BAR
 from drill_estimator.ukf import RigUkf, frame_inputs
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.inputs import choke_command, choke_input

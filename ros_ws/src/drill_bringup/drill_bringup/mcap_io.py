@@ -11,7 +11,7 @@ import struct
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Dict, Iterable, Iterator, List, Optional, Sequence, Tuple
+from collections.abc import Callable, Iterable, Iterator, Sequence
 
 import yaml
 import zstandard
@@ -58,7 +58,7 @@ TORN_FILE_ERRORS = (McapError, struct.error, ValueError, RuntimeError, zstandard
 
 # ---------------------------------------------------------------- type names and definitions
 
-def split_type_name(type_name: str) -> Tuple[str, str, str]:
+def split_type_name(type_name: str) -> tuple[str, str, str]:
     """'pkg/msg/Type' or 'pkg/Type' -> (pkg, 'msg', Type)."""
     parts = type_name.split("/")
     if len(parts) == 2:
@@ -88,7 +88,7 @@ def msg_text(package: str, name: str) -> str:
     return (share_directory(package) / "msg" / f"{name}.msg").read_text()
 
 
-def field_types(text: str) -> List[str]:
+def field_types(text: str) -> list[str]:
     """Field (and constant) types of a .msg text, without array or bound suffixes."""
     types = []
     for line in text.splitlines():
@@ -98,7 +98,7 @@ def field_types(text: str) -> List[str]:
     return types
 
 
-def dependencies(text: str, package: str) -> List[str]:
+def dependencies(text: str, package: str) -> list[str]:
     """Sorted non-primitive types a .msg text uses, as 'pkg/Type'."""
     deps = set()
     for type_name in field_types(text):
@@ -141,7 +141,7 @@ def message_class(type_name: str) -> type:
     return getattr(importlib.import_module(f"{package}.{kind}"), name)
 
 
-def header_stamp_ns(cdr: bytes) -> Optional[int]:
+def header_stamp_ns(cdr: bytes) -> int | None:
     """Stamp of a leading std_msgs/Header in a CDR message, None if it cannot be one."""
     if len(cdr) < 12:
         return None
@@ -167,16 +167,16 @@ class QosOffer:
     avoid_ros_namespace_conventions: bool = False
 
 
-def _time_dict(duration_ns: int) -> Dict[str, int]:
+def _time_dict(duration_ns: int) -> dict[str, int]:
     sec, nsec = divmod(min(duration_ns, INFINITE_NS), NS_PER_S)
     return {"sec": sec, "nsec": nsec}
 
 
-def _time_ns(node: Dict[str, int]) -> int:
+def _time_ns(node: dict[str, int]) -> int:
     return min(int(node["sec"]) * NS_PER_S + int(node["nsec"]), INFINITE_NS)
 
 
-def _policy_value(value, names: Dict[int, str]) -> int:
+def _policy_value(value, names: dict[int, str]) -> int:
     if isinstance(value, int):
         return value
     by_name = {name: number for number, name in names.items()}
@@ -219,7 +219,7 @@ def offered_qos_yaml(offers: Iterable[QosOffer]) -> str:
                           default_flow_style=False)
 
 
-def parse_offered_qos(text: str) -> List[QosOffer]:
+def parse_offered_qos(text: str) -> list[QosOffer]:
     """Offers from an 'offered_qos_profiles' YAML string (empty string: no offers)."""
     return [qos_from_dict(node) for node in (yaml.safe_load(text) or [])]
 
@@ -237,7 +237,7 @@ class TopicRecord:
 
     name: str
     type_name: str
-    offers: Tuple[QosOffer, ...]
+    offers: tuple[QosOffer, ...]
     type_hash: str
     channel_id: int
     has_header: bool
@@ -309,7 +309,7 @@ class McapWriter:
     """
 
     def __init__(self, path, *, chunk_size_bytes: int = DEFAULT_CHUNK_SIZE_BYTES,
-                 compression: str = "zstd", ros_distro: Optional[str] = None,
+                 compression: str = "zstd", ros_distro: str | None = None,
                  load: Callable[[str, str], str] = msg_text):
         self.path = Path(path)
         self._ros_distro = ros_distro or os.environ.get("ROS_DISTRO", "jazzy")
@@ -318,9 +318,9 @@ class McapWriter:
         self._writer = Writer(self._file, chunk_size=chunk_size_bytes,
                               compression=COMPRESSION[compression])
         self._writer.start(profile=PROFILE, library=LIBRARY)
-        self._schema_ids: Dict[str, int] = {}
-        self._topics: Dict[str, TopicRecord] = {}
-        self._start_ns: Optional[int] = None
+        self._schema_ids: dict[str, int] = {}
+        self._topics: dict[str, TopicRecord] = {}
+        self._start_ns: int | None = None
         self._end_ns = 0
         self.closed = False
 
@@ -361,11 +361,11 @@ class McapWriter:
         self._end_ns = max(self._end_ns, log_time_ns)
 
     @property
-    def counts(self) -> Dict[str, int]:
+    def counts(self) -> dict[str, int]:
         """Messages written per topic."""
         return {name: t.message_count for name, t in self._topics.items()}
 
-    def close(self) -> Dict[str, int]:
+    def close(self) -> dict[str, int]:
         """Write the rosbag2 metadata record and the summary, close the file; idempotent."""
         if not self.closed:
             start_ns = self._start_ns or 0
@@ -379,7 +379,7 @@ class McapWriter:
         return self.counts
 
 
-def write_counts(path, counts: Dict[str, int]) -> Path:
+def write_counts(path, counts: dict[str, int]) -> Path:
     """Write per-topic counts next to an MCAP file as '<path>.counts.json'."""
     out = Path(f"{path}.counts.json")
     out.write_text(json.dumps(counts, indent=1, sort_keys=True))
@@ -406,7 +406,7 @@ class TopicInfo:
 
     name: str
     type_name: str
-    offers: Tuple[QosOffer, ...]
+    offers: tuple[QosOffer, ...]
     message_count: int
 
 
@@ -415,7 +415,7 @@ def _recorded(schema: Schema, channel: Channel, message: Message) -> RecordedMes
                            message.data, schema.data.decode())
 
 
-def topics(path) -> Dict[str, TopicInfo]:
+def topics(path) -> dict[str, TopicInfo]:
     """Channels of a finished file, from its summary."""
     with open(path, "rb") as stream:
         summary = make_reader(stream).get_summary()
@@ -428,16 +428,16 @@ def topics(path) -> Dict[str, TopicInfo]:
     }
 
 
-def time_range_ns(path) -> Tuple[int, int]:
+def time_range_ns(path) -> tuple[int, int]:
     """(first, last) message log time of a finished file."""
     with open(path, "rb") as stream:
         stats = make_reader(stream).get_summary().statistics
     return stats.message_start_time, stats.message_end_time
 
 
-def read_messages(path, topics: Optional[Iterable[str]] = None,
-                  start_ns: Optional[int] = None,
-                  end_ns: Optional[int] = None) -> Iterator[RecordedMessage]:
+def read_messages(path, topics: Iterable[str] | None = None,
+                  start_ns: int | None = None,
+                  end_ns: int | None = None) -> Iterator[RecordedMessage]:
     """Messages of a finished file in log-time order, start inclusive, end exclusive."""
     with open(path, "rb") as stream:
         reader = make_reader(stream)
@@ -447,7 +447,7 @@ def read_messages(path, topics: Optional[Iterable[str]] = None,
             yield _recorded(schema, channel, message)
 
 
-def read_bag_metadata(path) -> Optional[dict]:
+def read_bag_metadata(path) -> dict | None:
     """The rosbag2 'serialized_metadata' of a finished file, None if absent."""
     with open(path, "rb") as stream:
         for record in make_reader(stream).iter_metadata():
@@ -467,17 +467,17 @@ def decode(message: RecordedMessage):
     return _decoder(message.type_name, message.definition)(message.data)
 
 
-def decoded_messages(path, topics: Optional[Iterable[str]] = None):
+def decoded_messages(path, topics: Iterable[str] | None = None):
     """(RecordedMessage, decoded message) pairs of a finished file in log-time order."""
     for message in read_messages(path, topics):
         yield message, decode(message)
 
 
-def recover(path) -> List[RecordedMessage]:
+def recover(path) -> list[RecordedMessage]:
     """Messages of every complete chunk of a file, also one killed before its summary."""
-    schemas: Dict[int, Schema] = {}
-    channels: Dict[int, Channel] = {}
-    messages: List[RecordedMessage] = []
+    schemas: dict[int, Schema] = {}
+    channels: dict[int, Channel] = {}
+    messages: list[RecordedMessage] = []
     with open(path, "rb") as stream:
         records = StreamReader(stream, validate_crcs=True).records
         try:

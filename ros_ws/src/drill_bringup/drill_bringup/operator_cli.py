@@ -92,6 +92,8 @@ class Session:
         if watch:
             sub(String, topics.AUTOMATION_LEVEL, lambda m: st.on_level(m.data), topics.LATCHED)
             sub(Bool, topics.EMERGENCY_STOP, lambda m: st.on_estop(m.data), topics.LATCHED)
+            sub(String, topics.LEVEL_IN_FORCE, lambda m: st.on_level_in_force(m.data), topics.LATCHED)
+            sub(Bool, topics.ESTOP_IN_FORCE, lambda m: st.on_estop_in_force(m.data), topics.LATCHED)
             sub(RigMeasurement, topics.MEASUREMENT,
                 lambda m: st.on_measurement(console.seconds(m.header.stamp), console.measurement_dict(m)),
                 console.DISPLAY)

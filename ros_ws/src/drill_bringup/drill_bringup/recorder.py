@@ -8,7 +8,7 @@ import sys
 import threading
 import time
 from functools import partial
-from typing import Dict, Iterable, List, Optional, Sequence, Tuple
+from collections.abc import Iterable, Sequence
 
 import rclpy
 from ament_index_python.packages import PackageNotFoundError
@@ -59,7 +59,7 @@ def subscription_qos(offers: Sequence[QosOffer]) -> QoSProfile:
                     else DurabilityPolicy.VOLATILE))
 
 
-def status_values(counts: Dict[str, int]) -> Tuple[List[str], List[float]]:
+def status_values(counts: dict[str, int]) -> tuple[list[str], list[float]]:
     """NodeStatus keys/values: per-topic message counts and their total."""
     keys = [f"messages{topic}" for topic in sorted(counts)] + ["messages_total"]
     values = [float(counts[topic]) for topic in sorted(counts)] + [float(sum(counts.values()))]
@@ -86,7 +86,7 @@ class Recorder(RigNode):
         self._subscriptions_by_topic = {}
         self._unrecordable = set()
         self._status_pub = self.create_publisher(NodeStatus, STATUS_TOPIC, topics.RELIABLE)
-        self._errors: List[str] = []
+        self._errors: list[str] = []
         self._last_status = (time.monotonic(), 0)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(discovery_period_s, self.discover, clock=steady)
@@ -145,7 +145,7 @@ class Recorder(RigNode):
         msg.keys, msg.values = status_values(counts)
         self._status_pub.publish(msg)
 
-    def close(self) -> Dict[str, int]:
+    def close(self) -> dict[str, int]:
         """Finish the MCAP file and write '<output>.counts.json'; idempotent."""
         if self._writer.closed:
             return self._writer.counts
@@ -176,7 +176,7 @@ def drain(executor, node: "Recorder") -> None:
             quiet_since_s, last_total = now_s, node.message_total
 
 
-def main(args: Optional[List[str]] = None) -> int:
+def main(args: list[str] | None = None) -> int:
     """Record until SIGINT/SIGTERM or rclpy shutdown; always leaves a finished file."""
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     stop = threading.Event()

@@ -11,7 +11,7 @@ import sys
 import threading
 import time
 from dataclasses import dataclass
-from typing import Dict, Iterable, List, Optional, Sequence, Tuple
+from collections.abc import Iterable, Sequence
 
 import rclpy
 from rclpy.duration import Duration
@@ -37,8 +37,8 @@ NS_PER_S = 1e9
 
 # ---------------------------------------------------------------- pure helpers
 
-def select_topics(names: Iterable[str], topics: Optional[Sequence[str]] = None,
-                  regex: Optional[str] = None, exclude_regex: Optional[str] = None) -> List[str]:
+def select_topics(names: Iterable[str], topics: Sequence[str] | None = None,
+                  regex: str | None = None, exclude_regex: str | None = None) -> list[str]:
     """Topics to replay: listed or regex-matched (all if neither given), minus excluded."""
     def chosen(name: str) -> bool:
         listed = topics is not None and name in topics
@@ -48,7 +48,7 @@ def select_topics(names: Iterable[str], topics: Optional[Sequence[str]] = None,
     return sorted(name for name in names if chosen(name))
 
 
-def split_ros_args(argv: Sequence[str]) -> Tuple[List[str], List[str]]:
+def split_ros_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
     """argv -> (tool arguments, ROS arguments between --ros-args and -- or the end)."""
     tool, ros, in_ros = [], [], False
     for arg in argv:
@@ -61,7 +61,7 @@ def split_ros_args(argv: Sequence[str]) -> Tuple[List[str], List[str]]:
     return tool, ros
 
 
-def parse_remaps(items: Iterable[str]) -> Dict[str, str]:
+def parse_remaps(items: Iterable[str]) -> dict[str, str]:
     """['old:=new', ...] -> {'old': 'new', ...}."""
     remaps = {}
     for item in items:
@@ -110,7 +110,7 @@ def publisher_qos(offers: Sequence[QosOffer]) -> QoSProfile:
         avoid_ros_namespace_conventions=offer.avoid_ros_namespace_conventions)
 
 
-def latest_per_topic(messages: Iterable[RecordedMessage]) -> List[RecordedMessage]:
+def latest_per_topic(messages: Iterable[RecordedMessage]) -> list[RecordedMessage]:
     """The last message of each topic, in log-time order."""
     latest = {m.topic: m for m in messages}
     return sorted(latest.values(), key=lambda m: m.log_time_ns)
@@ -142,7 +142,7 @@ class Pacer:
         self._publisher = clock_publisher
         self._period_s = 1.0 / clock_hz if clock_publisher else None
         self._stop = stop
-        self._timebase: Optional[Timebase] = None
+        self._timebase: Timebase | None = None
         self._next_tick_s = 0.0
 
     def start(self, timebase: Timebase) -> None:
@@ -171,7 +171,7 @@ class Pacer:
         self._next_tick_s = max(self._next_tick_s + self._period_s, now_s)
 
 
-def _play_once(path, publishers: Dict[str, object], latched: List[str], start_ns: int,
+def _play_once(path, publishers: dict[str, object], latched: list[str], start_ns: int,
                rate: float, pacer: Pacer) -> int:
     """One pass: latched backlog before start_ns at once, then the rest in time."""
     backlog = []
@@ -197,11 +197,11 @@ def _wait_for_subscribers(publishers, stop: threading.Event) -> None:
 
 
 def replay_file(path, *, rate: float = 1.0, loop: bool = False,
-                topics: Optional[Sequence[str]] = None, regex: Optional[str] = None,
-                exclude_regex: Optional[str] = None, start_offset_s: float = 0.0,
-                clock_hz: float = 0.0, remap: Optional[Dict[str, str]] = None,
+                topics: Sequence[str] | None = None, regex: str | None = None,
+                exclude_regex: str | None = None, start_offset_s: float = 0.0,
+                clock_hz: float = 0.0, remap: dict[str, str] | None = None,
                 delay_s: float = 0.5, wait_for_subscribers: bool = False,
-                node: Optional[Node] = None, stop: Optional[threading.Event] = None) -> int:
+                node: Node | None = None, stop: threading.Event | None = None) -> int:
     """Republish a recording; returns the number of messages published.
 
     Needs an initialised rclpy context (a node named 'replay' is made if none is given).
@@ -272,7 +272,7 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     return parser.parse_args(argv)
 
 
-def main(argv: Optional[List[str]] = None) -> int:
+def main(argv: list[str] | None = None) -> int:
     """CLI entry point; SIGINT/SIGTERM stop the replay and exit 0."""
     tool_args, ros_args = split_ros_args(sys.argv if argv is None else argv)
     args = parse_args(tool_args[1:])

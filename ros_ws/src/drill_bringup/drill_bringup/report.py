@@ -14,10 +14,9 @@ import numpy as np
 
 from drill_bringup import mcap_io
 from drill_core.ros import topics
+from drill_core.units import LPM_PER_M3S, PA_PER_BAR
 
-PA_PER_BAR = 1e5
 ARRIVAL_TOLERANCE_M = 0.5     # a trip leg ends when the string is this close to its target
-LPM_PER_M3S = 60000.0
 FINAL_WINDOW_S = 30.0           # the estimator's final bias: mean error over the run's last 30 s
 SETTLE_S = 30.0                 # band time "settled": after the first 30 s of a run (issue targets)
 OPEN_LOOP_ADVISOR = "sequencer"
@@ -74,10 +73,16 @@ def load_series(mcap_path: Path) -> Series:
             s.advisor = msg.source
         elif rec.topic == topics.MACHINE_COMMAND:
             manual = getattr(msg, "choke_manual", False)     # absent in older recordings
-            s.add("cmd", t, [msg.block_position_ref_m, math.nan if manual else msg.choke_flow_ref_m3s,
-                             msg.bpp_flow_m3s, msg.spp_pa, msg.choke_opening_ref if manual else math.nan])
+            s.add("cmd_block_ref", t, msg.block_position_ref_m)
+            s.add("cmd_choke_flow", t, math.nan if manual else msg.choke_flow_ref_m3s)
+            s.add("cmd_choke_opening", t, msg.choke_opening_ref if manual else math.nan)
+            s.add("cmd_bpp", t, msg.bpp_flow_m3s)
+            s.add("cmd_spp", t, msg.spp_pa)
         elif rec.topic == topics.SETPOINTS:
-            s.add("setpoints", t, [msg.bhp_ref_pa, msg.bhp_band_pa, msg.block_position_target_m])
+            s.add("bhp_ref", t, msg.bhp_ref_pa)
+            s.add("bhp_band", t, msg.bhp_band_pa)
+            s.add("block_target", t, msg.block_position_target_m)
+            s.add("trip_speed_limit", t, msg.trip_speed_limit_mps)
     return s
 
 
@@ -91,12 +96,12 @@ def _held(t_query, t_src, v_src, default):
 
 def references(s: Series, t):
     """BHP reference, half band and block target at the truth times."""
-    t_sp, sp = s.get("setpoints")
     _, bhp = s.get("bhp")
-    default = [bhp[0], 2e5, 0.0]
-    held = _held(t, t_sp, sp, default)
-    held[:, 0] = np.where(np.isfinite(held[:, 0]) & (held[:, 0] > 0), held[:, 0], bhp[0])
-    return held[:, 0], held[:, 1], held[:, 2]
+    ref, band, target = (_held(t, *s.get(key), default)
+                         for key, default in (("bhp_ref", bhp[0]), ("bhp_band", 2e5),
+                                              ("block_target", 0.0)))
+    ref = np.where(np.isfinite(ref) & (ref > 0), ref, bhp[0])
+    return ref, band, target
 
 
 def tracks_setpoints(s: Series) -> bool:
@@ -313,29 +318,31 @@ def plot(s: Series, out_dir: Path) -> list[Path]:
     a1.legend(fontsize=8)
     _, vel = s.get("velocity")
     a2.plot(t, vel)
-    a2.axhline(0.5, color="r", ls=":", lw=0.8)
-    a2.axhline(-0.5, color="r", ls=":", lw=0.8)
+    t_limit, limit = s.get("trip_speed_limit")
+    if len(limit):          # the trip-speed limit of the setpoints in force
+        a2.step(t_limit, limit, where="post", color="r", ls=":", lw=0.8)
+        a2.step(t_limit, -limit, where="post", color="r", ls=":", lw=0.8)
     a2.set(xlabel="time [s]", ylabel="string velocity [m/s]")
     save(fig, "block.png")
 
     fig, axes = plt.subplots(5, 1, figsize=(10, 9.5), sharex=True)
-    tc, cmd = s.get("cmd")
     _, qc = s.get("choke_flow")
     _, opening = s.get("choke_opening")
     _, bpp = s.get("bpp")
     _, spp = s.get("spp")
-    has_cmd = cmd.ndim == 2 and len(cmd)
+    commands = ((0, "cmd_block_ref", 1.0, "u_r command"),
+                (1, "cmd_choke_flow", LPM_PER_M3S, "PI flow reference"),
+                (2, "cmd_choke_opening", 1.0, "manual opening command"),
+                (3, "cmd_bpp", LPM_PER_M3S, "command"), (4, "cmd_spp", 1.0 / PA_PER_BAR, "command"))
     axes[0].plot(t, pos, label="string position")
     axes[1].plot(t, qc * LPM_PER_M3S, label="choke flow")
     axes[2].plot(t, opening, label="choke opening")
     axes[3].plot(t, bpp * LPM_PER_M3S, label="back-pressure pump")
     axes[4].plot(t, spp / PA_PER_BAR, label="stand-pipe pressure")
-    if has_cmd:
-        axes[0].step(tc, cmd[:, 0], where="post", label="u_r command")
-        axes[1].step(tc, cmd[:, 1] * LPM_PER_M3S, where="post", label="PI flow reference")
-        axes[2].step(tc, cmd[:, 4], where="post", label="manual opening command")
-        axes[3].step(tc, cmd[:, 2] * LPM_PER_M3S, where="post", label="command")
-        axes[4].step(tc, cmd[:, 3] / PA_PER_BAR, where="post", label="command")
+    for row, key, factor, label in commands:
+        tc, cmd = s.get(key)
+        if len(cmd):
+            axes[row].step(tc, cmd * factor, where="post", label=label)
     for ax, unit in zip(axes, ["m", "L/min", "1", "L/min", "bar"]):
         ax.set_ylabel(unit)
         ax.legend(fontsize=7, loc="best")

@@ -168,7 +168,7 @@ def test_events_collapse_repeats_and_acknowledge():
 
 
 # --------------------------------------------------------------------------- level
-def test_level_in_force_prefers_fresh_protection_status():
+def test_level_in_force_is_the_protections_while_it_is_alive():
     clock = FakeClock()
     state = cs.ConsoleState(WINDOW, clock=clock)
     assert state.level_in_force()["level"] == "closed_loop"
@@ -177,18 +177,20 @@ def test_level_in_force_prefers_fresh_protection_status():
     forced = state.level_in_force()
     assert (forced["level"], forced["source"], forced["requested"]) == ("advisory", "latched request",
                                                                        "advisory")
+    state.on_level_in_force("manual")                      # latched /protection/automation_level
     state.on_status("protection", {"mode": "realtime/manual", "healthy": True})
     assert state.level_in_force()["level"] == "manual"
-    assert state.level_in_force()["source"] == "protection status"
+    assert state.level_in_force()["source"] == "protection"
     clock.now += cs.STALE_AFTER_S + 1                      # protection went silent
     assert state.level_in_force()["level"] == "advisory"
+    state.on_estop_in_force(True)
     state.on_status("protection", {"mode": "realtime/emergency_stop", "healthy": True})
     forced = state.level_in_force()
     assert forced["emergency_stop"] is True
-    assert forced["level"] == "manual", "the level the protection applied before the stop stays shown"
+    assert forced["level"] == "manual", "the level the protection applies stays shown under the stop"
     assert "emergency stop" in forced["source"]
     state.on_estop(False)
-    state.on_status("protection", {"mode": "realtime/closed_loop", "healthy": True})
+    state.on_estop_in_force(False)
     assert state.level_in_force()["emergency_stop"] is False
 
 

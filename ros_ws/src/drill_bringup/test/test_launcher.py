@@ -4,6 +4,7 @@ from pathlib import Path
 import pytest
 
 from drill_bringup import launcher
+from drill_core.ros import topics
 
 COMMON = {"config_dir": "/c", "scenario": "/c/s.yaml", "mode": "fast"}
 
@@ -17,7 +18,7 @@ def test_fast_graph_clock_readers_match_the_plants_wait_list():
     on_clock = sorted(name for name, n in nodes.items() if n.params["use_sim_time"])
     assert on_clock == ["recorder"]
     assert "sub@/clock:1" in nodes["plant"].params["wait_for"]
-    assert not any(nodes[a].params["use_sim_time"] for a in launcher.ACTUATOR_NODES)
+    assert not any(nodes[a].params["use_sim_time"] for a in topics.ACTUATORS)
     assert list(nodes)[0] == "recorder" and list(nodes)[-1] == "plant"
     assert sorted(name for name, n in nodes.items() if n.finishes) == ["estimator", "plant"]
 

@@ -156,7 +156,7 @@ class Lag:
 
 @dataclass(frozen=True)
 class Actuators:
-    """Drawworks, choke, back-pressure pump and mud pump (DESIGN section 4, paper Table 4)."""
+    """Drawworks, choke, back-pressure pump and mud pump (docs/design.md §4, paper Table 4)."""
     drawworks: Lag = param(doc="block position [m]")
     block_kp: float = param("1", 0.0, 100.0, doc="block-position controller proportional gain")
     block_ki_per_s: float = param("1/s", 0.0, 100.0, doc="block-position controller integral gain")
@@ -322,7 +322,9 @@ class Nmpc:
     slack_weight_choke_dp: float = param("1", 0.0)
     slack_weight_bhp: float = param("1", 0.0)
     max_iterations: int = param("1", 1, 10000)
-    solver: str = param(choices=("ipopt", "fatrop", "sqpmethod"))
+    solver: str = param(choices=("rti", "sqpmethod", "ipopt", "fatrop"),
+                        doc="rti: one Gauss-Newton step per sample (QP by HPIPM); the others "
+                            "are CasADi nlpsol plugins")
     input_reference_weight: InputVector = param(
         default=InputVector(0.0, 0.0, 1.0, 1.0),
         doc="r_r tilde (eq. 49/55); u_ref = [block target, previous choke flow, 0, initial spp]")
@@ -380,7 +382,7 @@ class Nmpc:
 # --------------------------------------------------------------------- protection
 @dataclass(frozen=True)
 class Protection:
-    """Process protection between advisors and machines (DESIGN section 10)."""
+    """Process protection between advisors and machines (docs/design.md §10)."""
     pore_pressure_pa: float = param("Pa", 0.0, 5.0e8, doc="lower edge of the pressure window at the BHP depth")
     fracture_pressure_pa: float = param("Pa", 0.0, 5.0e8, doc="upper edge of the pressure window")
     pressure_margin_pa: float = param("Pa", 0.0, 1.0e7, doc="kept clear of pore and fracture pressure")

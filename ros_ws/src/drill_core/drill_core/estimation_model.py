@@ -1,4 +1,4 @@
-"""Estimation model shared by the UKF and the NMPC (paper eqs. 45-48; DESIGN section 5).
+"""Estimation model shared by the UKF and the NMPC (paper eqs. 45-48; docs/design.md §5).
 
 The truth-plant equations (drill_core.hydraulics) with the annular friction replaced
 by a law with random-walk parameters theta_i (config ``annular_friction_law``):
@@ -235,15 +235,16 @@ def friction_flow_gain_bound(em: EstimationModel, x, speed_floor_mps: float) -> 
     return np.array(out)
 
 
-def drift(xp, em: EstimationModel, x, u):
-    """Deterministic right-hand side of the estimation model, as a list of entries."""
+def drift(xp, em: EstimationModel, x, u, string_friction_law=None):
+    """Deterministic right-hand side of the estimation model, as a list of entries
+    (``string_friction_law``: see hydraulics.hydraulic_rates)."""
     wm, n = em.wm, em.n
     z1, z2, z3 = x[0], x[1], x[2]
     u_b = block_command(u[0], z1, z3, wm.geometry.static_stretch_m, em.block_kp, em.block_ki_per_s)
     p = [x[em.pressure(i)] for i in range(1, n + 1)]
     q = [x[em.flow(i)] for i in range(2, n + 1)]
     rates = hy.hydraulic_rates(xp, wm, p, q, x[em.string_flow], x[em.string_pressure], z1, z2,
-                               u[1], u[2], u[3], annulus_friction(xp, em, x))
+                               u[1], u[2], u[3], annulus_friction(xp, em, x), string_friction_law)
     bottom_influx = 0.0
     if em.with_disturbance:
         bottom_influx = wm.well.mud.bulk_modulus_pa / wm.geometry.annulus_volume_m3[-1] \

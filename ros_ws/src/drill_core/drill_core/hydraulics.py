@@ -1,5 +1,5 @@
 """Wellbore hydraulics and hoisting equations shared by the truth plant and the
-estimation model (DESIGN section 3; paper eqs. 22-36, hydrostatics included).
+estimation model (docs/design.md §3; paper eqs. 22-36, hydrostatics included).
 
 State convention: annulus pressures p_1 (surface, choke) .. p_n (bottom), annulus
 flows q_2 .. q_n positive upward, string flow q_d positive downward, string
@@ -106,11 +106,12 @@ class HydraulicRates:
 
 def hydraulic_rates(xp, wm: WellModel, pressures, flows, string_flow_m3s, string_pressure_pa,
                     position_m, velocity_mps, choke_flow_m3s, bpp_flow_m3s, pump_pressure_pa,
-                    friction_pa) -> HydraulicRates:
-    """Mass and momentum balances of annulus and drill string (DESIGN section 3).
+                    friction_pa, string_friction_law=None) -> HydraulicRates:
+    """Mass and momentum balances of annulus and drill string (docs/design.md §3).
 
     ``friction_pa`` is the annular friction of paths 2..n (HB in the plant, the
-    configured law in the estimation model). The bit rises with the string, so the string column is
+    configured law in the estimation model); ``string_friction_law(xp, wm, q_d, v_s)`` the
+    string's (default :func:`string_friction`; the NMPC passes its tabulated copy). The bit rises with the string, so the string column is
     D_bit - x_s high and the annulus pressure at the bit is p_n - rho g x_s.
     """
     w, g = wm.well, wm.geometry
@@ -132,5 +133,6 @@ def hydraulic_rates(xp, wm: WellModel, pressures, flows, string_flow_m3s, string
     dp_string = beta / g.string_volume_m3 * (string_flow_m3s - q_bit
                                               + g.string_top_inner_area_m2 * v_s)
     dq_string = (pump_pressure_pa - string_pressure_pa + rho_g * (g.bit_depth_m - position_m)
-                 - string_friction(xp, wm, string_flow_m3s, v_s)) / g.string_inertance_kg_m4
+                 - (string_friction_law or string_friction)(xp, wm, string_flow_m3s, v_s)) \
+        / g.string_inertance_kg_m4
     return HydraulicRates(dp, dq, dq_string, dp_string, q_bit)

@@ -1,4 +1,4 @@
-"""Open-loop command sequence (controller ``open_loop``; DESIGN section 8, the paper's
+"""Open-loop command sequence (controller ``open_loop``; docs/design.md §8, the paper's
 estimation study, sec. 4.3: run in 28 m with circulation off, choke 50 %, back-pressure
 pump ramped to 400 L/min at t = 2 min).
 
@@ -6,8 +6,8 @@ The actuator commands at time t follow from the scenario schedule alone, no feed
 
 * block-position reference u_r: each block move goes from rest to rest toward
   ``block_position_target_m`` with a trapezoidal speed profile (``block_speed_mps``,
-  ``block_acceleration_mps2``), so process protection's acceleration limit (DESIGN
-  section 10) never has to clip it; a move starts only once the previous one has ended;
+  ``block_acceleration_mps2``), so process protection's acceleration limit (docs/design.md
+  §10) never has to clip it; a move starts only once the previous one has ended;
 * back-pressure pump flow: a linear ramp over ``bpp_ramp_s`` from the flow in force at
   the entry's time to ``bpp_flow_m3s`` (a step without ``bpp_ramp_s``);
 * choke: ``choke_opening`` puts it in manual mode at that opening, ``choke_flow_ref_m3s``
@@ -42,7 +42,7 @@ def start_command(initial, choke_flow_m3s: float = math.nan, spp_pa: float = mat
                   ) -> OpenLoopCommand:
     """Commands before the first entry: block at rest at 0, choke on its PI flow controller
     and pumps at the scenario's ``initial`` operating point (choke flow and stand-pipe
-    pressure from drill_plant.plant_model.steady_state; NaN where only the plan's shape
+    pressure from drill_core.operating_point; NaN where only the plan's shape
     matters, as in scenario validation)."""
     return OpenLoopCommand(block_position_ref_m=0.0, choke_manual=False, choke_opening=0.0,
                            choke_flow_ref_m3s=choke_flow_m3s, bpp_flow_m3s=initial.bpp_flow_m3s,

@@ -1,4 +1,4 @@
-"""Herschel-Bulkley wall shear stress for pipe and annulus (DESIGN section 3).
+"""Herschel-Bulkley wall shear stress for pipe and annulus (docs/design.md §3).
 
 Laminar: the exact Rabinowitsch-Mooney relations (pipe) and the slot relation
 (annulus, gap h = (d_o - d_i)/2), inverted for the wall stress by Newton steps on

@@ -1,6 +1,6 @@
 """Scenario files (config/scenarios/*.yaml): initial operating point, controller,
 configuration overrides and a timed schedule of setpoints, or of commands for the
-``open_loop`` controller (drill_core.open_loop) (DESIGN section 8).
+``open_loop`` controller (drill_core.open_loop) (docs/design.md §8).
 
 A schedule entry changes only the fields it names; the rest carry over. Times are
 simulated seconds from the start of the run.
@@ -120,6 +120,13 @@ class ActiveSetpoints:
             else self.choke_dp_band_pa
         low = max(self.choke_dp_ref_pa - self.choke_dp_band_pa, choke_dp_min_pa)
         return low, max(self.choke_dp_ref_pa + upper, low)
+
+
+# The setpoint fields, from the one definition above (drill_msgs/Setpoints mirrors it).
+SETPOINT_FIELDS = tuple(f.name for f in dataclasses.fields(ActiveSetpoints))
+SETPOINT_BOOL_FIELDS = tuple(f.name for f in dataclasses.fields(ActiveSetpoints)
+                             if f.type in ("bool", bool))
+SETPOINT_NUMERIC_FIELDS = tuple(n for n in SETPOINT_FIELDS if n not in SETPOINT_BOOL_FIELDS)
 
 
 def setpoints_at(scenario: Scenario, time_s: float, start: ActiveSetpoints) -> ActiveSetpoints:

@@ -1,4 +1,4 @@
-"""Well geometry derived once from the typed well description (DESIGN section 3).
+"""Well geometry derived once from the typed well description (docs/design.md §3).
 
 Lumping (documented in docs/model.md): annulus segment i is control volume i with
 pressure p_i. Node 1 sits at the surface (the choke sees p_1), node n at the bit

@@ -211,7 +211,7 @@ def test_unknown_key(cfg, stem, path, key, where, allowed):
     ("well", ("mud", "flow_index"), "mud.flow_index", "[0.1, 1]"),
     ("well", ("string", 2, "inner_diameter_m"), "string[2].inner_diameter_m", "(0, 1] m"),
     ("well", ("turbulence",), "turbulence", "a mapping with keys string_a"),
-    ("nmpc", ("solver",), "solver", "one of ipopt, fatrop, sqpmethod"),
+    ("nmpc", ("solver",), "solver", "one of rti, sqpmethod, ipopt, fatrop"),
     ("estimator", ("rig_process_std",), "rig_process_std", "non-empty list"),
     ("plant", ("sensor_period_s",), "sensor_period_s", "(0, 10] s"),
 ])
@@ -247,7 +247,7 @@ def test_missing_key_with_default_is_fine(cfg):
     # list / mapping for scalar, scalar for mapping, number for string
     ("well", ("hole_diameter_m",), [0.245], "hole_diameter_m", "a number in (0, 2] m"),
     ("well", ("mud",), 1800.0, "mud", "mapping"),
-    ("nmpc", ("solver",), 1, "solver", "one of ipopt, fatrop, sqpmethod"),
+    ("nmpc", ("solver",), 1, "solver", "one of rti, sqpmethod, ipopt, fatrop"),
 ])
 def test_wrong_type(cfg, stem, path, value, key, allowed):
     file = set_key(cfg, stem, path, value)
@@ -255,7 +255,7 @@ def test_wrong_type(cfg, stem, path, value, key, allowed):
 
 
 @pytest.mark.parametrize("stem, path, value, key, choices", [
-    ("nmpc", ("solver",), "snopt", "solver", "ipopt, fatrop, sqpmethod"),
+    ("nmpc", ("solver",), "snopt", "solver", "rti, sqpmethod, ipopt, fatrop"),
     ("nmpc", ("configuration",), "nmpc1", "configuration", "NMPC0, NMPC1, NMPC2"),
     ("nmpc", ("integrator",), "rk45", "integrator", "rk4, euler"),
     ("well", ("turbulence", "annulus_model"), "colebrook", "turbulence.annulus_model",

@@ -104,7 +104,7 @@ def test_clinging_constant_is_couette_drag():
                        r_in, r_out, epsabs=0.0, epsrel=1e-13)
         expected = drag / (math.pi * (r_out ** 2 - r_in ** 2))
         assert clinging_constant(alpha) == pytest.approx(expected, rel=1e-10)
-    assert clinging_constant(ALPHA) == pytest.approx(0.39, abs=0.005)   # DESIGN: ~0.39
+    assert clinging_constant(ALPHA) == pytest.approx(0.39, abs=0.005)   # design estimate ~0.39 (docs/design.md §3)
 
 
 # ------------------------------------------------------------------ HB inversion
@@ -148,7 +148,7 @@ def test_dodge_metzner_constants():
     for re in (3000.0, 1e4, 1e5):
         fanning = (math.log10(n) + 3.93) / 50.0 / re ** ((1.75 - math.log10(n)) / 7.0)
         assert fluid.turbulence_a * re ** -fluid.turbulence_b == pytest.approx(fanning / 2, rel=1e-12)
-    # the string constants a_I, b_I = 0.024, 0.21 are close to Dodge-Metzner (DESIGN)
+    # the string constants a_I, b_I = 0.024, 0.21 are close to Dodge-Metzner (docs/design.md §3)
     dm = (math.log10(n) + 3.93) / 100.0 * 1e4 ** -((1.75 - math.log10(n)) / 7.0)
     assert 0.024 * 1e4 ** -0.21 == pytest.approx(dm, rel=0.15)
 

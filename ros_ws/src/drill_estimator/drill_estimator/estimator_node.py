@@ -1,4 +1,4 @@
-"""Estimator node: the rig's UKF (drill_estimator.ukf) on topics (DESIGN sections 2 and 5).
+"""Estimator node: the rig's UKF (drill_estimator.ukf) on topics (docs/design.md §2 and §5).
 
 Subscribes /rig/measurement and /actuators/<name>/frame for the four actuators (never the
 truth topic); publishes drill_msgs/StateEstimate on /estimator/estimate stamped with the

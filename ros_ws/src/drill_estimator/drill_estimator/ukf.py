@@ -1,4 +1,4 @@
-"""Unscented Kalman filter of the rig (paper eqs. 6-16 and 45-48; DESIGN section 5).
+"""Unscented Kalman filter of the rig (paper eqs. 6-16 and 45-48; docs/design.md §5).
 
 Plain Python (no rclpy). The filter is filterpy's ``UnscentedKalmanFilter`` with
 ``MerweScaledSigmaPoints`` (the paper's alpha, beta and kappa = kappa_offset - n_x),

@@ -10,7 +10,7 @@ t_k a multiple of the sample time (fast mode; realtime: the first estimate of ea
 sample period) it publishes drill_msgs/RigCommand stamped t_k with the choke in pressure
 control: block reference, choke-dp set-point and its ramp, the flow feedforward, and the
 pumps held at the scenario's initial operating point (design knowledge of the well:
-drill_plant.plant_model.steady_state). The setpoint schedule applies by time; a NaN BHP
+drill_core.operating_point). The setpoint schedule applies by time; a NaN BHP
 reference is the first estimate's BHP. ``controller_enabled: false`` holds the string where
 it is estimated. The setpoints in force go out on the latched /setpoints topic whenever they
 change.
@@ -34,7 +34,6 @@ from drill_core.ros.status import StatusReporter
 from drill_core.scenario import ActiveSetpoints, setpoints_at
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.setpoint_messages import initial_setpoints, to_msg
-from drill_plant.plant_model import steady_state     # design knowledge of the well
 
 
 class AutomatedMpdNode(RigNode):
@@ -45,7 +44,7 @@ class AutomatedMpdNode(RigNode):
         self.exit_code = 0
         cfg = ctx.config
         ini = ctx.scenario.initial
-        op = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
+        op = ctx.operating_point
         self.em = build_estimation_model(cfg)
         self.controller = AutomatedMpd(cfg, self.em, float(ini.bpp_flow_m3s), float(op.inputs[3]))
         self.gate = SampleGate(seconds_to_ns(cfg.nmpc.sample_time_s), ctx.fast)

@@ -1,4 +1,4 @@
-"""Conventional MPD baseline as node ``baseline`` (DESIGN section 8): a fixed-speed trip
+"""Conventional MPD baseline as node ``baseline`` (docs/design.md §8): a fixed-speed trip
 and a PI choke on the measured BHP; the comparison the NMPC's value is shown against.
 
     python -m drill_nmpc.baseline_node --ros-args -p config_dir:=... -p scenario:=... \
@@ -14,7 +14,7 @@ publishes drill_msgs/RigCommand stamped t_k:
   (BHP too high: open the choke, let more out), clipped to [0, the NMPC's upper bound] with
   anti-windup; BHP_ref from the schedule, or the first measured BHP when it is NaN;
 * back-pressure pump and stand-pipe pressure held at the scenario's initial operating point
-  (design knowledge: drill_plant.plant_model.steady_state of the initial circulation and
+  (design knowledge: drill_core.operating_point of the initial circulation and
   choke dp, not the truth topic).
 
 The setpoint schedule applies by time; ``controller_enabled: false`` holds the block where it
@@ -38,7 +38,6 @@ from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
 from drill_core.scenario import ActiveSetpoints, setpoints_at
 from drill_nmpc.setpoint_messages import initial_setpoints, to_msg
-from drill_plant.plant_model import steady_state     # design knowledge of the well
 
 
 class BaselinePi:
@@ -66,8 +65,8 @@ class BaselineNode(RigNode):
         self.exit_code = 0
         cfg = ctx.config
         ini = ctx.scenario.initial
-        op = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
-        self.spp_pa = float(op.inputs[3])
+        op = ctx.operating_point
+        self.spp_pa = op.spp_pa
         self.bpp_m3s = float(ini.bpp_flow_m3s)
         self.speed = float(ctx.scenario.baseline_trip_speed_mps)
         kp = self.declare_parameter("kp_m3s_per_pa", 5.0e-9).value      # 30 L/min per bar

@@ -29,6 +29,7 @@ from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, load_rig
 from drill_core.estimation_model import (EstimationModel, build_estimation_model,
                                          fitted_friction_parameters)
+from drill_core.operating_point import initial_operating_point
 from drill_core.scenario import ActiveSetpoints, Initial
 from drill_nmpc.inputs import choke_input, choke_time_constant
 from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
@@ -47,19 +48,22 @@ def steady_estimate(em: EstimationModel, initial: Initial) -> tuple[np.ndarray, 
     """Estimation-model state and inputs u_{-1} at a scenario's steady operating point.
 
     Design knowledge, not truth: the closed-form steady circulation of the well
-    (drill_plant.plant_model.steady_state) mapped to the estimation layout, with
+    (drill_core.operating_point) in the estimation layout, with
     theta_i fitted to the Herschel-Bulkley friction at that flow (the model's law).
     """
-    from drill_plant.plant_model import steady_state   # design knowledge of the well
     wm = em.wm
-    ss = steady_state(wm, initial.circulation_m3s, initial.choke_dp_pa, initial.bpp_flow_m3s)
+    op = initial_operating_point(wm, initial)
     x = np.zeros(em.size)
-    x[0:2] = ss.state[0:2]
-    x[3:3 + 2 * wm.n + 1] = ss.state[2:]
+    for i in range(1, wm.n + 1):
+        x[em.pressure(i)] = op.annulus_pressure_pa[i - 1]
+    for i in range(2, wm.n + 1):
+        x[em.flow(i)] = op.annulus_flow_m3s[i - 2]
+    x[em.string_flow] = op.string_flow_m3s
+    x[em.string_pressure] = op.string_pressure_pa
     flows = np.full(wm.n - 1, initial.circulation_m3s)
     friction = hy.annulus_friction(np, wm, flows, 0.0)
     x[em.theta(2):em.theta(wm.n) + 1] = fitted_friction_parameters(em, flows, friction)
-    u = np.array([0.0, ss.choke_flow_m3s, initial.bpp_flow_m3s, ss.inputs[3]])
+    u = np.array([0.0, op.choke_flow_m3s, initial.bpp_flow_m3s, op.spp_pa])
     return x, u
 
 

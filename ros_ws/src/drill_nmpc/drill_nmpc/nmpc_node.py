@@ -1,4 +1,4 @@
-"""NMPC supervisor node ``nmpc`` (DESIGN sections 2 and 6).
+"""NMPC supervisor node ``nmpc`` (docs/design.md §2 and §6).
 
     python -m drill_nmpc.nmpc_node --ros-args -p config_dir:=... -p scenario:=.../case2.yaml \
         -p mode:=fast -p use_sim_time:=true
@@ -23,7 +23,7 @@ reference holds the estimated string position and the other inputs hold their la
 
 Initial u_{-1} (first estimate): u_r = z1 (hold the string where it is estimated); choke
 flow, back-pressure pump flow and stand-pipe pressure at the scenario's initial steady
-operating point (drill_plant.plant_model.steady_state: design knowledge of the well, the
+operating point (drill_core.operating_point: design knowledge of the well, the
 same point the actuators and the protection layer start from), clipped into the bounds.
 (The state-consistent alternative p_in = p_I - rho g (D_bit - z1) + string friction(q_d, z2)
 was 2.5 bar off the actuators' start with the UKF's initial estimate, and the protection's
@@ -53,7 +53,6 @@ from drill_nmpc.soft_constraints import SLACK_NAMES
 from drill_nmpc.supervisor import SolveResult, Supervisor
 from drill_nmpc.setpoint_messages import initial_setpoints, merge_request, to_msg
 from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
-from drill_plant.plant_model import steady_state     # design knowledge of the well
 
 def describe(sp: ActiveSetpoints) -> str:
     return (f"BHP {sp.bhp_ref_pa / 1e5:.2f} +- {sp.bhp_band_pa / 1e5:.2f} bar, choke dp "
@@ -85,9 +84,7 @@ class NmpcNode(RigNode):
         model = self.supervisor.model
         wanted = {"drawworks": ("block_m", model.block), "bpp": ("bpp_flow_m3s", model.bpp),
                   "mud_pump": ("spp_pa", model.pump)}
-        use = bool(self.declare_parameter("use_actuator_frames", True).value)
-        self.frame_keys = {name: key for name, (key, index) in wanted.items()
-                           if use and index is not None}
+        self.frame_keys = {name: key for name, (key, index) in wanted.items() if index is not None}
         self.frames: dict[str, dict[int, dict]] = {name: {} for name in self.frame_keys}
         self.pending: StateEstimate | None = None
         self.status = StatusReporter(self, ctx.mode, topic=topics.NMPC_NODE_STATUS)
@@ -104,7 +101,7 @@ class NmpcNode(RigNode):
         self.sp_pub = self.create_publisher(Setpoints, topics.SETPOINTS, topics.LATCHED)
         self.event_pub = self.create_publisher(OperatorEvent, topics.OPERATOR_EVENTS, topics.RELIABLE)
         self.create_service(SetSetpoints, topics.SET_SETPOINTS, self._on_set_setpoints)
-        for name in self.frame_keys:
+        for name in wanted:      # all three, as drill_core.ros.graph declares; unmodelled ones unused
             self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
                                      lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
         self.create_subscription(StateEstimate, topics.ESTIMATE, self._on_estimate, topics.RELIABLE)
@@ -201,10 +198,10 @@ class NmpcNode(RigNode):
         back-pressure pump and stand-pipe pressure at the scenario's initial steady operating
         point -- the values the actuators and the protection layer start from too."""
         ini = self.ctx.scenario.initial
-        op = steady_state(self.em.wm, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
+        op = self.ctx.operating_point
         self.operating_choke_flow_m3s = float(op.choke_flow_m3s)
         u = np.array([x[0], choke_input(self.ctx.config.nmpc, op.choke_flow_m3s, ini.choke_dp_pa),
-                      ini.bpp_flow_m3s, op.inputs[3]])
+                      ini.bpp_flow_m3s, op.spp_pa])
         return self.supervisor.safe_input(u)
 
     def _on_estimate(self, msg: StateEstimate) -> None:
@@ -216,7 +213,7 @@ class NmpcNode(RigNode):
         self._process_pending()
 
     def _on_frame(self, name: str, msg: ActuatorFrame) -> None:
-        if len(msg.output):
+        if name in self.frame_keys and len(msg.output):
             stamp = to_ns(msg.header.stamp)
             slot = self.frames[name]
             values = {self.frame_keys[name]: float(msg.output[-1])}   # output at t + t_m - dt

@@ -9,7 +9,6 @@ rclpy); docs/nmpc.md section 1 has the derivation.
 """
 from __future__ import annotations
 
-import contextlib
 import math
 from dataclasses import dataclass
 
@@ -65,24 +64,10 @@ class StringFrictionTable:
         return self.scale * self.spline(string_flow_m3s + self.area * string_velocity_mps)
 
 
-@contextlib.contextmanager
-def _tabulated_string_friction(table: StringFrictionTable | None):
-    """Evaluate the shared drift with the tabulated string friction (symbolic build only)."""
-    if table is None:
-        yield
-        return
-    exact = hy.string_friction
-    hy.string_friction = table
-    try:
-        yield
-    finally:
-        hy.string_friction = exact
-
-
 @dataclass(frozen=True)
 class ActuatorLags:
     """First-order lags of the actuators between the NMPC's commands and the process
-    (DESIGN section 4); None leaves that input instantaneous in the prediction."""
+    (docs/design.md §4); None leaves that input instantaneous in the prediction."""
     drawworks_s: float | None = None      # block position (lags the block controller output)
     bpp_s: float | None = None            # back-pressure pump flow
     pump_s: float | None = None           # stand-pipe pressure
@@ -154,8 +139,7 @@ class PredictionModel:
         if self.block is not None:
             inputs[0] = reference_for_command(x[self.block], x[0], x[2], self._stretch,
                                               self.em.block_kp, self.em.block_ki_per_s)
-        with _tabulated_string_friction(self.table):
-            out = drift(CASADI, em, full, inputs)[:self.nd_model]
+        out = drift(CASADI, em, full, inputs, self.table)[:self.nd_model]
         if self.block is not None:
             out[2] = integral_rate(u[0], x[0])
             out.append((self.block_command(u[0], x[0], x[2]) - x[self.block]) / self.lags.drawworks_s)

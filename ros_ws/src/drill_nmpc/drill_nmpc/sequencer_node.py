@@ -1,5 +1,5 @@
-"""Open-loop command sequencer as node ``sequencer`` (controller ``open_loop``; DESIGN
-section 8, the paper's estimation study): the advisor when no controller closes the loop.
+"""Open-loop command sequencer as node ``sequencer`` (controller ``open_loop``;
+docs/design.md §8, the paper's estimation study): the advisor when no controller closes the loop.
 
     python -m drill_nmpc.sequencer_node --ros-args -p config_dir:=... -p scenario:=... \
         -p mode:=fast -p use_sim_time:=true
@@ -9,7 +9,7 @@ multiple of the command period t_s (nmpc.sample_time_s, the period the actuators
 for; realtime: the first measurement of each new period) it publishes the scenario's
 open-loop commands at t_k (drill_core.open_loop) as drill_msgs/RigCommand stamped t_k on
 the advisor topic, which process protection forwards to the machines. Initial choke flow
-and stand-pipe pressure: drill_plant.plant_model.steady_state of the scenario's initial
+and stand-pipe pressure: drill_core.operating_point of the scenario's initial
 operating point, the point the actuators and protection start from.
 """
 from __future__ import annotations
@@ -26,7 +26,6 @@ from drill_core.ros.runner import run
 from drill_core.ros.sampling import SampleGate
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
-from drill_plant.plant_model import steady_state     # design knowledge of the well
 
 
 class SequencerNode(RigNode):
@@ -36,8 +35,8 @@ class SequencerNode(RigNode):
         self.ctx = ctx
         self.exit_code = 0
         ini = ctx.scenario.initial
-        op = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
-        start = start_command(ini, float(op.choke_flow_m3s), float(op.inputs[3]))
+        op = ctx.operating_point
+        start = start_command(ini, float(op.choke_flow_m3s), op.spp_pa)
         self.plan = OpenLoopPlan(ctx.scenario.schedule, start)
         self.gate = SampleGate(seconds_to_ns(ctx.config.nmpc.sample_time_s), ctx.fast)
         self.status = StatusReporter(self, ctx.mode)

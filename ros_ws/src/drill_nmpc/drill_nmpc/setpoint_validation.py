@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 from drill_core.config import RigConfig
 from drill_core.well import WellGeometry
+from drill_core.scenario import SETPOINT_NUMERIC_FIELDS
 
 
 def _bar(pa: float) -> str:
@@ -55,9 +56,7 @@ class Envelope:
         )
 
 
-NUMERIC_FIELDS = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
-                  "choke_dp_band_upper_pa",
-                  "block_position_target_m", "trip_speed_limit_mps")
+NUMERIC_FIELDS = SETPOINT_NUMERIC_FIELDS
 
 
 def validate_setpoints(sp, envelope: Envelope) -> tuple[bool, str]:

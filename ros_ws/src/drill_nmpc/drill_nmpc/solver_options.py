@@ -20,6 +20,13 @@ class Structure:
     equality: list
 
 
+def hpipm_options(s: Structure) -> dict:
+    """HPIPM, the structure-exploiting interior-point QP solver (Riccati), on the stages."""
+    return {"N": s.N, "nx": s.nx, "nu": s.nu, "ng": s.ng, "error_on_fail": False,
+            "hpipm": {"mode": "speed", "iter_max": 30, "res_g_max": 1e-6, "res_b_max": 1e-6,
+                      "res_d_max": 1e-6, "res_m_max": 1e-6}}
+
+
 def solver_options(name: str, max_iterations: int, structure: Structure, hessian: str,
                    expand: bool, extra: dict) -> dict:
     """nlpsol options of plugin ``name``."""
@@ -43,10 +50,8 @@ def solver_options(name: str, max_iterations: int, structure: Structure, hessian
                      "print_time": False})
     elif name == "sqpmethod":
         qp = extra.pop("qpsol", "hpipm")
-        if qp == "hpipm":       # structure-exploiting interior-point QP (Riccati)
-            qp_opts = {"N": s.N, "nx": s.nx, "nu": s.nu, "ng": s.ng, "error_on_fail": False,
-                       "hpipm": {"mode": "speed", "iter_max": 30, "res_g_max": 1e-6,
-                                 "res_b_max": 1e-6, "res_d_max": 1e-6, "res_m_max": 1e-6}}
+        if qp == "hpipm":
+            qp_opts = hpipm_options(s)
         elif qp == "qrqp":
             qp_opts = {"print_iter": False, "print_header": False, "error_on_fail": False}
         else:

@@ -38,12 +38,13 @@ from drill_nmpc.inputs import choke_time_constant, input_arrays
 from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
                                          outputs)
 from drill_nmpc.soft_constraints import BY_NAME, SLACK_NAMES, SOFT_CONSTRAINTS, StageValues
-from drill_nmpc.solver_options import Structure, solver_options
+from drill_nmpc.solver_options import Structure, hpipm_options, solver_options
 
 INTEGRAL_OUTPUTS = (1, 2)        # NMPC1 integrates the pressure outputs (see docs/nmpc.md)
 _INF = float("inf")
 _SUCCESS_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-_ITERATION_LIMIT = ("Maximum_Iterations_Exceeded", "SOLVER_RET_LIMITED")
+RTI_STATUS = "RTI_step"          # one real-time-iteration step (solver rti)
+_ITERATION_LIMIT = ("Maximum_Iterations_Exceeded", "SOLVER_RET_LIMITED", RTI_STATUS)
 # An iteration-limited iterate is still used (real-time iteration) when it meets the
 # linear hard constraints (input bounds, slew rows) to LINEAR_TOLERANCE (the QP's accuracy;
 # the command is then clipped exactly, Supervisor.limit) and the dynamics (gap rows) to
@@ -116,6 +117,9 @@ class NmpcProblem:
             raise ValueError(f"hessian {hessian!r} is not one of exact, gauss-newton")
         if hessian == "gauss-newton" and self.solver_name == "fatrop":
             raise ValueError("FATROP takes no user Hessian: use hessian='exact'")
+        if hessian != "gauss-newton" and self.solver_name == "rti":
+            raise ValueError("the real-time iteration is a Gauss-Newton step: use "
+                             "hessian='gauss-newton'")
         if jit and hessian != "gauss-newton":
             raise ValueError("jit compiles the prediction step with its Jacobian only: the "
                              "exact Hessian needs jit false")
@@ -332,10 +336,30 @@ class NmpcProblem:
                                            [ca.triu(lam_f * hess_f) if self.solver_name == "ipopt"
                                             else lam_f * hess_f],
                                            ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])
+        if self.solver_name == "rti":
+            self._build_rti(z, P, f, g, hess_f, extra_options)
+            return
         options = solver_options(self.solver_name, cfg.max_iterations, self.structure,
                                  self.hessian, cfg.expand and not self.jit,  # a compiled step stays MX
                                  {**opts, **extra_options})
         self.solver = ca.nlpsol("nmpc", self.solver_name, nlp, options)
+
+    def _build_rti(self, z, P, f, g, hess_f, extra_options: dict) -> None:
+        """The real-time iteration: the constraints' Jacobian and the cost gradient at the
+        warm start (one function), the cost Hessian (constant: checked at two random
+        points) and the QP solver with the stage structure."""
+        self._linearisation = ca.Function("rti_linearisation", [z, P],
+                                          [ca.gradient(f, z), g, ca.jacobian(g, z)])
+        hessian = ca.Function("rti_hessian", [z, P], [hess_f])
+        rng = np.random.default_rng(0)
+        h1, h2 = (hessian(rng.normal(size=self.nz), rng.normal(size=self.parameter_layout.size))
+                  for _ in range(2))
+        if float(ca.mmax(ca.fabs(h1 - h2))) != 0.0:
+            raise RuntimeError("the cost Hessian is not constant: the real-time iteration needs it")
+        self._hessian = h1
+        self.solver = ca.conic("nmpc_qp", "hpipm", {"h": h1.sparsity(),
+                                                     "a": self._linearisation.sparsity_out(2)},
+                               {**hpipm_options(self.structure), **extra_options})
 
     # -- numeric data of one instance ---------------------------------------------------
     def parameters(self, x0, par, u_prev, e0, y_ref, y_sp, u_ref, pump_on: bool = True,
@@ -476,6 +500,8 @@ class NmpcProblem:
         return ok, False, "" if ok else f"{status}: bounds {bound:.2g}, slew {slew:.2g}, gap {gap:.2g}"
 
     def solve(self, p, z0, lbz, ubz, lbg, ubg, lam_z0=None, lam_g0=None) -> dict:
+        if self.solver_name == "rti":
+            return self._rti_step(p, z0, lbz, ubz, lbg, ubg, lam_z0, lam_g0)
         args = {"x0": z0, "p": p, "lbx": lbz, "ubx": ubz, "lbg": lbg, "ubg": ubg}
         if lam_z0 is not None:
             args["lam_x0"] = lam_z0
@@ -491,4 +517,25 @@ class NmpcProblem:
                "g": np.array(sol["g"]).ravel(), "stats": stats}
         return out
 
-
+    def _rti_step(self, p, z0, lbz, ubz, lbg, ubg, lam_z0, lam_g0) -> dict:
+        """One Gauss-Newton SQP step, full length (acados' real-time iteration): the QP of
+        the linearisation at z0 gives the step and the new multipliers."""
+        grad_f, g0, jac_g = self._linearisation(z0, p)
+        args = {"h": self._hessian, "g": grad_f, "a": jac_g, "lba": lbg - g0, "uba": ubg - g0,
+                "lbx": lbz - z0, "ubx": ubz - z0}
+        if lam_z0 is not None:
+            args["lam_x0"] = lam_z0
+        if lam_g0 is not None:
+            args["lam_a0"] = lam_g0
+        qp = self.solver(**args)
+        qp_stats = self.solver.stats()
+        z = z0 + np.array(qp["x"]).ravel()
+        f, g = self.nlp_functions(z, p)
+        # An inexact QP answer (HPIPM's iteration or step-length limit) is still a step: the
+        # assessment checks the linear constraints and the dynamics of the iterate, as it
+        # does for an iteration-limited SQP.
+        finite = np.all(np.isfinite(np.array(qp["x"])))
+        status = RTI_STATUS if finite else f"QP {qp_stats.get('return_status', 'failed')}"
+        return {"z": z, "lam_z": np.array(qp["lam_x"]).ravel(),
+                "lam_g": np.array(qp["lam_a"]).ravel(), "f": float(f), "g": np.array(g).ravel(),
+                "stats": {"success": False, "return_status": status, "iter_count": 1}}

@@ -330,3 +330,22 @@ def test_pressure_loop_model_is_a_first_order_lag_of_the_set_point(config, em):
     assert dp[-1] == pytest.approx(1.0e5, rel=0.02)
     flow = float(model.choke_flow(x0, u_dp))
     assert flow < INITIAL.circulation_m3s                     # less out: the pressure rises
+
+
+def test_the_real_time_iteration_is_one_full_gauss_newton_sqp_step(config, em):
+    """solver rti (our QP of the linearisation, full step) against CasADi's sqpmethod
+    limited to one iteration without line search: the same step, to the QP's accuracy."""
+    x, u = _steady(config, em)
+    sp = trip_setpoints(0.0, 0.0, 200.0, float(outputs(em, x)[2]))    # pull out from now
+    rti = Supervisor(config, em, configuration="NMPC0", solver="rti").step(x, sp, u)
+    sqp = Supervisor(config, em, configuration="NMPC0", solver="sqpmethod",
+                     solver_options={"max_iter": 1, "max_iter_ls": 0}).step(x, sp, u)
+    assert rti.fallback == sqp.fallback == "none"
+    span = input_arrays(config.nmpc)["span"]
+    assert np.max(np.abs(rti.planned_inputs - sqp.planned_inputs) / span) < 1.0e-4
+    assert rti.planned_inputs[-1, 0] > u[0] + 1.0            # the plan pulls out
+
+
+def test_the_real_time_iteration_needs_the_gauss_newton_hessian(config, em):
+    with pytest.raises(ValueError, match="Gauss-Newton"):
+        Supervisor(config, em, solver="rti", hessian="exact")

@@ -25,7 +25,6 @@ from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns, seconds_to_ns
 from drill_core.ros.status import StatusReporter
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump, Watchdog
-from drill_plant.plant_model import steady_state
 
 UNITS = {"drawworks": "m", "choke": "1", "bpp": "m^3/s", "mud_pump": "Pa"}
 
@@ -42,8 +41,7 @@ class ActuatorNode(RigNode):
         period = self.declare_parameter("command_period_s", ctx.config.nmpc.sample_time_s).value
         self.command_period_ns = seconds_to_ns(period)
         cfg = ctx.config
-        ini = ctx.scenario.initial
-        initial = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
+        initial = ctx.operating_point
         u_b, opening, bpp, spp = (float(v) for v in initial.inputs)
         self.model = {
             "drawworks": lambda: Drawworks(cfg.actuators, ctx.well_model.geometry.static_stretch_m, u_b),

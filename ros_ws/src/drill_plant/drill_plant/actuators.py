@@ -1,4 +1,4 @@
-"""Actuator models (DESIGN section 4): first-order lags with range and rate limits,
+"""Actuator models (docs/design.md §4): first-order lags with range and rate limits,
 the drawworks' block-position controller, the choke's PI flow controller and a
 command watchdog. Plain Python; the actuator node wires them to topics.
 

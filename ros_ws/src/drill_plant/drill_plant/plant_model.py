@@ -1,4 +1,4 @@
-"""Truth plant: stochastic wellbore hydraulics + hoisting (DESIGN section 3).
+"""Truth plant: stochastic wellbore hydraulics + hoisting (docs/design.md §3).
 
 State x = [x_s, v_s, p_1, q_2, p_2, ..., q_n, p_n, q_d, p_I] (2n + 3 entries, SI),
 input u = [u_b block position m, u_c choke opening 1, q_bpp m^3/s, p_in Pa].
@@ -18,6 +18,7 @@ from drill_core import hydraulics as hy
 from drill_core.backend import CASADI
 from drill_core.config import RigConfig
 from drill_core.integrators import srk_step
+from drill_core.operating_point import OperatingPoint, operating_point
 
 INPUT_NAMES = ("block_position_m", "choke_opening", "bpp_flow_m3s", "pump_pressure_pa")
 
@@ -91,38 +92,23 @@ class SteadyState:
 
 def steady_state(wm: hy.WellModel, circulation_m3s: float, choke_dp_pa: float,
                  bpp_flow_m3s: float) -> SteadyState:
-    """Closed-form steady state at rest: the U-tube balance for a given circulation rate.
+    """The truth plant's state at rest at the well's steady operating point
+    (drill_core.operating_point: the U-tube balance of a circulation rate)."""
+    return plant_steady_state(wm.n, operating_point(wm, circulation_m3s, choke_dp_pa,
+                                                    bpp_flow_m3s))
 
-    All annulus flows equal the bit flow, p_1 = p_0 + choke dp, each node adds its
-    hydrostatic head and friction, the string top pressure adds string friction and the
-    bit/BHA loss. Circulation 0 means the mud pump is off (string top at atmosphere).
-    """
-    lay = PlantLayout(wm.n)
-    g, w = wm.geometry, wm.well
-    rho_g = w.mud.density_kgm3 * w.gravity_mps2
+
+def plant_steady_state(n: int, op: OperatingPoint) -> SteadyState:
+    """An operating point in the plant's state layout (string at rest at 0 m)."""
+    lay = PlantLayout(n)
     x = np.zeros(lay.size)
-    flows = [circulation_m3s] * (wm.n - 1)
-    friction = hy.annulus_friction(np, wm, np.array(flows), 0.0)
-    pressure = w.choke_downstream_pressure_pa + choke_dp_pa
-    x[lay.pressure(1)] = pressure
-    for i in range(2, wm.n + 1):
-        pressure += rho_g * (g.node_depth_m[i - 1] - g.node_depth_m[i - 2]) + friction[i - 2]
-        x[lay.pressure(i)] = pressure
-        x[lay.flow(i)] = circulation_m3s
-    if circulation_m3s > 0.0:
-        a = 0.5 * w.mud.density_kgm3 / w.bit_nozzle_coefficient_m2 ** 2
-        bit_dp = w.bha_loss_coefficient_pa_s_m3 * circulation_m3s + a * circulation_m3s ** 2
-        x[lay.string_pressure] = pressure + bit_dp
-        pump = x[lay.string_pressure] - rho_g * g.bit_depth_m \
-            + float(hy.string_friction(np, wm, circulation_m3s, 0.0))
-    else:
-        pump = 0.0
-        x[lay.string_pressure] = rho_g * g.bit_depth_m
-    x[lay.string_flow] = circulation_m3s
-    choke_flow = circulation_m3s + bpp_flow_m3s
-    opening = hy.choke_opening_for_flow(wm, choke_flow, choke_dp_pa)
-    inputs = np.array([g.static_stretch_m, opening, bpp_flow_m3s, pump])
-    return SteadyState(x, inputs, choke_flow)
+    for i in range(1, n + 1):
+        x[lay.pressure(i)] = op.annulus_pressure_pa[i - 1]
+    for i in range(2, n + 1):
+        x[lay.flow(i)] = op.annulus_flow_m3s[i - 2]
+    x[lay.string_pressure] = op.string_pressure_pa
+    x[lay.string_flow] = op.string_flow_m3s
+    return SteadyState(x, op.inputs, op.choke_flow_m3s)
 
 
 def _symbolic_drift(wm: hy.WellModel, x, u):

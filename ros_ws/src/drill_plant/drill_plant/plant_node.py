@@ -25,7 +25,7 @@ from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns
 from drill_core.ros.status import StatusReporter
-from drill_plant.plant_model import PlantLayout, steady_state
+from drill_plant.plant_model import PlantLayout, plant_steady_state
 from drill_plant.simulator import PlantDiverged, PlantSimulator
 
 
@@ -39,7 +39,7 @@ class PlantNode(RigNode):
         self.wait_for = self.declare_parameter("wait_for", [""]).value
         self.stall_timeout_s = self.declare_parameter("stall_timeout_s", 60.0).value
         ini = ctx.scenario.initial
-        initial = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
+        initial = plant_steady_state(ctx.well_model.n, ctx.operating_point)
         self.sim = PlantSimulator(ctx.config, initial, seed)
         self.layout = PlantLayout(ctx.well_model.n)
         self.frame_ns = seconds_to_ns(ctx.config.plant.sensor_period_s)

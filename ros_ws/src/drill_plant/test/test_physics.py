@@ -3,7 +3,7 @@
 Every expected value is either an analytic formula evaluated here (hydrostatics, a
 Herschel-Bulkley quadrature written independently of drill_core.rheology, the
 clinging constant, the bit-loss formula, sqrt(k/m), sqrt(beta/rho), ...) from the
-Table 2 dimensions, or a DESIGN.md magnitude. Deterministic runs use zero Wiener
+Table 2 dimensions, or a design estimate (docs/design.md §3). Deterministic runs use zero Wiener
 increments. Measured numbers are reported in docs/model.md.
 """
 from __future__ import annotations
@@ -32,7 +32,7 @@ from drill_plant import plant_model as pm  # noqa: E402
 
 CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
 
-# Paper Table 2 / DESIGN section 3, typed here on purpose (not read from the model).
+# Paper Table 2 / docs/design.md §3, typed here on purpose (not read from the model).
 RHO, RHO_STEEL, G, BETA = 1800.0, 7850.0, 9.81, 6.5e9
 D_HOLE = 0.245
 PIPE = dict(length=3296.7, od=0.1270, id=0.1087, tj_len=0.25, tj_od=0.1684, tj_id=0.0825)
@@ -174,7 +174,7 @@ def closed_end_area(cfg):
 
 
 def reg_factor(v, cfg):
-    """The documented yield-jump smoothing v / sqrt(v^2 + v_reg^2) (DESIGN section 3)."""
+    """The documented yield-jump smoothing v / sqrt(v^2 + v_reg^2) (docs/design.md §3)."""
     vr = cfg.plant.yield_regularisation_velocity_mps
     return v / math.sqrt(v * v + vr * vr)
 
@@ -197,7 +197,7 @@ def independent_surge(cfg, speed):
 def test_hydrostatic_bhp_at_rest(cfg, wm, lay, frame):
     expected = RHO * G * D_BIT                      # 637.07 bar
     assert abs(D_BIT - 3607.8) < 1e-9
-    assert abs(expected / BAR - 637.0) < 0.5        # DESIGN: ~637 bar
+    assert abs(expected / BAR - 637.0) < 0.5        # design estimate: ~637 bar
     rest = pm.steady_state(wm, 0.0, 0.0, 0.0)
     bhp = rest.state[lay.pressure(wm.n)]
     # 0.5 % is the brief's bound; the closed form agrees to rounding
@@ -229,7 +229,7 @@ def _closed_end_friction(wm, cfg, speed, sign):
 def test_closed_end_surge_swab_static(cfg, wm):
     gel = sum(4.0 * TAU_Y * length / d_h for length, d_h, _, _ in annulus_sections(cfg))
     gel_plain = 4.0 * TAU_Y * D_BIT / (D_HOLE - PIPE["od"])
-    assert abs(gel_plain / BAR - 18.5) < 0.3        # DESIGN: gel breaking ~18.5 bar
+    assert abs(gel_plain / BAR - 18.5) < 0.3        # design estimate: gel breaking ~18.5 bar
     surge = [_closed_end_friction(wm, cfg, v, -1) for v in SPEEDS]
     swab = [_closed_end_friction(wm, cfg, v, +1) for v in SPEEDS]
     # the model equals an independent quadrature-based evaluation of the same physics
@@ -237,7 +237,7 @@ def test_closed_end_surge_swab_static(cfg, wm):
     # so 1e-6 only allows for summation order
     for v, s in zip(SPEEDS, surge):
         assert s == pytest.approx(independent_surge(cfg, v), rel=1e-6)
-    # DESIGN magnitude: +-26 bar at 0.5 m/s, given to 2 significant figures -> 5 %
+    # design estimate: +-26 bar at 0.5 m/s, given to 2 significant figures -> 5 %
     assert surge[-1] == pytest.approx(26.0 * BAR, rel=0.05)
     assert swab[-1] == pytest.approx(-26.0 * BAR, rel=0.05)
     # yield-dominated: above the gel-breaking pressure at every speed, and the yield part
@@ -374,7 +374,7 @@ def test_circulating_steady_state_u_tube(cfg, wm, lay, frame):
         v = q / a_f
         tau_lam = hb_laminar_stress(v, d, False)
         re = 8.0 * RHO * v * v / tau_lam
-        assert re > hi                                                # DESIGN: string turbulent
+        assert re > hi                                                # design estimate: string turbulent
         string += 4.0 * A_I * RHO * v * v * re ** (-B_I) * reg_factor(v, cfg) * length / d
     bhp = choke_dp + RHO * G * D_BIT + annulus
     bit = K_B * q + 0.5 * RHO * (q / K_V) ** 2

@@ -1,1 +1,1 @@
-"""Process protection between the advisors (controller, operator) and the machines (DESIGN section 10)."""
+"""Process protection between the advisors (controller, operator) and the machines (docs/design.md §10)."""

@@ -1,4 +1,4 @@
-"""Process protection (the D-WIS model, DESIGN section 10): whatever an advisor (the
+"""Process protection (the D-WIS model, docs/design.md §10): whatever an advisor (the
 NMPC, the baseline controller or the operator) asks, the command that reaches the
 machines respects the most conservative of
 
@@ -25,7 +25,6 @@ from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
 
 INPUTS = ("block_position_ref_m", "choke_flow_ref_m3s", "bpp_flow_m3s", "spp_pa")
-AUTOMATION_LEVELS = ("manual", "advisory", "closed_loop")
 _SPEED_GRID_POINTS = 61
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from drill_msgs.msg import OperatorEvent, RigCommand, RigMeasurement, Setpoints
 from std_msgs.msg import Bool, String
 
+from drill_core.automation import AUTOMATION_LEVELS
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
@@ -26,8 +27,7 @@ from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_core.ros.status import StatusReporter
-from drill_plant.plant_model import steady_state
-from drill_protection.protection import AUTOMATION_LEVELS, ProcessProtection
+from drill_protection.protection import ProcessProtection
 
 VELOCITY_WINDOW_S = 1.0
 
@@ -39,8 +39,8 @@ class ProtectionNode(RigNode):
         self.ctx = ctx
         self.exit_code = 0
         ini = ctx.scenario.initial
-        initial = steady_state(ctx.well_model, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
-        start = np.array([0.0, initial.choke_flow_m3s, ini.bpp_flow_m3s, initial.inputs[3]])
+        op = ctx.operating_point
+        start = np.array([0.0, op.choke_flow_m3s, ini.bpp_flow_m3s, op.spp_pa])
         self.protection = ProcessProtection(ctx.config, ctx.well_model, start)
         self.operator_speed_limit = ctx.config.protection.trip_speed_max_mps
         self.positions: deque = deque()
@@ -51,6 +51,9 @@ class ProtectionNode(RigNode):
         self.status = StatusReporter(self, ctx.mode)
         self.pub_command = self.create_publisher(RigCommand, topics.MACHINE_COMMAND, topics.RELIABLE)
         self.pub_events = self.create_publisher(OperatorEvent, topics.PROTECTION_EVENTS, topics.RELIABLE)
+        self.pub_level = self.create_publisher(String, topics.LEVEL_IN_FORCE, topics.LATCHED)
+        self.pub_estop = self.create_publisher(Bool, topics.ESTOP_IN_FORCE, topics.LATCHED)
+        self._publish_state()
         self.create_subscription(RigCommand, topics.COMMAND, self._on_command, topics.RELIABLE)
         self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
                                  topics.RELIABLE)
@@ -67,6 +70,7 @@ class ProtectionNode(RigNode):
             self.protection.emergency_stop = msg.data
             self._event("emergency_stop", "emergency stop " + ("engaged" if msg.data else "released"),
                         self._now_ns())
+            self._publish_state()
 
     def _now_ns(self) -> int:
         """Rig time for operator events: the latest measurement's stamp (simulated time in
@@ -84,6 +88,12 @@ class ProtectionNode(RigNode):
         if msg.data != self.protection.automation_level:
             self.protection.automation_level = msg.data
             self._event("mode", f"automation level {msg.data}", now)
+            self._publish_state()
+
+    def _publish_state(self) -> None:
+        """The automation level and emergency stop in force, latched."""
+        self.pub_level.publish(String(data=self.protection.automation_level))
+        self.pub_estop.publish(Bool(data=bool(self.protection.emergency_stop)))
 
     def _on_measurement(self, msg: RigMeasurement) -> None:
         stamp = to_ns(msg.header.stamp)

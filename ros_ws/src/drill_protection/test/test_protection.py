@@ -27,7 +27,7 @@ def fresh(setup, start=(0.0, CIRCULATION, 0.0, 1.06e7)):
 
 def test_surge_swab_model_matches_the_yield_dominated_magnitudes(setup):
     _, wm = setup
-    # DESIGN section 3: closed-end surge/swab at 0.5 m/s without circulation is about +-26 bar
+    # docs/design.md §3: closed-end surge/swab at 0.5 m/s without circulation is about +-26 bar
     change = surge_swab_pa(wm, np.array([-0.5, 0.5]), 0.0)
     assert change[0] == pytest.approx(26e5, rel=0.05)
     assert change[1] == pytest.approx(-26e5, rel=0.05)

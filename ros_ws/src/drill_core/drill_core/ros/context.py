@@ -7,6 +7,7 @@ from pathlib import Path
 
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
+from drill_core.operating_point import OperatingPoint, initial_operating_point
 from drill_core.scenario import Scenario, load_scenario_config
 
 MODES = ("fast", "realtime")
@@ -18,6 +19,7 @@ class NodeContext:
     config: RigConfig
     mode: str
     well_model: hy.WellModel
+    operating_point: OperatingPoint     # where the run starts (the scenario's initial)
 
     @property
     def fast(self) -> bool:
@@ -40,4 +42,4 @@ def load_context(node) -> NodeContext:
     scenario, config = load_scenario_config(scenario_path, config_dir)
     wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                              config.plant.choke_regularisation_pa)
-    return NodeContext(scenario, config, mode, wm)
+    return NodeContext(scenario, config, mode, wm, initial_operating_point(wm, scenario.initial))

@@ -1,4 +1,4 @@
-"""Per-node status reporting on /<node>/status (DESIGN section 2)."""
+"""Per-node status reporting on /<node>/status (docs/design.md §2)."""
 from __future__ import annotations
 
 from drill_msgs.msg import NodeStatus

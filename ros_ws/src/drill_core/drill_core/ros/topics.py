@@ -1,4 +1,4 @@
-"""Topic and service names and their QoS (DESIGN section 2).
+"""Topic and service names and their QoS (docs/design.md §2).
 
 Everything the fast-mode lockstep depends on, and everything recorded, is reliable
 with keep-all history; setpoints are latched (transient local, depth 1).
@@ -14,6 +14,8 @@ MACHINE_COMMAND = "/rig/command"        # drill_msgs/RigCommand, protection -> a
 EMERGENCY_STOP = "/operator/emergency_stop"  # std_msgs/Bool, latched
 AUTOMATION_LEVEL = "/operator/automation_level"  # std_msgs/String, latched: manual|advisory|closed_loop
 PROTECTION_EVENTS = "/protection/events"     # drill_msgs/OperatorEvent: clamps and alarms
+LEVEL_IN_FORCE = "/protection/automation_level"   # std_msgs/String, latched: the level applied
+ESTOP_IN_FORCE = "/protection/emergency_stop"     # std_msgs/Bool, latched: the stop applied
 ESTIMATE = "/estimator/estimate"        # drill_msgs/StateEstimate
 NMPC_STATUS = "/nmpc/status"            # drill_msgs/NmpcStatus
 NMPC_NODE_STATUS = "/nmpc/node_status"  # drill_msgs/NodeStatus of the nmpc node (/nmpc/status is taken)

@@ -1,0 +1,182 @@
+"""The rig's node graph, declared once: every topic (type, QoS) and every node (module,
+what it publishes and subscribes).
+
+The launcher picks a run's nodes from ``NODES`` and derives from them the endpoints the
+plant waits for before the lockstep starts (``lockstep_endpoints``);
+docs/architecture.md's topic table is generated from it (``python -m
+drill_core.ros.graph``) and a test holds the two together. The nodes create their
+endpoints in code; this table is what they must match (docs/design.md §2).
+"""
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+
+from drill_core.ros import topics
+
+CLOCK = "/clock"
+EVERY_TOPIC = "*"                 # the recorder subscribes to whatever is published
+FRAMES = tuple(topics.actuator_frame(name) for name in topics.ACTUATORS)
+
+
+@dataclass(frozen=True)
+class Topic:
+    name: str
+    type: str          # package/Type
+    qos: str           # "reliable" (keep all) or "latched" (transient local, depth 1)
+    note: str = ""
+
+
+TOPICS = (
+    Topic(topics.MEASUREMENT, "drill_msgs/RigMeasurement", "reliable"),
+    Topic(topics.TRUTH, "drill_msgs/PlantTruth", "reliable", "evaluation only"),
+    *(Topic(frame, "drill_msgs/ActuatorFrame", "reliable") for frame in FRAMES),
+    Topic(topics.COMMAND, "drill_msgs/RigCommand", "reliable", "advisor's command"),
+    Topic(topics.MACHINE_COMMAND, "drill_msgs/RigCommand", "reliable",
+          "after process protection"),
+    Topic(topics.ESTIMATE, "drill_msgs/StateEstimate", "reliable"),
+    Topic(topics.NMPC_STATUS, "drill_msgs/NmpcStatus", "reliable"),
+    Topic(topics.SETPOINTS, "drill_msgs/Setpoints", "latched"),
+    Topic(topics.OPERATOR_EVENTS, "drill_msgs/OperatorEvent", "reliable"),
+    Topic(topics.PROTECTION_EVENTS, "drill_msgs/OperatorEvent", "reliable", "clamps and alarms"),
+    Topic(topics.AUTOMATION_LEVEL, "std_msgs/String", "latched",
+          "operator's request: manual, advisory or closed_loop"),
+    Topic(topics.EMERGENCY_STOP, "std_msgs/Bool", "latched", "operator's request"),
+    Topic(topics.LEVEL_IN_FORCE, "std_msgs/String", "latched", "the level applied"),
+    Topic(topics.ESTOP_IN_FORCE, "std_msgs/Bool", "latched", "the stop applied"),
+    Topic(CLOCK, "rosgraph_msgs/Clock", "reliable", "fast mode only"),
+)
+BY_TOPIC = {t.name: t for t in TOPICS}
+
+
+@dataclass(frozen=True)
+class Node:
+    name: str
+    module: str
+    publishes: tuple[str, ...]
+    subscribes: tuple[str, ...]
+    controller: str | None = None    # the scenario controller this advisor is
+    reads_clock: bool = False        # runs on /clock in fast mode (the others act on stamps)
+    realtime_only: bool = False
+
+    @property
+    def status_topic(self) -> str:
+        return topics.NMPC_NODE_STATUS if self.name == "nmpc" else topics.status(self.name)
+
+    def subscribes_to(self, topic: str) -> bool:
+        return topic in self.subscribes or EVERY_TOPIC in self.subscribes
+
+
+def _actuator(name: str) -> Node:
+    return Node(name, "drill_plant.actuator_node", (topics.actuator_frame(name),),
+                (topics.MEASUREMENT, topics.MACHINE_COMMAND))
+
+
+NODES = (
+    Node("recorder", "drill_bringup.recorder", (), (EVERY_TOPIC,), reads_clock=True),
+    *(_actuator(name) for name in topics.ACTUATORS),
+    Node("estimator", "drill_estimator.estimator_node", (topics.ESTIMATE,),
+         (topics.MEASUREMENT, *FRAMES)),
+    Node("nmpc", "drill_nmpc.nmpc_node",
+         (topics.COMMAND, topics.NMPC_STATUS, topics.SETPOINTS, topics.OPERATOR_EVENTS),
+         (topics.ESTIMATE, *(topics.actuator_frame(n) for n in ("drawworks", "bpp", "mud_pump"))),
+         controller="nmpc"),
+    Node("automated_mpd", "drill_nmpc.automated_mpd_node", (topics.COMMAND, topics.SETPOINTS),
+         (topics.ESTIMATE,), controller="automated_mpd"),
+    Node("baseline", "drill_nmpc.baseline_node", (topics.COMMAND, topics.SETPOINTS),
+         (topics.MEASUREMENT,), controller="baseline"),
+    Node("sequencer", "drill_nmpc.sequencer_node", (topics.COMMAND,), (topics.MEASUREMENT,),
+         controller="open_loop"),
+    Node("protection", "drill_protection.protection_node",
+         (topics.MACHINE_COMMAND, topics.PROTECTION_EVENTS, topics.LEVEL_IN_FORCE,
+          topics.ESTOP_IN_FORCE),
+         (topics.COMMAND, topics.MEASUREMENT, topics.SETPOINTS, topics.EMERGENCY_STOP,
+          topics.AUTOMATION_LEVEL)),
+    Node("console", "drill_bringup.console",
+         (topics.OPERATOR_EVENTS, topics.AUTOMATION_LEVEL, topics.EMERGENCY_STOP),
+         (topics.MEASUREMENT, topics.TRUTH, topics.ESTIMATE, topics.NMPC_STATUS, topics.SETPOINTS,
+          topics.OPERATOR_EVENTS, topics.PROTECTION_EVENTS, topics.AUTOMATION_LEVEL,
+          topics.EMERGENCY_STOP, topics.LEVEL_IN_FORCE, topics.ESTOP_IN_FORCE, *FRAMES),
+         realtime_only=True),
+    Node("plant", "drill_plant.plant_node", (topics.MEASUREMENT, topics.TRUTH, CLOCK), FRAMES),
+)
+BY_NAME = {n.name: n for n in NODES}
+CONTROLLERS = tuple(n.controller for n in NODES if n.controller)
+# The plant starts frame 0 once these are matched: everything the lockstep passes on.
+LOCKSTEP_TOPICS = (topics.MEASUREMENT, topics.TRUTH, topics.ESTIMATE, CLOCK, topics.COMMAND,
+                   topics.MACHINE_COMMAND, *FRAMES)
+
+
+def run_nodes(controller: str, fast: bool) -> list[Node]:
+    """The nodes of a run under ``controller``, recorder first and plant last: the
+    actuators, the estimator, the controller's advisor with the process protection, the
+    console in realtime mode."""
+    if controller not in CONTROLLERS + ("none",):
+        raise ValueError(f"controller {controller!r} is not one of {', '.join(CONTROLLERS)}, none")
+    advisor = [n for n in NODES if n.controller == controller]
+    out = []
+    for node in NODES:
+        if node.controller and node not in advisor:
+            continue
+        if node.name == "protection" and not advisor:
+            continue
+        if node.realtime_only and fast:
+            continue
+        out.append(node)
+    return out
+
+
+def lockstep_endpoints(nodes: list[Node], fast: bool) -> list[str]:
+    """``sub@topic:N`` / ``pub@topic:N`` the plant waits for: every subscriber and every
+    publisher other than the plant itself of each lockstep topic in this node set."""
+    out = []
+    for topic in LOCKSTEP_TOPICS:
+        if topic == CLOCK:
+            readers = sum(n.reads_clock for n in nodes)
+            if fast and readers:
+                out.append(f"sub@{CLOCK}:{readers}")
+            continue
+        publishers = [n for n in nodes if topic in n.publishes]
+        if not publishers:
+            continue
+        subscribers = sum(n.subscribes_to(topic) for n in nodes)
+        if subscribers:
+            out.append(f"sub@{topic}:{subscribers}")
+        others = sum(n.name != "plant" for n in publishers)
+        if others:
+            out.append(f"pub@{topic}:{others}")
+    return out
+
+
+def _frames_of(node: Node) -> str:
+    """A node's name, with the actuators whose frames it reads when not all of them."""
+    names = [a for a, f in zip(topics.ACTUATORS, FRAMES) if f in node.subscribes]
+    return node.name if len(names) == len(FRAMES) else f"{node.name} ({', '.join(names)})"
+
+
+def markdown_table() -> str:
+    """docs/architecture.md's topic table: who publishes and who subscribes, per topic
+    (the recorder takes every topic; ``<name>`` stands for each actuator)."""
+    rows = ["| topic | type | publishers | subscribers (besides the recorder) | QoS |",
+            "| --- | --- | --- | --- | --- |"]
+    frame = topics.actuator_frame("<name>")
+    seen = set()
+    for t in TOPICS:
+        name = frame if t.name in FRAMES else t.name
+        if name in seen:
+            continue
+        seen.add(name)
+        pubs = [n.name for n in NODES if t.name in n.publishes]
+        subs = [n.name for n in NODES if t.name in n.subscribes]
+        if t.name in FRAMES:
+            pubs = ["`<name>` (each actuator)"]
+            subs = [_frames_of(n) for n in NODES if any(f in n.subscribes for f in FRAMES)]
+        qos = "reliable, transient local, depth 1" if t.qos == "latched" else "reliable, keep all"
+        note = f" ({t.note})" if t.note else ""
+        rows.append(f"| `{name}` | `{t.type}`{note} | {', '.join(pubs)} | "
+                    f"{', '.join(subs) or '—'} | {qos} |")
+    return "\n".join(rows)
+
+
+if __name__ == "__main__":
+    sys.stdout.write(markdown_table() + "\n")

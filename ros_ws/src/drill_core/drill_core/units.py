@@ -1,0 +1,5 @@
+"""Display units: code, messages and config are SI; bar and L/min appear only in reports,
+plots and the console, converted with these constants."""
+
+PA_PER_BAR = 1.0e5          # 1 bar in Pa
+LPM_PER_M3S = 60000.0       # L/min in 1 m^3/s

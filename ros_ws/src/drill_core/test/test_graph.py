@@ -1,0 +1,47 @@
+"""The graph declaration: run node sets, the lockstep endpoints the plant waits for, and
+docs/architecture.md's topic table generated from it."""
+from pathlib import Path
+
+import pytest
+
+from drill_core.ros import graph, topics
+
+ROOT = Path(__file__).resolve().parents[4]
+FRAMES = [topics.actuator_frame(n) for n in topics.ACTUATORS]
+
+
+def test_a_closed_loop_run_has_its_advisor_and_the_protection():
+    names = [n.name for n in graph.run_nodes("nmpc", fast=True)]
+    assert names == ["recorder", *topics.ACTUATORS, "estimator", "nmpc", "protection", "plant"]
+    assert "sequencer" in [n.name for n in graph.run_nodes("open_loop", fast=True)]
+    assert "console" in [n.name for n in graph.run_nodes("baseline", fast=False)]
+    with pytest.raises(ValueError, match="mpc2"):
+        graph.run_nodes("mpc2", fast=True)
+
+
+def test_the_nmpc_lockstep_waits_for_every_endpoint_of_the_protocol():
+    # docs/architecture.md, fast mode: who reads what in frame k (counted by hand)
+    expected = {
+        "sub@/rig/measurement:7",            # 4 actuators, estimator, protection, recorder
+        "sub@/rig/truth:1",                  # recorder only: no controller reads the truth
+        "sub@/estimator/estimate:2", "pub@/estimator/estimate:1",      # nmpc, recorder
+        "sub@/clock:1",                      # recorder
+        "sub@/supervisor/command:2", "pub@/supervisor/command:1",      # protection, recorder
+        "sub@/rig/command:5", "pub@/rig/command:1",                    # 4 actuators, recorder
+        "sub@/actuators/choke/frame:3",      # plant, estimator, recorder
+        *(f"sub@/actuators/{n}/frame:4" for n in ("drawworks", "bpp", "mud_pump")),  # and nmpc
+        *(f"pub@{f}:1" for f in FRAMES),
+    }
+    nodes = graph.run_nodes("nmpc", fast=True)
+    assert set(graph.lockstep_endpoints(nodes, fast=True)) == expected
+
+
+def test_no_estimator_or_controller_reads_the_truth():
+    for node in graph.NODES:
+        if node.name == "estimator" or node.controller:
+            assert not node.subscribes_to(topics.TRUTH), node.name
+
+
+def test_the_documented_topic_table_is_the_declared_one():
+    doc = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    assert graph.markdown_table() in doc, "regenerate it: python -m drill_core.ros.graph"
