@@ -10,53 +10,36 @@ t_k a multiple of the sample time (fast mode; realtime: the first estimate of ea
 sample period) it publishes drill_msgs/RigCommand stamped t_k with the choke in pressure
 control: block reference, choke-dp set-point and its ramp, the flow feedforward, and the
 pumps held at the scenario's initial operating point (design knowledge of the well:
-drill_core.operating_point). The setpoint schedule applies by time; a NaN BHP
-reference is the first estimate's BHP. ``controller_enabled: false`` holds the string where
+drill_core.operating_point). The setpoints are the advisors' setpoint book
+(drill_nmpc.setpoint_book): the schedule applies by time, validated; a NaN BHP reference
+is the first estimate's BHP. ``controller_enabled: false`` holds the string where
 it is estimated. The setpoints in force go out on the latched /setpoints topic whenever they
 change.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import sys
 
-from drill_msgs.msg import RigCommand, Setpoints, StateEstimate
+from drill_msgs.msg import RigCommand, StateEstimate
 
 from drill_core.estimation_model import build_estimation_model
 from drill_core.ros import topics
-from drill_core.ros.context import load_context
-from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
-from drill_core.ros.sampling import SampleGate
-from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
-from drill_core.ros.status import StatusReporter
-from drill_core.scenario import ActiveSetpoints, setpoints_at
+from drill_core.ros.stamps import to_ns
+from drill_nmpc.advisor_node import AdvisorNode
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
-from drill_nmpc.setpoint_messages import initial_setpoints, to_msg
 
 
-class AutomatedMpdNode(RigNode):
+class AutomatedMpdNode(AdvisorNode):
     def __init__(self):
         super().__init__("automated_mpd")
-        ctx = load_context(self)
-        self.ctx = ctx
-        self.exit_code = 0
-        cfg = ctx.config
-        ini = ctx.scenario.initial
-        op = ctx.operating_point
+        cfg, ini, op = self.ctx.config, self.ctx.scenario.initial, self.ctx.operating_point
         self.em = build_estimation_model(cfg)
-        self.controller = AutomatedMpd(cfg, self.em, float(ini.bpp_flow_m3s), float(op.inputs[3]))
-        self.gate = SampleGate(seconds_to_ns(cfg.nmpc.sample_time_s), ctx.fast)
-        self.start = initial_setpoints(ctx)
-        self.bhp_ref: float | None = None
+        self.controller = AutomatedMpd(cfg, self.em, float(ini.bpp_flow_m3s), op.spp_pa)
         self.held = RigCommand(block_position_ref_m=0.0, choke_flow_ref_m3s=float(op.choke_flow_m3s),
-                               bpp_flow_m3s=float(ini.bpp_flow_m3s), spp_pa=float(op.inputs[3]),
+                               bpp_flow_m3s=float(ini.bpp_flow_m3s), spp_pa=op.spp_pa,
                                mud_pump_on=ini.circulation_m3s > 0.0, source="automated_mpd")
-        self.published: ActiveSetpoints | None = None
-        self.status = StatusReporter(self, ctx.mode)
-        self.pub = self.create_publisher(RigCommand, topics.COMMAND, topics.RELIABLE)
-        self.sp_pub = self.create_publisher(Setpoints, topics.SETPOINTS, topics.LATCHED)
         self.create_subscription(StateEstimate, topics.ESTIMATE, self._on_estimate, topics.RELIABLE)
 
     def _view(self, msg: StateEstimate) -> EstimateView:
@@ -71,21 +54,17 @@ class AutomatedMpdNode(RigNode):
         if not self.gate.admit(stamp):
             return
         view = self._view(msg)
-        sp = setpoints_at(self.ctx.scenario, self.gate.scenario_time_s(stamp), self.start)
+        self.follow_schedule(stamp)
+        self.publish_events(self.book.resolve_bhp(view.bhp_pa), stamp)
+        sp = self.book.active
         if self.controller.profile is None and math.isfinite(view.string_position_m):
             self.held.block_position_ref_m = view.string_position_m
-        if self.bhp_ref is None and math.isfinite(view.bhp_pa):
-            self.bhp_ref = view.bhp_pa
-        bhp_ref = sp.bhp_ref_pa if math.isfinite(sp.bhp_ref_pa) else self.bhp_ref
-        if bhp_ref is None or not all(math.isfinite(v) for v in (view.bhp_pa, view.string_position_m)):
+        if not self.book.bhp_resolved or not all(math.isfinite(v) for v in
+                                                  (view.bhp_pa, view.string_position_m)):
             self.status.error(f"estimate at {stamp * 1e-9:.3f} s is not finite: last command held")
-            self._publish(self.held, stamp)     # the fast-mode lockstep waits for a command
+            self.publish_command(self.held, stamp)   # the fast-mode lockstep waits for a command
             return
-        sp = dataclasses.replace(sp, bhp_ref_pa=bhp_ref)
-        if sp != self.published:
-            self.sp_pub.publish(to_msg(sp, stamp, "scenario"))
-            self.published = sp
-        c = self.controller.step(view, sp, bhp_ref)
+        c = self.controller.step(view, sp, sp.bhp_ref_pa)
         self.held = RigCommand(block_position_ref_m=c.block_position_ref_m,
                                choke_flow_ref_m3s=c.choke_flow_feedforward_m3s,
                                bpp_flow_m3s=c.bpp_flow_m3s, spp_pa=c.spp_pa,
@@ -93,17 +72,13 @@ class AutomatedMpdNode(RigNode):
                                choke_pressure_control=True, choke_dp_ref_pa=c.choke_dp_ref_pa,
                                choke_dp_ref_rate_pa_s=c.choke_dp_ref_rate_pa_s,
                                source="automated_mpd")
-        self._publish(self.held, stamp)
+        self.publish_command(self.held, stamp)
         self.status.mode = f"{self.ctx.mode}/{'automated_mpd' if sp.controller_enabled else 'manual'}"
         self.status.values = {"block_ref_m": c.block_position_ref_m,
                               "choke_dp_ref_pa": c.choke_dp_ref_pa, "trim_pa": c.trim_pa,
                               "trip_speed_limit_out_mps": c.trip_speed_limit_out_mps,
                               "trip_speed_limit_in_mps": c.trip_speed_limit_in_mps}
         self.status.tick(stamp)
-
-    def _publish(self, cmd: RigCommand, stamp_ns: int) -> None:
-        cmd.header.stamp = from_ns(stamp_ns)
-        self.pub.publish(cmd)
 
 
 def main(args=None) -> None:

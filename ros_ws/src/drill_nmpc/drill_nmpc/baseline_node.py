@@ -17,27 +17,22 @@ publishes drill_msgs/RigCommand stamped t_k:
   (design knowledge: drill_core.operating_point of the initial circulation and
   choke dp, not the truth topic).
 
-The setpoint schedule applies by time; ``controller_enabled: false`` holds the block where it
-is measured and the choke flow at its last value. The setpoints in force (the BHP reference
+The setpoints are the advisors' setpoint book (drill_nmpc.setpoint_book: the schedule applies
+by time, validated); ``controller_enabled: false`` holds the block where it is measured and
+the choke flow at its last value. The setpoints in force (the BHP reference
 resolved) go out on the latched /setpoints topic whenever they change, as the NMPC's do.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import sys
 
-from drill_msgs.msg import RigCommand, RigMeasurement, Setpoints
+from drill_msgs.msg import RigCommand, RigMeasurement
 
 from drill_core.ros import topics
-from drill_core.ros.context import load_context
-from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
-from drill_core.ros.sampling import SampleGate
-from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
-from drill_core.ros.status import StatusReporter
-from drill_core.scenario import ActiveSetpoints, setpoints_at
-from drill_nmpc.setpoint_messages import initial_setpoints, to_msg
+from drill_core.ros.stamps import to_ns
+from drill_nmpc.advisor_node import AdvisorNode
 
 
 class BaselinePi:
@@ -57,32 +52,20 @@ class BaselinePi:
         return min(max(q, 0.0), self.q_max)
 
 
-class BaselineNode(RigNode):
+class BaselineNode(AdvisorNode):
     def __init__(self):
         super().__init__("baseline")
-        ctx = load_context(self)
-        self.ctx = ctx
-        self.exit_code = 0
-        cfg = ctx.config
-        ini = ctx.scenario.initial
-        op = ctx.operating_point
+        cfg, ini, op = self.ctx.config, self.ctx.scenario.initial, self.ctx.operating_point
         self.spp_pa = op.spp_pa
         self.bpp_m3s = float(ini.bpp_flow_m3s)
-        self.speed = float(ctx.scenario.baseline_trip_speed_mps)
+        self.speed = float(self.ctx.scenario.baseline_trip_speed_mps)
         kp = self.declare_parameter("kp_m3s_per_pa", 5.0e-9).value      # 30 L/min per bar
         ti = self.declare_parameter("ti_s", 5.0).value
-        self.gate = SampleGate(seconds_to_ns(cfg.nmpc.sample_time_s), ctx.fast)
         self.ts = cfg.nmpc.sample_time_s
         self.pi = BaselinePi(float(op.choke_flow_m3s), float(kp), float(ti),
                              cfg.nmpc.input_max.choke_flow_m3s)
         self.block_ref: float | None = None
         self.choke_ref = float(op.choke_flow_m3s)
-        self.bhp_ref: float | None = None
-        self.start = initial_setpoints(ctx)
-        self.published: ActiveSetpoints | None = None
-        self.status = StatusReporter(self, ctx.mode)
-        self.pub = self.create_publisher(RigCommand, topics.COMMAND, topics.RELIABLE)
-        self.sp_pub = self.create_publisher(Setpoints, topics.SETPOINTS, topics.LATCHED)
         self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
                                  topics.RELIABLE)
 
@@ -90,15 +73,13 @@ class BaselineNode(RigNode):
         stamp = to_ns(msg.header.stamp)
         if not self.gate.admit(stamp):
             return
-        sp = setpoints_at(self.ctx.scenario, self.gate.scenario_time_s(stamp), self.start)
         position, bhp = float(msg.block_position_m), float(msg.bhp_pa)
+        self.follow_schedule(stamp)
+        self.publish_events(self.book.resolve_bhp(bhp), stamp)
+        sp = self.book.active
         if self.block_ref is None:
             self.block_ref = position if math.isfinite(position) else 0.0
-        if self.bhp_ref is None and math.isfinite(bhp):
-            self.bhp_ref = bhp
-        bhp_ref = sp.bhp_ref_pa if math.isfinite(sp.bhp_ref_pa) else self.bhp_ref
-        if bhp_ref is not None:
-            self._publish_setpoints(dataclasses.replace(sp, bhp_ref_pa=bhp_ref), stamp)
+        bhp_ref = sp.bhp_ref_pa if self.book.bhp_resolved else None
         if not sp.controller_enabled:
             if math.isfinite(position):
                 self.block_ref = position                       # manual: hold the string
@@ -111,23 +92,15 @@ class BaselineNode(RigNode):
             else:
                 self.status.error(f"measurement at {stamp * 1e-9:.3f} s without a finite BHP: "
                                   "choke reference held")
-        cmd = RigCommand(block_position_ref_m=float(self.block_ref),
-                         choke_flow_ref_m3s=float(self.choke_ref), bpp_flow_m3s=self.bpp_m3s,
-                         spp_pa=self.spp_pa, mud_pump_on=bool(sp.mud_pump_on), choke_manual=False,
-                         source="baseline")
-        cmd.header.stamp = from_ns(stamp)
-        self.pub.publish(cmd)
+        self.publish_command(RigCommand(
+            block_position_ref_m=float(self.block_ref), choke_flow_ref_m3s=float(self.choke_ref),
+            bpp_flow_m3s=self.bpp_m3s, spp_pa=self.spp_pa, mud_pump_on=bool(sp.mud_pump_on),
+            choke_manual=False, source="baseline"), stamp)
         self.status.mode = f"{self.ctx.mode}/{'baseline' if sp.controller_enabled else 'manual'}"
         self.status.values = {"block_ref_m": float(self.block_ref),
                               "choke_flow_ref_m3s": float(self.choke_ref),
                               "bhp_ref_pa": float(bhp_ref) if bhp_ref is not None else math.nan}
         self.status.tick(stamp)
-
-    def _publish_setpoints(self, sp: ActiveSetpoints, stamp_ns: int) -> None:
-        """The setpoints in force on the latched /setpoints topic, whenever they change."""
-        if sp != self.published:
-            self.sp_pub.publish(to_msg(sp, stamp_ns, "scenario"))
-            self.published = sp
 
 
 def main(args=None) -> None:

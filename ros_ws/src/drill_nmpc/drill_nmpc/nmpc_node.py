@@ -5,17 +5,17 @@
 
 Subscribes /estimator/estimate (never /rig/truth) and the frames of the drawworks, the
 back-pressure pump and the mud pump (/actuators/<name>/frame: block position, bpp flow,
-stand-pipe pressure, the initial states of the actuator lags in the prediction model;
-parameter ``use_actuator_frames``). On the estimate stamped t_k with t_k a multiple of the
+stand-pipe pressure, the initial states of the actuator lags in the prediction model).
+On the estimate stamped t_k with t_k a multiple of the
 sample time t_s (fast mode: once the frames stamped t_k - t_m are in as well; realtime:
 the first estimate of each new sample period, with the latest frames) it solves the OCP and publishes drill_msgs/RigCommand stamped t_k (acts
 from t_k) and drill_msgs/NmpcStatus. Every due estimate is answered with a command, also
 when the solve fails (the last input is held) or the estimate is unusable, so the fast-mode
 lockstep never stalls.
 
-Setpoints: the scenario schedule is applied by time (each entry once, when its time is
-reached, over the setpoints in force); operator requests come through the validating
-service /set_setpoints. Refusals say why and change nothing; every accepted or refused
+Setpoints (drill_nmpc.setpoint_book, as every advisor keeps them): the scenario schedule
+is applied by time (each entry once, when its time is reached, over the setpoints in
+force); operator requests come through the validating service /set_setpoints. Refusals say why and change nothing; every accepted or refused
 request (and every schedule change) goes out as drill_msgs/OperatorEvent on
 /operator/events, and the setpoints in force are published latched on /setpoints whenever
 they change. ``controller_enabled: false`` hands back to a safe manual state: the block
@@ -31,43 +31,27 @@ rate limit then clamped the first commands.)
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import sys
 
 import numpy as np
-from drill_msgs.msg import ActuatorFrame, NmpcStatus, OperatorEvent, RigCommand, Setpoints, StateEstimate
+from drill_msgs.msg import ActuatorFrame, NmpcStatus, RigCommand, StateEstimate
 from drill_msgs.srv import SetSetpoints
 
 from drill_core.estimation_model import build_estimation_model
 from drill_core.ros import topics
-from drill_core.ros.context import load_context
-from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
-from drill_core.ros.sampling import SampleGate
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
-from drill_core.ros.status import StatusReporter
-from drill_core.scenario import ActiveSetpoints
+from drill_nmpc.advisor_node import AdvisorNode
 from drill_nmpc.inputs import choke_command, choke_input
+from drill_nmpc.setpoint_messages import merge_request, to_msg
 from drill_nmpc.soft_constraints import SLACK_NAMES
 from drill_nmpc.supervisor import SolveResult, Supervisor
-from drill_nmpc.setpoint_messages import initial_setpoints, merge_request, to_msg
-from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
 
-def describe(sp: ActiveSetpoints) -> str:
-    return (f"BHP {sp.bhp_ref_pa / 1e5:.2f} +- {sp.bhp_band_pa / 1e5:.2f} bar, choke dp "
-            f"{sp.choke_dp_ref_pa / 1e5:.2f} +- {sp.choke_dp_band_pa / 1e5:.2f} bar, block target "
-            f"{sp.block_position_target_m:g} m, trip speed <= {sp.trip_speed_limit_mps:g} m/s, "
-            f"controller {'on' if sp.controller_enabled else 'off (manual)'}, mud pump "
-            f"{'on' if sp.mud_pump_on else 'off'}")
-
-
-class NmpcNode(RigNode):
+class NmpcNode(AdvisorNode):
     def __init__(self):
-        super().__init__("nmpc")
-        ctx = load_context(self)
-        self.ctx = ctx
-        self.exit_code = 0
+        super().__init__("nmpc", status_topic=topics.NMPC_NODE_STATUS)
+        ctx = self.ctx
         cfg = ctx.config
         self.em = build_estimation_model(cfg, with_disturbance=cfg.nmpc.configuration == "NMPC2")
         # Build (and, with jit, compile) the solver before any subscription exists, so the
@@ -75,8 +59,6 @@ class NmpcNode(RigNode):
         self.supervisor = Supervisor(cfg, self.em)
         self.pressure_control = cfg.nmpc.choke_control == "pressure"
         self.operating_choke_flow_m3s = math.nan   # the initial operating point's [m^3/s]
-        self.envelope = Envelope.from_config(cfg, self.em.wm.geometry)
-        self.gate = SampleGate(seconds_to_ns(cfg.nmpc.sample_time_s), ctx.fast)
         self.frame_ns = seconds_to_ns(cfg.plant.sensor_period_s)
         # The actuators' outputs (block position, bpp flow, stand-pipe pressure) are the
         # initial states of the modelled actuator lags; in fast mode the frames stamped
@@ -87,92 +69,32 @@ class NmpcNode(RigNode):
         self.frame_keys = {name: key for name, (key, index) in wanted.items() if index is not None}
         self.frames: dict[str, dict[int, dict]] = {name: {} for name in self.frame_keys}
         self.pending: StateEstimate | None = None
-        self.status = StatusReporter(self, ctx.mode, topic=topics.NMPC_NODE_STATUS)
-        self.start = initial_setpoints(ctx)
-        self.active = self.start
-        self.applied_entries = 0
-        self.bhp_resolved = False
         self.u_prev: np.ndarray | None = None
         self.last_estimate_ns: int | None = None
         self.commands = 0
 
-        self.cmd_pub = self.create_publisher(RigCommand, topics.COMMAND, topics.RELIABLE)
         self.status_pub = self.create_publisher(NmpcStatus, topics.NMPC_STATUS, topics.RELIABLE)
-        self.sp_pub = self.create_publisher(Setpoints, topics.SETPOINTS, topics.LATCHED)
-        self.event_pub = self.create_publisher(OperatorEvent, topics.OPERATOR_EVENTS, topics.RELIABLE)
         self.create_service(SetSetpoints, topics.SET_SETPOINTS, self._on_set_setpoints)
         for name in wanted:      # all three, as drill_core.ros.graph declares; unmodelled ones unused
             self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
                                      lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
         self.create_subscription(StateEstimate, topics.ESTIMATE, self._on_estimate, topics.RELIABLE)
-        self._publish_setpoints(0, "scenario")
         self.get_logger().info(f"nmpc ready: {self.supervisor.configuration}, solver "
                                f"{self.supervisor.problem.solver_name}, mode {ctx.mode}")
 
     # ------------------------------------------------------------------ setpoints
-    def _event(self, stamp_ns: int, kind: str, text: str, accepted: bool) -> None:
-        msg = OperatorEvent(kind=kind, text=text, accepted=accepted)
-        msg.header.stamp = from_ns(stamp_ns)
-        self.event_pub.publish(msg)
-
-    def _publish_setpoints(self, stamp_ns: int, source: str) -> None:
-        self.sp_pub.publish(to_msg(self.active, stamp_ns, source))
-
-    def _apply_schedule(self, t_ns: int) -> None:
-        """Apply every schedule entry that has become due, in order, over the setpoints in force."""
-        schedule = self.ctx.scenario.schedule
-        t = self.gate.scenario_time_s(t_ns)
-        changed = False
-        while self.applied_entries < len(schedule) and schedule[self.applied_entries].time_s <= t + 1e-9:
-            entry = schedule[self.applied_entries]
-            self.applied_entries += 1
-            updates = entry.changes([f.name for f in dataclasses.fields(ActiveSetpoints)])
-            candidate = dataclasses.replace(self.active, **updates)
-            if math.isfinite(candidate.bhp_ref_pa):
-                ok, reason = validate_setpoints(candidate, self.envelope)
-                if not ok:
-                    self._event(t_ns, "refusal", f"scenario entry at {entry.time_s:g} s refused: {reason}",
-                                False)
-                    self.status.error(f"scenario setpoints refused: {reason}")
-                    continue
-            self.active = candidate
-            changed = True
-        if changed:
-            if self.bhp_resolved:
-                self._event(t_ns, "setpoint", f"scenario: {describe(self.active)}", True)
-                self._publish_setpoints(t_ns, "scenario")
-
-    def _resolve_bhp(self, x, t_ns: int) -> None:
-        """A NaN BHP target means: the BHP of the first estimate."""
-        if not self.bhp_resolved:
-            if not math.isfinite(self.active.bhp_ref_pa):
-                bhp = float(x[self.em.pressure(self.em.n)])
-                self.active = dataclasses.replace(self.active, bhp_ref_pa=bhp)
-            self.bhp_resolved = True
-            self._event(t_ns, "setpoint", f"scenario: {describe(self.active)}", True)
-            self._publish_setpoints(t_ns, "scenario")
-
     def _on_set_setpoints(self, request, response):
         if self.last_estimate_ns is not None:      # rig time: the node needs no /clock
             now_ns = self.last_estimate_ns
         else:
             now_ns = 0 if self.ctx.fast else self.get_clock().now().nanoseconds
         source = request.setpoints.source or "operator"
-        candidate = merge_request(self.active, request.setpoints)
-        if not math.isfinite(candidate.bhp_ref_pa):
-            ok, reason = False, "bhp_ref_pa is not set yet (no estimate received): give a value"
-        else:
-            ok, reason = validate_setpoints(candidate, self.envelope)
-        if ok:
-            self.active = candidate
-            self.bhp_resolved = True
-            self._publish_setpoints(now_ns, source)
-            self._event(now_ns, "setpoint", f"{source}: {describe(candidate)}", True)
-        else:
-            self._event(now_ns, "refusal", f"{source}: refused: {reason}", False)
+        ok, reason, event = self.book.request(merge_request(self.book.active, request.setpoints),
+                                              source)
+        self.publish_events([event], now_ns, source)
         response.accepted = ok
         response.reason = reason
-        response.active = to_msg(self.active, now_ns, "active")
+        response.active = to_msg(self.book.active, now_ns, "active")
         return response
 
     # ------------------------------------------------------------------ estimates
@@ -255,7 +177,7 @@ class NmpcNode(RigNode):
 
     def _act(self, msg: StateEstimate, stamp: int, actuators=None) -> None:
         x = self._state(msg)
-        self._apply_schedule(stamp)
+        self.follow_schedule(stamp)
         if x is None:
             self.status.error(f"estimate at {stamp * 1e-9:.3f} s unusable (missing states or "
                               "non-finite values): holding the last command")
@@ -264,11 +186,11 @@ class NmpcNode(RigNode):
                 return              # nothing to hold yet; the actuators keep their safe state
             result = self.supervisor.hold(u, "invalid_estimate")
         else:
-            self._resolve_bhp(x, stamp)
+            self.publish_events(self.book.resolve_bhp(float(x[self.em.pressure(self.em.n)])), stamp)
             if self.u_prev is None:
                 self.u_prev = self._initial_input(x)
-            if self.active.controller_enabled:
-                result = self.supervisor.step(x, self.active, self.u_prev, actuators=actuators)
+            if self.book.active.controller_enabled:
+                result = self.supervisor.step(x, self.book.active, self.u_prev, actuators=actuators)
             else:
                 result = self._manual(x)
         self.u_prev = result.u
@@ -295,12 +217,11 @@ class NmpcNode(RigNode):
         choke = choke_command(self.ctx.config.nmpc, r, self.operating_choke_flow_m3s)
         cmd = RigCommand(block_position_ref_m=float(u[0]), choke_flow_ref_m3s=choke.flow_m3s,
                          bpp_flow_m3s=float(u[2]), spp_pa=float(u[3]),
-                         mud_pump_on=bool(self.active.mud_pump_on), choke_manual=False,
+                         mud_pump_on=bool(self.book.active.mud_pump_on), choke_manual=False,
                          choke_pressure_control=choke.pressure_control,
                          choke_dp_ref_pa=choke.dp_ref_pa,
                          choke_dp_ref_rate_pa_s=choke.dp_ref_rate_pa_s, source="nmpc")
-        cmd.header.stamp = from_ns(stamp)
-        self.cmd_pub.publish(cmd)
+        self.publish_command(cmd, stamp)
         self.commands += 1
 
         st = NmpcStatus()
@@ -328,14 +249,14 @@ class NmpcNode(RigNode):
         st.planned_bpp_flow_m3s = [float(v) for v in plan[:, 2]]
         st.planned_spp_pa = [float(v) for v in plan[:, 3]]
         ref = np.asarray(r.reference, dtype=float)
-        st.bhp_ref_pa = float(ref[1, 2]) if ref.shape[0] > 1 else float(self.active.bhp_ref_pa)
-        st.block_position_ref_m = float(self.active.block_position_target_m)
+        st.bhp_ref_pa = float(ref[1, 2]) if ref.shape[0] > 1 else float(self.book.active.bhp_ref_pa)
+        st.block_position_ref_m = float(self.book.active.block_position_target_m)
         self.status_pub.publish(st)
 
         if r.fallback != "none":
             self.status.error(f"solve at {stamp * 1e-9:.3f} s: fallback {r.fallback} "
                               f"({r.status})")
-        mode = "manual" if not self.active.controller_enabled else self.supervisor.configuration
+        mode = "manual" if not self.book.active.controller_enabled else self.supervisor.configuration
         self.status.mode = f"{self.ctx.mode}/{mode}"
         self.status.values = {"solve_time_s": float(r.solve_time_s),
                               "iterations": float(r.iterations),

@@ -9,13 +9,7 @@ from drill_msgs.msg import Setpoints
 
 from drill_core.ros.stamps import from_ns
 from drill_core.scenario import ActiveSetpoints
-from drill_core.scenario import initial_setpoints as scenario_initial_setpoints
 from drill_nmpc.setpoint_validation import NUMERIC_FIELDS
-
-
-def initial_setpoints(ctx) -> ActiveSetpoints:
-    """What is in force before the schedule's first entry (config defaults, initial point)."""
-    return scenario_initial_setpoints(ctx.config, ctx.scenario)
 
 
 def merge_request(active: ActiveSetpoints, msg: Setpoints) -> ActiveSetpoints:

@@ -1,0 +1,91 @@
+"""The setpoints in force for an advisor (the NMPC, automated MPD, the PI baseline): one
+book, plain Python.
+
+The scenario's schedule applies by time, each entry once, over the setpoints in force;
+an operator request (the /set_setpoints service) merges over them the same way. Both are
+validated against the envelope (setpoint_validation) once the BHP target is known; a
+refusal changes nothing and says why. A NaN BHP target means "the BHP of the first
+estimate" and is resolved by the first finite one. Every change and refusal comes back
+as an ``Event`` for the node to publish (drill_msgs/OperatorEvent), and ``changed`` tells
+it to re-publish the latched /setpoints.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from drill_core.scenario import SETPOINT_FIELDS, ActiveSetpoints, Scenario
+from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
+
+
+@dataclass(frozen=True)
+class Event:
+    kind: str          # "setpoint" (accepted) or "refusal"
+    text: str
+    accepted: bool
+
+
+def describe(sp: ActiveSetpoints) -> str:
+    """The setpoints as an operator reads them (bar, m, m/s)."""
+    return (f"BHP {sp.bhp_ref_pa / 1e5:.2f} +- {sp.bhp_band_pa / 1e5:.2f} bar, choke dp "
+            f"{sp.choke_dp_ref_pa / 1e5:.2f} +- {sp.choke_dp_band_pa / 1e5:.2f} bar, block target "
+            f"{sp.block_position_target_m:g} m, trip speed <= {sp.trip_speed_limit_mps:g} m/s, "
+            f"controller {'on' if sp.controller_enabled else 'off (manual)'}, mud pump "
+            f"{'on' if sp.mud_pump_on else 'off'}")
+
+
+class SetpointBook:
+    def __init__(self, scenario: Scenario, start: ActiveSetpoints, envelope: Envelope):
+        self.scenario = scenario
+        self.envelope = envelope
+        self.active = start
+        self.bhp_resolved = False          # the BHP target is known (given, or estimated)
+        self.changed = False               # since the node last published the setpoints
+        self._next_entry = 0
+
+    def advance(self, t_s: float) -> list[Event]:
+        """Apply every schedule entry due by scenario time ``t_s``, in order."""
+        events = []
+        applied = False
+        schedule = self.scenario.schedule
+        while self._next_entry < len(schedule) and schedule[self._next_entry].time_s <= t_s + 1e-9:
+            entry = schedule[self._next_entry]
+            self._next_entry += 1
+            candidate = dataclasses.replace(self.active, **entry.changes(SETPOINT_FIELDS))
+            if math.isfinite(candidate.bhp_ref_pa):
+                ok, reason = validate_setpoints(candidate, self.envelope)
+                if not ok:
+                    events.append(Event("refusal", f"scenario entry at {entry.time_s:g} s "
+                                                   f"refused: {reason}", False))
+                    continue
+            self.active = candidate
+            applied = True
+        if applied and self.bhp_resolved:
+            events.append(Event("setpoint", f"scenario: {describe(self.active)}", True))
+            self.changed = True
+        return events
+
+    def resolve_bhp(self, bhp_pa: float) -> list[Event]:
+        """A NaN BHP target becomes ``bhp_pa`` (the first finite estimate's); the first
+        call with a finite value announces the setpoints in force."""
+        if self.bhp_resolved or not math.isfinite(bhp_pa):
+            return []
+        if not math.isfinite(self.active.bhp_ref_pa):
+            self.active = dataclasses.replace(self.active, bhp_ref_pa=float(bhp_pa))
+        self.bhp_resolved = True
+        self.changed = True
+        return [Event("setpoint", f"scenario: {describe(self.active)}", True)]
+
+    def request(self, candidate: ActiveSetpoints, source: str) -> tuple[bool, str, Event]:
+        """An operator request, already merged over the setpoints in force."""
+        if not math.isfinite(candidate.bhp_ref_pa):
+            ok, reason = False, "bhp_ref_pa is not set yet (no estimate received): give a value"
+        else:
+            ok, reason = validate_setpoints(candidate, self.envelope)
+        if not ok:
+            return False, reason, Event("refusal", f"{source}: refused: {reason}", False)
+        self.active = candidate
+        self.bhp_resolved = True
+        self.changed = True
+        return True, reason, Event("setpoint", f"{source}: {describe(candidate)}", True)
