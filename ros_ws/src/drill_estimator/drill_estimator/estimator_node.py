@@ -155,10 +155,13 @@ class EstimatorNode(RigNode):
         except ValueError as err:          # non-finite input slipped through: skip the frame
             self.status.error(f"time update skipped: {err}")
         result = ukf.update(y, circulating)
-        if result.accepted:
-            self.choke_dp_pa = float(y[1])
-        else:
+        if result.accepted and np.isfinite(y[1]):
+            self.choke_dp_pa = float(y[1])       # the virtual flow meter's dp
+        if not result.accepted:
             self.status.error(f"measurement at {stamp} ns rejected: {y.tolist()}")
+        elif result.dropped:
+            self.status.error(f"measurement at {stamp} ns: {', '.join(result.dropped)} not finite, "
+                              "left out of the update")
         self.previous_ns = stamp
         self.frame_ms = (time.perf_counter() - started) * 1e3
         self._publish(msg, result)
@@ -225,7 +228,7 @@ class EstimatorNode(RigNode):
         msg.choke_dp_pa = ukf.choke_dp_pa
         msg.string_velocity_mps = ukf.string_velocity_mps
         msg.bottom_influx_m3s = ukf.bottom_influx_m3s
-        msg.rejected_measurements = int(ukf.rejected)
+        msg.rejected_measurements = int(ukf.rejected + ukf.rejected_channels)   # samples and channels
         msg.covariance_inflations = int(ukf.inflations)
         self.pub.publish(msg)
 
@@ -235,7 +238,7 @@ class EstimatorNode(RigNode):
             "nis_dof": float(msg.nis_dof),
             "nis_window_per_dof": float(np.nan_to_num(result.window_nis_per_dof))
             if result is not None else 0.0,
-            "rejected": float(ukf.rejected),
+            "rejected": float(ukf.rejected), "rejected_channels": float(ukf.rejected_channels),
             "inflations": float(ukf.inflations),
             "repairs": float(ukf.repairs),
             "resets": float(ukf.resets),

@@ -44,8 +44,9 @@ specialised as follows.
   drifting apart along the unobservable direction. The mean is projected onto
   [0, theta_max] (a quadratic law cannot hold a gelled, static pressure difference, so
   with no flow theta would otherwise grow without bound).
-* **Guards.** A measurement with a NaN/inf value is rejected (counted, no update, the
-  prediction is kept). The normalised innovation squared (NIS) is summed over a window
+* **Guards.** A channel with a NaN/inf value is left out of the update and counted
+  (``rejected_channels``); the other channels are fused as usual. A sample with no finite
+  channel is rejected (counted in ``rejected``, no update, the prediction is kept). The normalised innovation squared (NIS) is summed over a window
   of ``nis_window`` accepted updates; when the sum exceeds the chi-square quantile
   ``nis_alarm_probability`` of its degrees of freedom the filter is judged overconfident
   and P is multiplied by ``covariance_inflation`` (counted in ``inflations``; the window
@@ -91,6 +92,7 @@ class UpdateResult:
     string_flow_observable: bool      # False while circulation is off
     nis_alarm: bool = False           # the windowed NIS exceeded its chi-square bound
     window_nis_per_dof: float = float("nan")  # mean NIS per channel over the current window
+    dropped: tuple = ()               # channels left out of this update (NaN/inf values)
 
 
 def use_bottom_influx(config: RigConfig) -> bool:
@@ -226,7 +228,8 @@ class RigUkf:
         self.initialised = False
         self.string_flow_observable = True
         # counters
-        self.rejected = 0          # measurement samples rejected (NaN/inf)
+        self.rejected = 0          # measurement samples rejected (no finite channel)
+        self.rejected_channels = 0  # channels left out of an update (NaN/inf)
         self.inflations = 0        # covariance inflations after an NIS alarm
         self.repairs = 0           # covariance square roots that needed jitter/eigenvalue clipping
         self.resets = 0            # non-finite mean/covariance reset to the last good mean and P0
@@ -334,30 +337,37 @@ class RigUkf:
             values = list(np.asarray(y, dtype=float).ravel()[:m])
         z = np.asarray(values + [np.nan] * (m - len(values)), dtype=float)
         self.string_flow_observable = bool(circulating)
-        if not np.all(np.isfinite(z)):
+        good = np.isfinite(z)
+        if not good.any():
             self.rejected += 1
-            return UpdateResult(False, names, np.full(m, np.nan), float("nan"), m, bool(circulating))
+            return UpdateResult(False, names, np.full(m, np.nan), float("nan"), m, bool(circulating),
+                                dropped=names)
+        dropped = tuple(n for n, ok in zip(names, good) if not ok)
+        self.rejected_channels += len(dropped)
+        names = tuple(n for n, ok in zip(names, good) if ok)
+        z = z[good]
 
         ukf = self._ukf
         self._condition()
         ukf.sigmas_f = ukf.points_fn.sigma_points(ukf.x, ukf.P)   # sigma points of the prior
         self._absorb_repair()
-        idx, offset, yscale = self._y_index[:m], self._y_offset[:m], self._y_scale[:m]
+        idx, offset, yscale = (a[:m][good] for a in (self._y_index, self._y_offset, self._y_scale))
         gain = self.scale[idx] / yscale
         prior = ukf.x.copy(), ukf.P.copy()
-        ukf.update((z - offset) / yscale, R=self._R[:m, :m],
+        channels = np.flatnonzero(good)
+        ukf.update((z - offset) / yscale, R=self._R[np.ix_(channels, channels)],
                    hx=lambda s: s[idx] * gain - offset / yscale)
         innovation_scaled = np.asarray(ukf.y, dtype=float)
         nis = float(innovation_scaled @ ukf.SI @ innovation_scaled)
         if not (np.isfinite(nis) and np.all(np.isfinite(ukf.x)) and np.all(np.isfinite(ukf.P))):
             ukf.x, ukf.P = prior                 # numerically failed update: keep the prediction
             self.resets += 1
-            return UpdateResult(False, names, innovation_scaled * yscale, float("nan"), m,
-                                bool(circulating))
+            return UpdateResult(False, names, innovation_scaled * yscale, float("nan"), len(names),
+                                bool(circulating), dropped=dropped)
         self.updates += 1
 
         alarm = False
-        self._window.append((nis, m))
+        self._window.append((nis, len(names)))
         total = sum(v for v, _ in self._window)
         dof = sum(d for _, d in self._window)
         window_mean = total / dof
@@ -367,8 +377,8 @@ class RigUkf:
             self.inflations += 1
             self._window.clear()
         self._project()
-        return UpdateResult(True, names, innovation_scaled * yscale, nis, m, bool(circulating),
-                            alarm, window_mean)
+        return UpdateResult(True, names, innovation_scaled * yscale, nis, len(names),
+                            bool(circulating), alarm, window_mean, dropped)
 
     # -------------------------------------------------------------- accessors
     @property
@@ -418,7 +428,8 @@ class RigUkf:
 
     @property
     def counters(self) -> dict[str, int]:
-        return {"rejected": self.rejected, "inflations": self.inflations, "repairs": self.repairs,
+        return {"rejected": self.rejected, "rejected_channels": self.rejected_channels,
+                "inflations": self.inflations, "repairs": self.repairs,
                 "resets": self.resets, "skipped_predictions": self.skipped_predictions,
                 "predictions": self.predictions, "updates": self.updates}
 

@@ -193,7 +193,8 @@ def test_estimator_node_lockstep_and_rejection(estimator_process, monkeypatch):
         assert list(second.measurement_names)[-1] == "string_flow_m3s"
         assert abs(second.bhp_pa - y[2]) < 2.0e5 and second.rejected_measurements == 0
 
-        # frames first this time, then a NaN BHP: rejected, counted, estimate still finite
+        # frames first this time, then a NaN BHP: that channel left out and counted, the
+        # other three fused, the estimate still finite
         feeder.frames(1, outputs)
         bad = y.copy()
         bad[2] = math.nan
@@ -201,7 +202,8 @@ def test_estimator_node_lockstep_and_rejection(estimator_process, monkeypatch):
         assert feeder.spin_until(lambda: len(feeder.estimates) == 3, 20.0, estimator_process)
         third = feeder.estimates[2]
         assert _stamps(feeder.estimates)[-1] == 2 * FRAME_NS
-        assert third.rejected_measurements == 1 and third.nis_dof == 0
+        assert third.rejected_measurements == 1 and third.nis_dof == 3
+        assert "bhp_pa" not in list(third.measurement_names)
         assert _finite(third)
 
         # pump off: the string-flow row is dropped and reported unobservable

@@ -211,19 +211,28 @@ def test_circulation_off_run_in_stays_bounded(cfg, plant):
     assert abs(a["mean"][-1, 0] - (-28.0)) < 0.3
 
 
-def test_nan_measurement_rejected_and_counted(cfg, plant):
+def test_a_non_finite_channel_is_left_out_and_the_others_fused(cfg, plant):
     run = simulate(cfg, plant, 2.0, CIRCULATION, 2.0e6, _rest, seed=3, nan_frames=(5, 6, 12))
     a = run.arrays()
-    assert run.ukf.rejected == 3
+    assert run.ukf.rejected_channels == 3 and run.ukf.rejected == 0
     assert np.all(np.isfinite(a["mean"])) and np.all(np.isfinite(a["var"]))
-    assert np.isnan(a["nis"][5]) and np.isfinite(a["nis"][4])
-    # a rejected sample leaves the prediction untouched
+    assert np.isfinite(a["nis"][5]) and np.isfinite(a["nis"][4])
     ukf = run.ukf
     ss = steady_state(ukf.em.wm, CIRCULATION, 2.0e6, 0.0)
-    ukf.predict_frame(_held([ss.inputs[0], ss.choke_flow_m3s, 0.0, ss.inputs[3]], cfg))
+    inputs = _held([ss.inputs[0], ss.choke_flow_m3s, 0.0, ss.inputs[3]], cfg)
+    # one bad channel: the three good ones still correct the prediction
+    ukf.predict_frame(inputs)
+    before = ukf.mean.copy()
+    result = ukf.update([0.0, np.inf, ukf.bhp_pa + 5.0e5, CIRCULATION], True)
+    assert result.accepted and result.dropped == ("choke_dp_pa",) and result.nis_dof == 3
+    assert result.measurement_names == ("block_position_m", "bhp_pa", "string_flow_m3s")
+    assert ukf.bhp_pa > before[ukf.em.pressure(ukf.em.n)]          # pulled toward the 5 bar step
+    assert ukf.rejected_channels == 4
+    # no finite channel: rejected, the prediction untouched
+    ukf.predict_frame(inputs)
     before, var_before = ukf.mean.copy(), ukf.covariance_diagonal.copy()
-    result = ukf.update([0.0, np.inf, 6.8e7, CIRCULATION], True)
-    assert not result.accepted and ukf.rejected == 4
+    result = ukf.update([np.nan, np.inf, np.nan, np.nan], True)
+    assert not result.accepted and ukf.rejected == 1
     np.testing.assert_array_equal(ukf.mean, before)
     np.testing.assert_array_equal(ukf.covariance_diagonal, var_before)
     # a missing string flow is fine while not circulating, and a dict works too

@@ -77,6 +77,9 @@ class ProcessProtection:
         the measured string velocity, then the model predicts BHP at each candidate speed.
         """
         p = self.config.protection
+        if not (np.isfinite(bhp_pa) and np.isfinite(string_velocity_mps)):
+            held = (0.0, "no finite BHP or string-speed measurement: trip held")
+            return held, held
         machine = min(p.trip_speed_max_mps, self.config.actuators.drawworks.rate_limit_per_s)
         cap, cap_reason = (operator_limit_mps, "operator trip-speed limit") \
             if operator_limit_mps < machine else (machine, "drawworks machine limit")

@@ -77,6 +77,15 @@ def test_model_derived_swab_limit_keeps_bhp_in_window(setup):
     assert d.trip_speed_limits_mps[0] == pytest.approx(0.5)
 
 
+def test_a_non_finite_bhp_holds_the_trip_and_says_why(setup):
+    p = fresh(setup)
+    d = p.apply([28.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, float("nan"), CIRCULATION, 0.5)
+    assert d.trip_speed_limits_mps == (0.0, 0.0)
+    assert d.command[0] == pytest.approx(0.0)                   # the block reference stays put
+    assert any("no finite BHP" in c for c in d.clamps)
+    assert not any("model" in c for c in d.clamps)              # not blamed on the surge model
+
+
 def test_emergency_stop_holds_block_and_pressures(setup):
     p = fresh(setup)
     for _ in range(5):
