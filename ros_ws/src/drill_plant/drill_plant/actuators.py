@@ -76,6 +76,7 @@ class Drawworks:
         self.static_stretch_m = static_stretch_m
         self.lag = FirstOrderLag(config.drawworks, initial_block_m)
         self.integral_m_s = 0.0
+        self.command_m = self.lag.value
 
     def safe_reference(self, measured_position_m: float) -> float:
         """Hold the string where it is."""
@@ -83,13 +84,16 @@ class Drawworks:
 
     def frame(self, reference_m: float, measured_position_m: float, step_s: float,
               steps: int) -> FrameOutput:
-        command = block_command(reference_m, measured_position_m, self.integral_m_s,
-                                self.static_stretch_m, self.config.block_kp,
-                                self.config.block_ki_per_s)
-        limited = self.lag.limit(command)
-        if limited == command:     # anti-windup: integrate only while unsaturated
-            self.integral_m_s += integral_rate(reference_m, measured_position_m) * step_s * steps
-        return FrameOutput(limited, reference_m, self.lag.advance(limited, step_s, steps))
+        """One frame; a non-finite reference or position holds the last command (the
+        controller's integral untouched, so one bad sample does not poison it)."""
+        if math.isfinite(reference_m) and math.isfinite(measured_position_m):
+            command = block_command(reference_m, measured_position_m, self.integral_m_s,
+                                    self.static_stretch_m, self.config.block_kp,
+                                    self.config.block_ki_per_s)
+            self.command_m = self.lag.limit(command)
+            if self.command_m == command:     # anti-windup: integrate only while unsaturated
+                self.integral_m_s += integral_rate(reference_m, measured_position_m) * step_s * steps
+        return FrameOutput(self.command_m, reference_m, self.lag.advance(self.command_m, step_s, steps))
 
 
 class Choke:
@@ -126,6 +130,10 @@ class Choke:
             return FrameOutput(self.opening_command, math.nan,
                                self.lag.advance(self.opening_command, step_s, steps))
         c = self.config
+        if not (math.isfinite(flow_ref_m3s) and math.isfinite(measured_dp_pa)):
+            # a bad sample holds the opening; the PI's memory stays clean
+            return FrameOutput(self.opening_command, flow_ref_m3s,
+                               self.lag.advance(self.opening_command, step_s, steps))
         flow = float(hy.choke_flow(self.wm, self.lag.value, measured_dp_pa))
         error = (flow_ref_m3s - flow) / c.choke_flow_scale_m3s
         previous = error if self.previous_error is None else self.previous_error

@@ -59,3 +59,26 @@ def test_back_to_automatic_is_bumpless(setup):
     out = choke.frame(flow + actuators.choke_flow_scale_m3s, DP_PA, STEP_S, STEPS)
     assert out.command == pytest.approx(0.5 + step)
     assert np.isfinite(out.reference)
+
+
+def test_one_nan_sample_holds_the_choke_and_does_not_poison_its_controller(setup):
+    config, wm = setup
+    clean, hit = Choke(config, wm, 0.4), Choke(config, wm, 0.4)
+    flow_ref = float(hy.choke_flow(wm, 0.45, DP_PA))
+    for k in range(30):
+        a = clean.frame(flow_ref, DP_PA, STEP_S, STEPS)
+        b = hit.frame(flow_ref, math.nan if k == 10 else DP_PA, STEP_S, STEPS)
+        assert np.all(np.isfinite(b.output))
+        if k == 10:
+            assert b.command == hit.opening_command            # held through the bad sample
+    assert math.isfinite(hit.opening_command)
+    assert abs(hit.opening_command - clean.opening_command) < 0.05   # and back on track
+
+
+def test_one_nan_position_holds_the_drawworks_and_keeps_its_integral_finite():
+    from drill_plant.actuators import Drawworks
+    config = load_rig(CONFIG_DIR).actuators
+    dw = Drawworks(config, 1.7, 1.7)
+    for k in range(20):
+        out = dw.frame(5.0, math.nan if k == 3 else 0.1 * k, STEP_S, STEPS)
+        assert np.all(np.isfinite(out.output)) and math.isfinite(dw.integral_m_s)
