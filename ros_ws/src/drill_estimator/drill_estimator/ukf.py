@@ -127,7 +127,12 @@ class _SigmaPoints(MerweScaledSigmaPoints):
 
 
 class _BatchUkf(UnscentedKalmanFilter):
-    """filterpy UKF for the measurement update; the time update is RigUkf.predict_frame."""
+    """filterpy's UKF with its extension points filled: the process sigma points go through
+    the model in one batch call (``fx`` takes all points), the cross covariance is one
+    matrix product."""
+
+    def compute_process_sigmas(self, dt, fx=None, **fx_args):
+        self.sigmas_f = fx(self.points_fn.sigma_points(self.x, self.P), **fx_args)
 
     def cross_variance(self, x, z, sigmas_f, sigmas_h):
         return ((sigmas_f - x) * self.Wc[:, None]).T @ (sigmas_h - z)
@@ -309,16 +314,22 @@ class RigUkf:
         self._condition()
         self._set_process_noise()
         q_interval = plant_steps * ukf.Q
-        sigmas = ukf.points_fn.sigma_points(ukf.x, ukf.P)
-        ukf.sigmas_f = np.asarray(self._transition_for(model_steps)(sigmas.T, model_inputs)).T
-        self._absorb_repair()
-        if not np.all(np.isfinite(ukf.sigmas_f)):
-            # a sigma point left the model's domain: keep the mean, grow P, count it
-            self.skipped_predictions += 1
-            ukf.P = ukf.P + q_interval
-        else:
-            ukf.x, ukf.P = unscented_transform(ukf.sigmas_f, ukf.Wm, ukf.Wc, q_interval)
-        ukf.x_prior, ukf.P_prior = ukf.x.copy(), ukf.P.copy()
+        transition = self._transition_for(model_steps)
+
+        def fx(sigmas):
+            propagated = np.asarray(transition(sigmas.T, model_inputs)).T
+            self._absorb_repair()            # the sigma draw may have repaired P
+            return propagated
+
+        def transform(sigmas, wm, wc, _q, mean_fn, residual_fn):
+            if not np.all(np.isfinite(sigmas)):
+                # a sigma point left the model's domain: keep the mean, grow P, count it
+                self.skipped_predictions += 1
+                return ukf.x, ukf.P + q_interval
+            return unscented_transform(sigmas, wm, wc, q_interval, mean_fn, residual_fn)
+
+        ukf.predict(UT=transform, fx=fx)
+        self._repaired = None   # filterpy redraws the prior's points; the update draws its own
         self._project()
         self.predictions += 1
 
