@@ -368,6 +368,7 @@ def test_bad_scenario_override_names_the_file(cfg):
 def test_pressure_controlled_choke_needs_its_set_point_limits(cfg):
     file = cfg / "nmpc.yaml"
     data = yaml.safe_load(file.read_text())
+    data["choke_control"] = "pressure"
     del data["choke_dp_setpoint"]
     file.write_text(yaml.safe_dump(data), encoding="utf-8")
     assert_names(load_error(cfg), str(file), "choke_dp_setpoint", "choke_control pressure")
@@ -385,8 +386,10 @@ def test_bad_controller_values_name_the_key_and_range(cfg, stem, path, value, wo
     assert_names(load_error(cfg), str(file), *words)
 
 
-def test_shipped_controllers_use_the_pressure_loop(cfg):
+def test_shipped_controllers_choke_inputs(cfg):
+    """The NMPC plans the choke flow (docs/nmpc.md section 9), automated MPD drives the
+    choke's pressure loop."""
     rig = load_rig(cfg)
-    assert rig.nmpc.choke_control == "pressure" and rig.nmpc.block_reference == "profile"
+    assert rig.nmpc.choke_control == "flow" and rig.nmpc.block_reference == "profile"
     assert rig.automated_mpd.acceleration_mps2 <= rig.protection.trip_acceleration_max_mps2
     assert rig.actuators.choke_pressure_kp > 0.0
