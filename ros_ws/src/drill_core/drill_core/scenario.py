@@ -132,11 +132,10 @@ SETPOINT_NUMERIC_FIELDS = tuple(n for n in SETPOINT_FIELDS if n not in SETPOINT_
 def setpoints_at(scenario: Scenario, time_s: float, start: ActiveSetpoints) -> ActiveSetpoints:
     """Setpoints in force at ``time_s``: ``start`` with every due schedule entry applied."""
     current = start
-    names = [f.name for f in dataclasses.fields(ActiveSetpoints)]
     for change in scenario.schedule:
         if change.time_s > time_s + 1e-9:
             break
-        current = dataclasses.replace(current, **change.changes(names))
+        current = dataclasses.replace(current, **change.changes(SETPOINT_FIELDS))
     return current
 
 

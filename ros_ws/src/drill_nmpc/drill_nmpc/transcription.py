@@ -317,28 +317,27 @@ class NmpcProblem:
 
         self.stages = stages
         self.ng = ng
-        self.equality = equality
         self._lbg0 = np.array(lbg, dtype=float)
         self._ubg0 = np.array(ubg, dtype=float)
         z = ca.vertcat(*z_parts)
         g = ca.vertcat(*g_parts)
         self.structure = Structure(N, nx_list, nu_list, ng_list, equality)
-        nlp = {"x": z, "p": P, "f": f, "g": g}
         self.nlp_functions = ca.Function("nlp", [z, P], [f, g])
+        # Gauss-Newton: the cost is quadratic in z (outputs are linear in the states), so its
+        # Hessian is exact and constant; the curvature of the dynamics is left out.
+        hess_f = ca.hessian(f, z)[0] if self.hessian == "gauss-newton" else None
+        if self.solver_name == "rti":
+            self._build_rti(z, P, f, g, hess_f, extra_options)
+            return
+        nlp = {"x": z, "p": P, "f": f, "g": g}
         opts: dict = {}
-        if self.hessian == "gauss-newton":
-            # The cost is quadratic in z (outputs are linear in the states), so its Hessian
-            # is exact and constant; the curvature of the dynamics is left out.
+        if hess_f is not None:
             lam_f = ca.MX.sym("lam_f")
             lam_g = ca.MX.sym("lam_g", g.numel())
-            hess_f = ca.hessian(f, z)[0]
             opts["hess_lag"] = ca.Function("nlp_hess_l", [z, P, lam_f, lam_g],
                                            [ca.triu(lam_f * hess_f) if self.solver_name == "ipopt"
                                             else lam_f * hess_f],
                                            ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])
-        if self.solver_name == "rti":
-            self._build_rti(z, P, f, g, hess_f, extra_options)
-            return
         options = solver_options(self.solver_name, cfg.max_iterations, self.structure,
                                  self.hessian, cfg.expand and not self.jit,  # a compiled step stays MX
                                  {**opts, **extra_options})
