@@ -35,7 +35,7 @@ def _default_config_dir() -> Path:
     return Path(os.environ.get("RIG_ROOT", Path.cwd())) / "config"
 
 
-def _started_filter(config: RigConfig, jit: bool = False) -> tuple[RigUkf, np.ndarray, np.ndarray]:
+def _started_filter(config: RigConfig, jit: bool | None = None) -> tuple[RigUkf, np.ndarray, np.ndarray]:
     ukf = RigUkf(config, jit=jit)
     em, g, w = ukf.em, ukf.em.wm.geometry, ukf.em.wm.well
     rho_g = w.mud.density_kgm3 * w.gravity_mps2
@@ -59,7 +59,7 @@ def _median_ms(fn, repetitions: int) -> float:
     return float(np.median(times) * 1e3)
 
 
-def time_filter(config: RigConfig, repetitions: int = 300, jit: bool = False) -> dict[str, float]:
+def time_filter(config: RigConfig, repetitions: int = 300, jit: bool | None = None) -> dict[str, float]:
     """Median times [ms] of one time update and one measurement update for ``config``."""
     start = time.perf_counter()
     ukf, u, y = _started_filter(config, jit)
@@ -78,10 +78,11 @@ def time_filter(config: RigConfig, repetitions: int = 300, jit: bool = False) ->
 
 
 def run_benchmark(config_dir: str | os.PathLike | None = None, repetitions: int = 300,
-                  jit: bool = False) -> dict:
+                  jit: bool | None = None) -> dict:
     """Timings for n = 4 and n = 8 (flat dict, keys prefixed ``ukf_n4_`` / ``ukf_n8_``).
 
-    ``jit`` compiles the time update (drill_core.compiled: needs a C compiler, about a
+    ``jit`` None follows config/estimator.yaml; True compiles the time update
+    (drill_core.compiled: needs a C compiler, about a
     second once per configuration, cached)."""
     config = load_rig(config_dir or _default_config_dir())
     out: dict[str, float] = {}
