@@ -84,6 +84,8 @@ def figures(s: dict) -> dict:
             "bhp_worst_excursion_pa": s["bhp_worst_excursion_pa"],
             "leg_out_s": legs[0] if len(legs) > 0 else None,
             "leg_in_s": legs[1] if len(legs) > 1 else None,
+            "max_string_speed_mps": s["max_string_speed_mps"],
+            "trip_overshoot_m": s.get("trip_overshoot_m"),
             "bhp_estimate_rmse_pa": s["bhp_estimate_rmse_pa"],
             "fallback_share": s.get("fallbacks", 0) / solves if solves else None,
             "solve_median_s": s.get("solve_time_median_s"),
@@ -133,16 +135,19 @@ def markdown(rows: list[dict], plot_name: str | None) -> str:
         "files and seeds give the same numbers), one run at a time on the 2-core machine. "
         "Errors are truth minus reference; the BHP band is the scenario's +-2 bar control "
         "band (band time *settled*: after the first 30 s); a trip leg is the time from a "
-        "block target being set until the string is within 0.5 m of it. Each cell gives the "
+        "block target being set until the string is within 0.5 m of it, *past target* the "
+        "furthest the string ran beyond a target, *max string speed* against the trip-speed "
+        "limit of 0.5 m/s. Each cell gives the "
         "mean / worst over the seeds of that case. Controllers: `nmpc` the case's NMPC "
         "configuration (docs/nmpc.md), `automated_mpd` a planned trip with a model-based "
         "choke-dp set-point on the choke's pressure loop, `baseline` a fixed-speed block "
         "ramp with a 1 Hz PI choke on the measured BHP.", "",
         "## Trip cases (mean / worst over seeds)", "",
         "| case | controller | BHP RMSE [bar] | outside band [s] | outside, settled [s] | "
-        "worst excursion [bar] | leg out [s] | leg in [s] | BHP estimate RMSE [bar] | "
-        "solve median / p99 / max [ms] | fallbacks | runs missing a target |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+        "worst excursion [bar] | leg out [s] | leg in [s] | max string speed [m/s] | "
+        "past target [m] | BHP estimate RMSE [bar] | solve median / p99 / max [ms] | "
+        "fallbacks | runs missing a target |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for case in TRIP_CASES:
         base = {r["seed"]: figures(r["summary"]) for r in by.get((case, "baseline"), [])}
         for controller in CONTROLLERS:
@@ -165,6 +170,8 @@ def markdown(rows: list[dict], plot_name: str | None) -> str:
                 f"{_stat([f['bhp_time_outside_settled_s'] for f in fs], 1.0, 1)} | "
                 f"{_stat([f['bhp_worst_excursion_pa'] for f in fs], PA_PER_BAR, 2)} | "
                 f"{_legs(group, 'leg_out_s')} | {_legs(group, 'leg_in_s')} | "
+                f"{_stat([f['max_string_speed_mps'] for f in fs], 1.0, 2)} | "
+                f"{_stat([f['trip_overshoot_m'] for f in fs], 1.0, 2)} | "
                 f"{_stat([f['bhp_estimate_rmse_pa'] for f in fs], PA_PER_BAR, 2)} | {solver} | "
                 f"{fallbacks} | {failed} |")
     lines += ["", "Targets per run (issue: the controller that beats conventional MPD): BHP RMSE "

@@ -219,6 +219,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
     a = {k: np.asarray(v, dtype=float) for k, v in log.items()}
     out = tracking_metrics(a["t"], a["bhp"], a["pos"], a["ref"], a["band"], a["target"])
     out["bhp_estimate_rmse_pa"] = float(np.sqrt(np.mean((a["bhp_est"] - a["bhp"]) ** 2)))
+    out["max_string_speed_mps"] = float(np.max(np.abs(a["velocity"])))
     out["trace"] = a
     if nmpc is not None:
         out["solve_time_median_s"] = float(np.median(nmpc.solve_times))

@@ -124,6 +124,19 @@ def trip_legs(t, pos, target, tolerance_m: float = ARRIVAL_TOLERANCE_M) -> list:
     return legs
 
 
+def trip_overshoot_m(pos, target) -> float:
+    """How far the string ran past a block target while that target was in force, at most
+    over the legs (0: it never passed one). A target the string started on is no leg."""
+    starts = [i for i in range(1, len(target)) if target[i] != target[i - 1]]
+    worst = 0.0
+    for k, start in enumerate(starts):
+        end = starts[k + 1] if k + 1 < len(starts) else len(target)
+        direction = np.sign(target[start] - pos[start])
+        passed = direction * (pos[start:end] - target[start])
+        worst = max(worst, float(np.max(passed)))
+    return worst
+
+
 def _tracking(s: Series, t, bhp, pos) -> dict:
     """Table 7 errors and control-band violations against the setpoints in force."""
     ref, band, target = references(s, t)
@@ -150,6 +163,7 @@ def tracking_metrics(t, bhp, pos, ref, band, target) -> dict:
         "bhp_time_outside_s": float(np.count_nonzero(outside) * dt),
         "bhp_time_outside_settled_s": float(np.count_nonzero(outside & settled) * dt),
         "trip_legs": trip_legs(t, pos, target),
+        "trip_overshoot_m": trip_overshoot_m(pos, target),
     }
 
 
@@ -234,7 +248,8 @@ def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
             f"(worst {summary['bhp_worst_excursion_pa'] / PA_PER_BAR:.2f} bar outside, "
             f"{summary['bhp_time_outside_s']:.1f} s outside, "
             f"{summary['bhp_time_outside_settled_s']:.1f} s after the first {SETTLE_S:.0f} s)",
-            f"  trip legs                     {format_legs(summary['trip_legs'])}",
+            f"  trip legs                     {format_legs(summary['trip_legs'])} "
+            f"(past the target by {summary['trip_overshoot_m']:.2f} m at most)",
         ]
     else:
         rows.append("  Table 7 form, BHP window      n/a (open loop: no setpoints to track)")

@@ -10,7 +10,8 @@ def _summary(bhp_rmse_bar, outside_s, legs=(56.0, 57.0), solves=0, fallbacks=0):
          "bhp_window_violations": 3, "bhp_worst_excursion_pa": 0.5e5,
          "bhp_time_outside_s": outside_s, "bhp_time_outside_settled_s": outside_s,
          "peak_surge_pa": 3e5, "peak_swab_pa": -4e5, "max_string_speed_mps": 0.5,
-         "bhp_estimate_rmse_pa": 0.3e5, "trip_legs": [[28.0, legs[0]], [0.0, legs[1]]]}
+         "bhp_estimate_rmse_pa": 0.3e5, "trip_legs": [[28.0, legs[0]], [0.0, legs[1]]],
+         "trip_overshoot_m": 0.1}
     if solves:
         s.update(solve_time_median_s=0.015, solve_time_p99_s=0.025, solve_time_max_s=0.030,
                  solves=solves, fallbacks=fallbacks)
@@ -31,7 +32,7 @@ def test_seeds_are_aggregated_and_targets_checked_per_run():
     text = compare.markdown(rows, None)
     # mean / worst over the seeds, in bar at the display edge
     assert "| case2 | nmpc | 0.60 / 0.80 | 0.0 / 0.0 | 0.0 / 0.0 | 0.50 / 0.50 | " \
-           "58.0 / 60.0 | 1 not reached | 0.30 / 0.30 | 15.0 / 25.0 / 30.0 | 9 |" in text
+           "58.0 / 60.0 | 1 not reached | 0.50 / 0.50 | 0.10 / 0.10 | 0.30 / 0.30 | 15.0 / 25.0 / 30.0 | 9 |" in text
     # the first seed meets every target; the second misses RMSE, a leg, fallbacks (1.5 %)
     # and does not beat that seed's baseline (0.8 vs 0.6 bar)
     assert "seed 1002: bhp_rmse_pa, fallback_share, leg_out_s, leg_in_s, " \
@@ -57,3 +58,16 @@ def test_trip_legs_time_each_target_until_arrival():
     assert report.trip_legs(t, pos, target) == [(28.0, 30.0), (0.0, None)]
     assert report.trip_legs(t, pos, np.zeros_like(t)) == []    # already on target: no leg
 
+
+
+def test_trip_overshoot_is_the_furthest_the_string_ran_past_a_target():
+    t = np.arange(0.0, 100.0, 1.0)
+    target = np.where(t < 10.0, 0.0, np.where(t < 60.0, 28.0, 0.0))
+    pos = np.clip(t - 12.0, 0.0, 28.0)
+    pos[(t >= 40.0) & (t < 60.0)] = 28.9                       # 0.9 m past 28 m on the way out
+    pos[t >= 60.0] = 28.0 - (t[t >= 60.0] - 60.0)              # back to 0 m, 0.3 m past it
+    pos = np.maximum(pos, -0.3)
+    assert abs(report.trip_overshoot_m(pos, target) - 0.9) < 1e-12
+    pos[(t >= 40.0) & (t < 60.0)] = 27.9                       # stopped short of it
+    assert abs(report.trip_overshoot_m(pos, target) - 0.3) < 1e-12
+    assert report.trip_overshoot_m(pos, np.zeros_like(t)) == 0.0   # no leg, nothing passed

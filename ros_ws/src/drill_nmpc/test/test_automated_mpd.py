@@ -33,6 +33,10 @@ def test_profile_is_trapezoidal_within_its_limits_and_stops_on_target():
     arrival = next(k for k, x in enumerate(positions) if x == 28.0)
     # cruise 0.5 m/s with 5 s to speed up and 5 s to brake: 28/0.5 + 5 s, within a sample
     assert abs(arrival - 61) <= 1
+    # within 0.5 m of the target (a trip leg's end in the report): no earlier than a string
+    # at 0.5 m/s from rest at 0.1 m/s^2 could be there, 0.5 / 0.2 + 27.5 / 0.5 = 57.5 s
+    near = next(k for k, x in enumerate(positions) if x >= 27.5)
+    assert near == 58 and near >= 0.5 / (2 * 0.1) + 27.5 / 0.5
 
 
 def test_profile_preview_does_not_move_the_profile():
