@@ -52,13 +52,13 @@ def _mcap(run_dir: Path) -> Path:
 def test_trip_completes_with_bhp_in_pressure_window(two_runs):
     series = report.load_series(_mcap(two_runs[0]))
     summary = report.summarise(series)
-    protection = load_rig(cli.ROOT / "config").protection
+    formation = load_rig(cli.ROOT / "config").well.formation
     t, pos = series.get("position")
     _, bhp = series.get("bhp")
     assert t[-1] == pytest.approx(90.0)
     assert pos[-1] == pytest.approx(8.0, abs=0.5), "the trip did not reach its 8 m target"
-    # the pore/fracture window (config/protection.yaml) holds throughout the trip
-    assert bhp.min() > protection.pore_pressure_pa and bhp.max() < protection.fracture_pressure_pa
+    # the pore/fracture window (config/well.yaml) holds throughout the trip
+    assert bhp.min() > formation.pore_pressure_pa and bhp.max() < formation.fracture_pressure_pa
     assert summary["max_string_speed_mps"] < 0.6
 
 

@@ -1,14 +1,17 @@
 """``scripts/rig``: run scenarios, replay recordings, report on runs.
 
   rig demo                         Case 2 trip in fast mode, with summary and plots
-  rig run SCENARIO [--realtime]    any scenario (name under config/scenarios or a path)
+  rig run SCENARIO [--realtime] [--seed N] [--controller NAME]
+                                   any scenario (name under config/scenarios or a path),
+                                   optionally under another controller than its own
   rig report RUN_DIR               re-make the summary and plots of a run
   rig replay FILE [options]        republish a recording (see rig replay --help)
   rig reestimate RUN_DIR [--config-dir DIR] [--rate R]
                                    re-run the estimator with other tuning on a recorded run
   rig compare [SCENARIO ...] [--seeds N] [--output FILE]
-                                   Cases 1-3 under the NMPC, automated MPD and the PI baseline,
-                                   Case 4 under its NMPC, N seeds each; write the results
+                                   Cases 1-3 and the fault scenarios under the NMPC, automated
+                                   MPD and the PI baseline, Case 4 under its NMPC, N seeds
+                                   each; write the results (the rows of cases not run are kept)
 """
 from __future__ import annotations
 
@@ -19,6 +22,7 @@ from pathlib import Path
 from drill_bringup import launcher, report
 from drill_bringup.runs import ROOT, run_scenario, scenario_path
 from drill_core.config import ConfigError
+from drill_core.ros.graph import CONTROLLERS
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="rig", description=__doc__,
@@ -29,6 +33,8 @@ def main(argv=None) -> int:
     run.add_argument("scenario")
     run.add_argument("--realtime", action="store_true", help="wall-clock pacing")
     run.add_argument("--seed", type=int)
+    run.add_argument("--controller", choices=CONTROLLERS,
+                     help="run the scenario under this controller instead of its own")
     rep = sub.add_parser("report", help="summary and plots of a run directory")
     rep.add_argument("run_dir", type=Path)
     sub.add_parser("replay", help="republish a recording", add_help=False)
@@ -38,7 +44,9 @@ def main(argv=None) -> int:
                        help="configuration with the new estimator tuning")
     rest_.add_argument("--rate", type=float, default=5.0, help="replay rate factor")
     comp = sub.add_parser("compare", help="run Cases 1-4 under every controller; tabulate")
-    comp.add_argument("scenarios", nargs="*", help="default: case1 case2 case3 case4")
+    comp.add_argument("scenarios", nargs="*", help="default: case1..case4 and the fault "
+                                                   "scenarios (kick, losses, pump_trip, "
+                                                   "choke_plug, sensor_faults)")
     comp.add_argument("--seeds", type=int, default=3, choices=(1, 2, 3),
                       help="seeds per case (the scenario's, and +1000, +2000)")
     comp.add_argument("--output", type=Path, default=ROOT / "docs" / "results.md")
@@ -47,7 +55,8 @@ def main(argv=None) -> int:
         if args.command == "demo":
             return run_scenario(scenario_path("case2"))[0]
         if args.command == "run":
-            return run_scenario(scenario_path(args.scenario), args.realtime, seed=args.seed)[0]
+            return run_scenario(scenario_path(args.scenario), args.realtime, seed=args.seed,
+                                controller=args.controller)[0]
         if args.command == "report":
             mcap = next(args.run_dir.glob("*.mcap"))
             _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name)

@@ -18,10 +18,12 @@ import numpy as np
 
 from drill_bringup import report, runs
 from drill_core.scenario import load_scenario
-from drill_core.units import PA_PER_BAR
+from drill_core.units import L_PER_M3, PA_PER_BAR
 
 TRIP_CASES = ("case1", "case2", "case3")
 STEP_CASES = ("case4",)
+# Case 2's trip with something going wrong (docs/design.md section 8), under every controller
+FAULT_CASES = ("kick", "losses", "pump_trip", "choke_plug", "sensor_faults")
 CONTROLLERS = ("nmpc", "automated_mpd", "baseline")
 SEED_OFFSETS = (0, 1000, 2000)      # seeds: the scenario's, and these added to it
 
@@ -45,13 +47,14 @@ TARGETS = {
 
 
 def plan(cases, controllers, seeds: int) -> list[tuple[str, str, int]]:
-    """(case, controller, seed) of every run: trip cases under each controller, step
-    cases under their own."""
+    """(case, controller, seed) of every run: trip and fault cases under each controller,
+    step cases under their own."""
     out = []
     for case in cases:
         scenario, _ = load_scenario(runs.scenario_path(case))
+        every = case in TRIP_CASES or case in FAULT_CASES
         for offset in SEED_OFFSETS[:seeds]:
-            for controller in (controllers if case in TRIP_CASES else (scenario.controller,)):
+            for controller in (controllers if every else (scenario.controller,)):
                 out.append((case, controller, scenario.seed + offset))
     return out
 
@@ -206,12 +209,58 @@ def markdown(rows: list[dict], plot_name: str | None) -> str:
                       f"band {_stat([f['bhp_time_outside_s'] for f in fs], 1.0, 1)} s, worst "
                       f"excursion {_stat([f['bhp_worst_excursion_pa'] for f in fs], PA_PER_BAR, 2)}"
                       " bar (mean / worst over seeds)."]
+    lines += fault_section(by)
     if plot_name:
         lines += ["", f"![One Case 2 trip per controller]({plot_name})"]
     lines += ["", f"Seeds: {', '.join(str(s) for s in seeds)}. Run directories (MCAP, plots, "
               "logs; not committed): " + ", ".join(f"`{Path(r['run_dir']).name}`" for r in rows),
               ""]
     return "\n".join(lines)
+
+
+def _detection(d: dict | None) -> str:
+    if not d or d["onset_s"] is None:
+        return "no influx" if not d or not d["false_alarms"] else f"{d['false_alarms']} false"
+    if d["delay_s"] is None:
+        return "not detected"
+    return (f"{d['delay_s']:.1f} s, {d['volume_at_detection_m3'] * L_PER_M3:.0f} L"
+            + (f", {d['false_alarms']} false" if d["false_alarms"] else ""))
+
+
+def fault_section(by: dict) -> list[str]:
+    """The fault scenarios' table: what happened, what the rig did, the figures."""
+    rows = [(case, c, by[(case, c)]) for case in FAULT_CASES for c in CONTROLLERS
+            if (case, c) in by]
+    if not rows:
+        return []
+    lines = ["", "## Faults, kicks and losses (Case 2's trip, first seed of each)", "",
+             "What each scenario does is in its file (config/scenarios); every event is on "
+             "/rig/events in the recording. *Under pore*: time BHP spent under the pore "
+             "pressure in force and the worst underbalance; *kick / losses detection*: the "
+             "protection's flow-balance alarm after the truth's onset and the volume in (or "
+             "lost) by then.", "",
+             "| scenario | controller | events | BHP RMSE [bar] | worst excursion [bar] | "
+             "under pore [s] / worst [bar] | over fracture [s] | influx / losses [L] | "
+             "kick detection | losses detection | legs out / in [s] | fallbacks |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for case, controller, group in rows:
+        s = group[0]["summary"]
+        scenario, _ = load_scenario(runs.scenario_path(case))
+        events = "; ".join(f"{e.time_s:g} s {e.describe()}" for e in scenario.events)
+        legs = " / ".join("not reached" if t is None else f"{t:.0f}"
+                          for _, t in s.get("trip_legs", [])) or "none"
+        detection = s.get("detection", {})
+        lines.append(
+            f"| {case} | {controller} | {events} | {s['bhp_rmse_pa'] / PA_PER_BAR:.2f} | "
+            f"{s['bhp_worst_excursion_pa'] / PA_PER_BAR:.2f} | "
+            f"{s.get('bhp_under_pore_s', 0.0):.1f} / "
+            f"{s.get('worst_underbalance_pa', 0.0) / PA_PER_BAR:.2f} | "
+            f"{s.get('bhp_over_fracture_s', 0.0):.1f} | "
+            f"{s.get('influx_volume_m3', 0.0) * L_PER_M3:.0f} / "
+            f"{s.get('loss_volume_m3', 0.0) * L_PER_M3:.0f} | "
+            f"{_detection(detection.get('kick'))} | {_detection(detection.get('losses'))} | "
+            f"{legs} | {s.get('fallbacks', 'n/a')} |")
+    return lines
 
 
 def plot_trips(rows: list[dict], case: str, out: Path) -> Path | None:
@@ -252,10 +301,13 @@ def plot_trips(rows: list[dict], case: str, out: Path) -> Path | None:
 
 def main(cases, output: Path, seeds: int = len(SEED_OFFSETS),
          controllers=CONTROLLERS) -> int:
-    rows = run_all(plan(cases or (*TRIP_CASES, *STEP_CASES), controllers, seeds))
+    cases = cases or (*TRIP_CASES, *STEP_CASES, *FAULT_CASES)
+    rows = run_all(plan(cases, controllers, seeds))
     output.parent.mkdir(parents=True, exist_ok=True)
-    (output.with_suffix(".json")).write_text(json.dumps(
-        [{k: v for k, v in r.items()} for r in rows], indent=1))
+    table = output.with_suffix(".json")
+    if table.exists():        # keep the rows of the cases not run this time
+        rows = [r for r in json.loads(table.read_text()) if r["case"] not in cases] + rows
+    table.write_text(json.dumps([{k: v for k, v in r.items()} for r in rows], indent=1))
     picture = plot_trips(rows, "case2", output.with_name(output.stem + "-case2.png"))
     output.write_text(markdown(rows, picture.name if picture else None))
     print(f"[compare] wrote {output}")

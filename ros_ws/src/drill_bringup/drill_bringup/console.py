@@ -248,10 +248,7 @@ class ConsoleNode(RigNode):
         timeout = float(self.declare_parameter("service_timeout_s", 5.0).value)
         port_fallback = bool(self.declare_parameter("port_fallback", True).value)
         config = load_scenario_config(scenario, config_dir)[1] if scenario else load_rig(config_dir)
-        p = config.protection
-        self.state = cs.ConsoleState(cs.Window(p.pore_pressure_pa, p.fracture_pressure_pa,
-                                               p.pressure_margin_pa, p.trip_speed_max_mps),
-                                     stand_length_m=stand)
+        self.state = cs.ConsoleState(cs.Window.from_config(config), stand_length_m=stand)
         self.link = OperatorLink(self, timeout, source="console")
         self.exit_code = 0
         self.counters = {"http_requests": 0.0, "actions": 0.0, "refusals": 0.0}
@@ -266,6 +263,7 @@ class ConsoleNode(RigNode):
         sub(OperatorEvent, topics.OPERATOR_EVENTS, lambda m: self._on_event("operator", m), topics.RELIABLE)
         sub(OperatorEvent, topics.PROTECTION_EVENTS, lambda m: self._on_event("protection", m),
             topics.RELIABLE)
+        sub(OperatorEvent, topics.RIG_EVENTS, lambda m: self._on_event("rig", m), topics.RELIABLE)
         sub(String, topics.AUTOMATION_LEVEL, lambda m: self.state.on_level(m.data), topics.LATCHED)
         sub(Bool, topics.EMERGENCY_STOP, lambda m: self.state.on_estop(m.data), topics.LATCHED)
         sub(String, topics.LEVEL_IN_FORCE, lambda m: self.state.on_level_in_force(m.data),

@@ -31,8 +31,10 @@ TREND_POINTS = 1500            # per series: 150 s at the 10 Hz sensor rate
 EVENT_HISTORY = 200
 REPEAT_LOOKBACK = 10           # an event identical to one of the newest 10 is counted, not added
 STALE_AFTER_S = 3.0
-# events from these kinds, coming from the protection layer, wait for an acknowledgement
-ACK_KINDS = ("alarm", "clamp", "refusal")
+# (source, kind) of the events an operator acknowledges: protection alarms, clamps and
+# refusals, and the rig's faults and formation changes (scenario events on /rig/events)
+ACK_EVENTS = {("protection", kind) for kind in ("alarm", "clamp", "refusal")} \
+    | {("rig", kind) for kind in ("fault", "formation")}
 
 
 def bar_to_pa(bar: float) -> float:
@@ -222,11 +224,18 @@ def _round(value: float, digits: int = 9) -> float | None:
 # --------------------------------------------------------------------------- the state
 @dataclass(frozen=True)
 class Window:
-    """Pressure window at the BHP sensor (config/protection.yaml), SI."""
+    """Pressure window at the BHP sensor (well.yaml's formation, protection.yaml's margin
+    and machine trip speed), SI."""
     pore_pressure_pa: float
     fracture_pressure_pa: float
     pressure_margin_pa: float = 0.0
     trip_speed_max_mps: float = math.inf
+
+    @classmethod
+    def from_config(cls, config) -> "Window":
+        f, p = config.well.formation, config.protection
+        return cls(f.pore_pressure_pa, f.fracture_pressure_pa, p.pressure_margin_pa,
+                   p.trip_speed_max_mps)
 
 
 class ConsoleState:
@@ -372,7 +381,7 @@ class ConsoleState:
             self._event_id += 1
             event = {"id": self._event_id, "t": t, "wall": time.time(), "source": source,
                      "kind": kind, "text": text, "accepted": bool(accepted), "count": 1,
-                     "needs_ack": source == "protection" and kind in ACK_KINDS, "acked": False}
+                     "needs_ack": (source, kind) in ACK_EVENTS, "acked": False}
             self._events.append(event)
             return dict(event)
 

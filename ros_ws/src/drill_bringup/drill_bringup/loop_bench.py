@@ -96,7 +96,8 @@ class TruthState:
         flows = [x[lay.flow(i)] for i in range(2, self.em.n + 1)]
         theta = fitted_friction_parameters(self.em, flows, truth.annulus_friction_pa,
                                            float(x[lay.velocity]))
-        x_hat = np.concatenate([x[:2], [self.rig.drawworks.integral_m_s], x[2:], theta])
+        x_hat = np.concatenate([x[:2], [self.rig.drawworks.integral_m_s], x[2:lay.hydraulic_size],
+                                theta])
         return EstimateView(bhp_pa=float(x[lay.pressure(self.em.n)]),
                             string_position_m=float(x[lay.position]),
                             string_velocity_mps=float(x[lay.velocity]),

@@ -117,9 +117,7 @@ class Session:
         from drill_core.config import load_rig
         root = Path(os.environ.get("RIG_ROOT", Path.cwd()))
         try:
-            p = load_rig(config_dir or root / "config").protection
-            return cs.Window(p.pore_pressure_pa, p.fracture_pressure_pa, p.pressure_margin_pa,
-                             p.trip_speed_max_mps)
+            return cs.Window.from_config(load_rig(config_dir or root / "config"))
         except Exception:                      # watch still works without the window
             return cs.Window(float("nan"), float("nan"))
 

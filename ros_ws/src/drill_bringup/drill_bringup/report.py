@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from drill_bringup import mcap_io
+from drill_bringup import well_control_report as well_control
 from drill_core.ros import topics
 from drill_core.units import LPM_PER_M3S, PA_PER_BAR
 
@@ -20,6 +21,11 @@ ARRIVAL_TOLERANCE_M = 0.5     # a trip leg ends when the string is this close to
 FINAL_WINDOW_S = 30.0           # the estimator's final bias: mean error over the run's last 30 s
 SETTLE_S = 30.0                 # band time "settled": after the first 30 s of a run (issue targets)
 OPEN_LOOP_ADVISOR = "sequencer"
+EVENT_SOURCES = {topics.RIG_EVENTS: "rig", topics.PROTECTION_EVENTS: "protection"}
+# series key, PlantTruth field of the formation and the pit
+TRUTH_FORMATION_FIELDS = (("pit_gain", "pit_gain_m3"), ("influx_volume", "influx_volume_m3"),
+                          ("loss_volume", "loss_volume_m3"), ("pore", "pore_pressure_pa"),
+                          ("fracture", "fracture_pressure_pa"))
 
 
 @dataclass
@@ -28,6 +34,7 @@ class Series:
     t: dict = field(default_factory=dict)
     v: dict = field(default_factory=dict)
     advisor: str = ""       # source of the advisor commands (nmpc, baseline, sequencer)
+    events: list = field(default_factory=list)    # (t s, source, kind, text): rig, protection
 
     def add(self, key: str, t_s: float, value) -> None:
         self.t.setdefault(key, []).append(t_s)
@@ -44,7 +51,7 @@ def _stamp_s(msg) -> float:
 def load_series(mcap_path: Path) -> Series:
     s = Series()
     wanted = [topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.NMPC_STATUS,
-              topics.COMMAND, topics.MACHINE_COMMAND, topics.SETPOINTS]
+              topics.COMMAND, topics.MACHINE_COMMAND, topics.SETPOINTS, *EVENT_SOURCES]
     for rec, msg in mcap_io.decoded_messages(mcap_path, wanted):
         t = _stamp_s(msg)
         if rec.topic == topics.TRUTH:
@@ -58,8 +65,13 @@ def load_series(mcap_path: Path) -> Series:
             s.add("bpp", t, msg.bpp_flow_m3s)
             s.add("spp", t, msg.spp_pa)
             s.add("choke_flow", t, msg.annulus_flow_m3s[0])
+            for key, name in TRUTH_FORMATION_FIELDS:        # absent in older recordings: NaN
+                s.add(key, t, getattr(msg, name, math.nan))
         elif rec.topic == topics.MEASUREMENT:
             s.add("bhp_meas", t, msg.bhp_pa)
+            s.add("pit_meas", t, getattr(msg, "pit_volume_m3", math.nan))
+        elif rec.topic in EVENT_SOURCES:
+            s.events.append((t, EVENT_SOURCES[rec.topic], msg.kind, msg.text))
         elif rec.topic == topics.ESTIMATE:
             s.add("bhp_est", t, msg.bhp_pa)
             s.add("friction_est", t, list(msg.friction_pa))
@@ -208,6 +220,7 @@ def summarise(s: Series) -> dict:
     }
     if tracks_setpoints(s):
         out.update(_tracking(s, t, bhp, pos))
+    out.update(well_control.summarise(s, t, bhp))
     out.update(_estimation(s, t, bhp))
     if len(solve):
         out.update({
@@ -255,6 +268,7 @@ def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
         rows.append("  Table 7 form, BHP window      n/a (open loop: no setpoints to track)")
     rows.append(f"  peak surge / swab             {summary['peak_surge_pa'] / PA_PER_BAR:+.2f} / "
                 f"{summary['peak_swab_pa'] / PA_PER_BAR:+.2f} bar")
+    rows += well_control.format_rows(summary)
     if "bhp_estimate_rmse_pa" in summary:
         rows += [
             f"  estimate - truth              mean error      RMSE  final bias (last {FINAL_WINDOW_S:.0f} s)",
@@ -377,6 +391,12 @@ def plot(s: Series, out_dir: Path) -> list[Path]:
     ax.set(xlabel="time [s]", ylabel="friction [bar]", title="Annular friction: estimated vs true")
     ax.legend(fontsize=7, ncol=2)
     save(fig, "friction.png")
+
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    if well_control.plot(s, a1, a2):
+        save(fig, "well_control.png")
+    else:
+        plt.close(fig)
     return paths
 
 

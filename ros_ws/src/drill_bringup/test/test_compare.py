@@ -1,4 +1,6 @@
 """The comparison table: SI summaries shown in bar, ratios against the baseline."""
+import json
+
 import numpy as np
 
 from drill_bringup import compare, report
@@ -71,3 +73,33 @@ def test_trip_overshoot_is_the_furthest_the_string_ran_past_a_target():
     pos[(t >= 40.0) & (t < 60.0)] = 27.9                       # stopped short of it
     assert abs(report.trip_overshoot_m(pos, target) - 0.3) < 1e-12
     assert report.trip_overshoot_m(pos, np.zeros_like(t)) == 0.0   # no leg, nothing passed
+
+
+def test_fault_scenarios_run_under_every_controller_and_get_their_table():
+    items = compare.plan(["pump_trip"], compare.CONTROLLERS, 1)
+    assert [c for _, c, _ in items] == list(compare.CONTROLLERS)
+    s = _summary(0.9, 3.0, legs=(70.0, None), solves=600)
+    s.update(bhp_under_pore_s=12.5, worst_underbalance_pa=4.0e5, bhp_over_fracture_s=0.0,
+             influx_volume_m3=0.25, loss_volume_m3=0.0,
+             detection={"kick": {"onset_s": 95.0, "false_alarms": 0, "delay_s": 8.5,
+                                 "volume_at_detection_m3": 0.012},
+                        "losses": {"onset_s": None, "false_alarms": 1, "delay_s": None,
+                                   "volume_at_detection_m3": None}})
+    text = compare.markdown([_row("pump_trip", "baseline", 23, s)], None)
+    assert "## Faults, kicks and losses" in text
+    assert ("| pump_trip | baseline | 90 s mud_pump trip | 0.90 | 0.50 | 12.5 / 4.00 | 0.0 | "
+            "250 / 0 | 8.5 s, 12 L | 1 false | 70 / not reached | 0 |") in text
+
+
+def test_a_partial_compare_keeps_the_other_cases_rows(tmp_path, monkeypatch):
+    output = tmp_path / "results.md"
+    old = [_row("case2", "nmpc", 2, _summary(0.3, 0.0, solves=600)),
+           _row("kick", "nmpc", 21, _summary(0.5, 0.0, solves=600))]
+    output.with_suffix(".json").write_text(json.dumps(old))
+    monkeypatch.setattr(compare, "run_all",
+                        lambda items: [_row(c, k, s, _summary(0.4, 0.0, solves=600))
+                                       for c, k, s in items])
+    monkeypatch.setattr(compare, "plot_trips", lambda rows, case, out: None)
+    compare.main(["kick"], output, seeds=1, controllers=("nmpc",))
+    rows = json.loads(output.with_suffix(".json").read_text())
+    assert [(r["case"], r["summary"]["bhp_rmse_pa"]) for r in rows] == [("case2", 0.3e5), ("kick", 0.4e5)]

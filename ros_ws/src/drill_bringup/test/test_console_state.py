@@ -167,6 +167,15 @@ def test_events_collapse_repeats_and_acknowledge():
     assert len(state.acknowledge(None)) == 1 and state.unacknowledged() == 0
 
 
+def test_the_rigs_faults_and_formation_changes_are_alarms_to_acknowledge():
+    state = cs.ConsoleState(WINDOW)
+    state.on_event("rig", 60.0, "fault", "mud_pump trip: starts", True)
+    state.on_event("rig", 90.0, "formation", "pore_pressure to 6.9e+07 Pa: starts", True)
+    state.on_event("operator", 95.0, "setpoint", "[console] setpoints accepted", True)
+    assert [e["needs_ack"] for e in state.events()] == [True, True, False]
+    assert state.unacknowledged() == 2
+
+
 # --------------------------------------------------------------------------- level
 def test_level_in_force_is_the_protections_while_it_is_alive():
     clock = FakeClock()

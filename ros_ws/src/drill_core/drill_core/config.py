@@ -70,6 +70,24 @@ class Turbulence:
 
 
 @dataclass(frozen=True)
+class Formation:
+    """The open hole: the bottom annulus segment, its pore and fracture pressure at the BHP
+    depth and how readily it gives or takes mud across them (docs/model.md, formation)."""
+    pore_pressure_pa: float = param("Pa", 0.0, 5.0e8, doc="below it the formation flows into the well")
+    fracture_pressure_pa: float = param("Pa", 0.0, 5.0e8, doc="above it the well loses mud to the formation")
+    productivity_index_m3_s_pa: float = param("m^3/s/Pa", 0.0, 1.0e-6,
+                                              doc="liquid influx per Pa below pore pressure")
+    injectivity_index_m3_s_pa: float = param("m^3/s/Pa", 0.0, 1.0e-6,
+                                             doc="loss rate per Pa above fracture pressure")
+
+    def validate(self) -> None:
+        if self.pore_pressure_pa >= self.fracture_pressure_pa:
+            raise FieldError("fracture_pressure_pa",
+                             f"value {self.fracture_pressure_pa:g} Pa must exceed pore_pressure_pa "
+                             f"{self.pore_pressure_pa:g} Pa")
+
+
+@dataclass(frozen=True)
 class Well:
     """Reference well, string, fluid and surface equipment (paper Tables 2 and 4)."""
     hole_diameter_m: float = param("m", 0.0, 2.0, lo_open=True)
@@ -85,6 +103,7 @@ class Well:
     bha_loss_coefficient_pa_s_m3: float = param("Pa s/m^3", 0.0, 1.0e10, doc="K_b")
     hoist_stiffness_n_m: float = param("N/m", 0.0, 1.0e9, lo_open=True, doc="k_eq")
     hoist_damping_n_s_m: float = param("N s/m", 0.0, 1.0e8, doc="c_eq")
+    formation: Formation = param()
 
     def validate(self) -> None:
         if len(self.segment_lengths_m) < 2:
@@ -116,6 +135,14 @@ class MeasurementNoise:
 
 
 @dataclass(frozen=True)
+class SurfaceSensorNoise:
+    """Standard deviations of the surface-flow sensors an MPD rig adds (not in the paper)."""
+    return_flow_m3s: float = param("m^3/s", 0.0, 1.0, doc="Coriolis meter on the choke line")
+    pit_volume_m3: float = param("m^3", 0.0, 100.0, doc="active pit level sensor")
+    bpp_flow_m3s: float = param("m^3/s", 0.0, 1.0, doc="back-pressure pump stroke counter")
+
+
+@dataclass(frozen=True)
 class Plant:
     """Truth-model numerics, process noise and sensors."""
     step_s: float = param("s", 0.0, 0.1, lo_open=True)
@@ -125,7 +152,9 @@ class Plant:
     flow_diffusion_m3s_sqrt_s: float = param("m^3/s/s^0.5", 0.0, 1.0, doc="g_q")
     yield_regularisation_velocity_mps: float = param("m/s", 0.0, 1.0, lo_open=True)
     choke_regularisation_pa: float = param("Pa", 0.0, 1.0e6, lo_open=True)
+    active_pit_volume_m3: float = param("m^3", 0.0, 1000.0, doc="mud in the active pit at the start")
     measurement_noise: MeasurementNoise = param()
+    surface_sensor_noise: SurfaceSensorNoise = param()
 
     def validate(self) -> None:
         ratio = self.sensor_period_s / self.step_s
@@ -221,6 +250,9 @@ class Estimator:
     initial_flow_std_m3s: float = param("m^3/s", 0.0, lo_open=True)
     measurement_noise: MeasurementNoise = param()
     nis_window: int = param("samples", 1, 10000)
+    frozen_after_samples: int = param("samples", 0, 10000,
+                                      doc="a channel repeating its value this often is left out "
+                                          "as frozen (0: never)")
     nis_alarm_probability: float = param("1", 0.5, 0.999999)
     covariance_inflation: float = param("1", 1.0, 100.0)
     estimate_bottom_influx: bool = param(default=False)
@@ -381,18 +413,29 @@ class Nmpc:
 
 # --------------------------------------------------------------------- protection
 @dataclass(frozen=True)
+class KickDetection:
+    """Flow-balance kick and loss detector (drill_protection.kick_detection)."""
+    window_s: float = param("s", 0.0, 600.0, lo_open=True, doc="excess flow averaged over this window")
+    pressure_average_s: float = param("s", 0.0, 60.0, doc="pressures averaged over this long "
+                                                          "for the compression term")
+    flow_threshold_m3s: float = param("m^3/s", 0.0, 0.1, lo_open=True,
+                                      doc="excess flow that raises an alarm (minus: losses)")
+    confirm_s: float = param("s", 0.0, 600.0, doc="beyond the threshold this long to raise, "
+                                                   "within half of it this long to clear")
+    stop_trip: bool = param(doc="an alarm stops the trip (the block held) until it clears")
+
+
+@dataclass(frozen=True)
 class Protection:
     """Process protection between advisors and machines (docs/design.md §10)."""
-    pore_pressure_pa: float = param("Pa", 0.0, 5.0e8, doc="lower edge of the pressure window at the BHP depth")
-    fracture_pressure_pa: float = param("Pa", 0.0, 5.0e8, doc="upper edge of the pressure window")
-    pressure_margin_pa: float = param("Pa", 0.0, 1.0e7, doc="kept clear of pore and fracture pressure")
+    pressure_margin_pa: float = param("Pa", 0.0, 1.0e7,
+                                      doc="kept clear of the well's pore and fracture pressure")
     trip_speed_max_mps: float = param("m/s", 0.0, 5.0, lo_open=True, doc="machine limit")
     trip_acceleration_max_mps2: float = param("m/s^2", 0.0, 5.0, lo_open=True)
     command_period_s: float = param("s", 0.0, 10.0, lo_open=True, doc="advisor command period")
-
-    def validate(self) -> None:
-        if self.pore_pressure_pa + 2.0 * self.pressure_margin_pa >= self.fracture_pressure_pa:
-            raise ValueError("pore_pressure_pa + 2 pressure_margin_pa must stay below fracture_pressure_pa")
+    kick_detection: KickDetection = param()
+    window_guard: bool = param(doc="outside the window (with margin) the choke and the back-"
+                                   "pressure pump are driven back toward it")
 
 
 @dataclass(frozen=True)
@@ -491,6 +534,12 @@ def load_rig(directory: str | os.PathLike, overrides: dict[str, dict] | None = N
         if overrides and stem in overrides:
             data = merge(data, overrides[stem])
         sections[stem] = build(cls, data, str(path))
+    formation, margin = sections["well"].formation, sections["protection"].pressure_margin_pa
+    if formation.pore_pressure_pa + 2.0 * margin >= formation.fracture_pressure_pa:
+        raise ConfigError(
+            f"{directory / 'protection.yaml'}: pressure_margin_pa: value {margin:g} Pa leaves no "
+            f"window: must be below half of well.yaml's formation window "
+            f"{formation.fracture_pressure_pa - formation.pore_pressure_pa:g} Pa")
     return RigConfig(directory=str(directory), **sections)
 
 
@@ -514,6 +563,7 @@ def replace(obj: object, **changes: object) -> object:
 
 
 __all__ = ["ConfigError", "RigConfig", "Well", "StringSection", "Mud", "Turbulence", "Plant",
-           "MeasurementNoise", "Lag", "Actuators", "Estimator", "FrictionLawTuning", "FRICTION_LAWS",
+           "MeasurementNoise", "SurfaceSensorNoise", "Lag", "Actuators", "Estimator", "FrictionLawTuning", "FRICTION_LAWS",
            "Nmpc", "ChokeDpSetpoint", "AutomatedMpd", "InputVector", "OutputVector", "Protection",
+           "KickDetection", "Formation",
            "load_rig", "load_section", "load_yaml", "merge", "replace"]

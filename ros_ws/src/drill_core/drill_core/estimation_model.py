@@ -247,8 +247,7 @@ def drift(xp, em: EstimationModel, x, u, string_friction_law=None):
                                u[1], u[2], u[3], annulus_friction(xp, em, x), string_friction_law)
     bottom_influx = 0.0
     if em.with_disturbance:
-        bottom_influx = wm.well.mud.bulk_modulus_pa / wm.geometry.annulus_volume_m3[-1] \
-            * x[em.disturbance]
+        bottom_influx = hy.bottom_inflow_rate(wm, x[em.disturbance])
     out = [z2, hy.hoisting_acceleration(wm, z1, z2, u_b), integral_rate(u[0], z1)]
     for i in range(n):
         if i > 0:

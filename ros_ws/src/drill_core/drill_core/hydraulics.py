@@ -86,6 +86,21 @@ def annulus_friction(xp, wm: WellModel, flows_m3s, string_velocity_mps):
             for q, path in zip(flows_m3s, wm.geometry.annulus_paths)]
 
 
+def formation_flows(xp, formation, bhp_pa, pore_pressure_pa, fracture_pressure_pa):
+    """(influx, loss) [m^3/s] across the open hole at bottom-hole pressure ``bhp_pa``:
+    liquid influx PI (p_pore - p_n) below pore pressure, losses II (p_n - p_frac) above
+    fracture pressure, each zero inside the window (formation: config.Formation)."""
+    influx = formation.productivity_index_m3_s_pa * xp.fmax(pore_pressure_pa - bhp_pa, 0.0)
+    loss = formation.injectivity_index_m3_s_pa * xp.fmax(bhp_pa - fracture_pressure_pa, 0.0)
+    return influx, loss
+
+
+def bottom_inflow_rate(wm: WellModel, inflow_m3s):
+    """dp_n/dt [Pa/s] of an extra inflow into the bottom annulus volume (formation flow in
+    the plant, the unmeasured influx state of NMPC2's estimation model)."""
+    return wm.well.mud.bulk_modulus_pa / wm.geometry.annulus_volume_m3[-1] * inflow_m3s
+
+
 def hoisting_acceleration(wm: WellModel, position_m, velocity_mps, block_position_m):
     """m a = -k_eq (x_s - u_b) - c_eq v_s - m g F_b (paper eq. 35)."""
     w, g = wm.well, wm.geometry

@@ -1,6 +1,7 @@
 """Scenario files (config/scenarios/*.yaml): initial operating point, controller,
-configuration overrides and a timed schedule of setpoints, or of commands for the
-``open_loop`` controller (drill_core.open_loop) (docs/design.md §8).
+configuration overrides, a timed schedule of setpoints, or of commands for the
+``open_loop`` controller (drill_core.open_loop), and events that happen to the rig
+(faults, formation changes: drill_core.events) (docs/design.md §8).
 
 A schedule entry changes only the fields it names; the rest carry over. Times are
 simulated seconds from the start of the run.
@@ -13,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from drill_core.config import ConfigError, RigConfig, load_rig, load_yaml, merge
+from drill_core.events import ScenarioEvent
 from drill_core.open_loop import OpenLoopPlan, start_command
 from drill_core.schema import FieldError, build, param
 
@@ -81,6 +83,8 @@ class Scenario:
     initial: Initial = param()
     schedule: tuple[SetpointChange, ...] = param()
     baseline_trip_speed_mps: float = param("m/s", 0.0, 5.0, lo_open=True, default=0.5)
+    events: tuple[ScenarioEvent, ...] = param(default=(), doc="faults and formation changes "
+                                                               "(drill_core.events)")
 
     def validate(self) -> None:
         times = [c.time_s for c in self.schedule]
@@ -98,6 +102,11 @@ class Scenario:
                     else f"only used with controller open_loop, not {self.controller}"))
         if open_loop:
             OpenLoopPlan(self.schedule, start_command(self.initial))
+        for i, event in enumerate(self.events):
+            if event.time_s >= self.duration_s:
+                raise FieldError(f"events[{i}].time_s", f"value {event.time_s} s must come "
+                                                        f"before the end of the run, duration_s "
+                                                        f"{self.duration_s} s")
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,7 @@ def test_the_nmpc_lockstep_waits_for_every_endpoint_of_the_protocol():
     expected = {
         "sub@/rig/measurement:7",            # 4 actuators, estimator, protection, recorder
         "sub@/rig/truth:1",                  # recorder only: no controller reads the truth
+        "sub@/rig/events:1",                 # recorder only (and the console, in realtime)
         "sub@/estimator/estimate:2", "pub@/estimator/estimate:1",      # nmpc, recorder
         "sub@/clock:1",                      # recorder
         "sub@/supervisor/command:2", "pub@/supervisor/command:1",      # protection, recorder

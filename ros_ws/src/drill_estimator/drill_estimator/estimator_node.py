@@ -15,6 +15,11 @@ its stamp, so the result does not depend on timing.
 realtime mode: each measurement is processed on arrival with the latest frame of each
 actuator (inputs held when a frame is missing).
 
+Before the update the channels are screened (drill_estimator.channel_watch): a frozen
+channel is left out like a NaN one, and the estimate reports the frozen channels and the
+age of the stalest channel, so a dropout shows as staleness while the filter rides on its
+model (its covariance grows).
+
 Time-update inputs per plant step (RigUkf.predict): drawworks output u_b (estimator
 block_input block_position; the frame's reference u_r with block_input reference), choke
 flow from the valve law with the choke opening sample and the last accepted measured choke
@@ -42,6 +47,8 @@ from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_core.ros.status import StatusReporter
+from drill_core.estimation_model import MEASUREMENT_NAMES
+from drill_estimator.channel_watch import ChannelWatch
 from drill_estimator.ukf import RigUkf, UpdateResult
 
 
@@ -53,6 +60,8 @@ class EstimatorNode(RigNode):
         cfg = ctx.config
         self.ukf = RigUkf(cfg)
         self.wm = self.ukf.em.wm
+        self.watch = ChannelWatch(MEASUREMENT_NAMES, cfg.estimator.frozen_after_samples or 2 ** 31)
+        self.frozen: tuple[str, ...] = ()
         self.steps = cfg.plant.steps_per_frame
         self.step_ns = int(round(cfg.plant.step_s * 1e9))
         frame_ns = int(round(cfg.plant.sensor_period_s * 1e9))
@@ -106,9 +115,15 @@ class EstimatorNode(RigNode):
         while self.pending:
             stamp = min(self.pending)
             if self.previous_ns is not None:
-                if not self.frames.ready(self.previous_ns):
+                lost = [n for n in topics.ACTUATORS if self.frames.passed(n, self.previous_ns)]
+                if not self.frames.ready(self.previous_ns,
+                                         [n for n in topics.ACTUATORS if n not in lost]):
                     return
-                frames = {name: self.frames.take(name, self.previous_ns) for name in topics.ACTUATORS}
+                if lost:
+                    self.status.error(f"frames stamped {self.previous_ns} ns of {', '.join(lost)} "
+                                      "lost (a later one came first): their inputs held")
+                frames = {name: self.frames.take(name, self.previous_ns)
+                          for name in topics.ACTUATORS if name not in lost}
             else:
                 frames = {}
             self._process(self.pending.pop(stamp), frames)
@@ -129,8 +144,9 @@ class EstimatorNode(RigNode):
         started = time.perf_counter()
         stamp = to_ns(msg.header.stamp)
         circulating = bool(msg.string_flow_valid)
-        y = np.array([msg.block_position_m, msg.choke_dp_pa, msg.bhp_pa,
-                      msg.string_flow_m3s if circulating else np.nan])
+        y, self.frozen = self.watch.screen(stamp * 1e-9, [
+            msg.block_position_m, msg.choke_dp_pa, msg.bhp_pa,
+            msg.string_flow_m3s if circulating else np.nan])
         ukf = self.ukf
         if not ukf.initialised:
             if not np.all(np.isfinite(y[:3])) or (circulating and not np.isfinite(y[3])):
@@ -229,6 +245,10 @@ class EstimatorNode(RigNode):
         msg.string_velocity_mps = ukf.string_velocity_mps
         msg.bottom_influx_m3s = ukf.bottom_influx_m3s
         msg.rejected_measurements = int(ukf.rejected + ukf.rejected_channels)   # samples and channels
+        msg.frozen_channels = list(self.frozen)
+        stamp_s = to_ns(measurement.header.stamp) * 1e-9
+        msg.oldest_channel_age_s = self.watch.oldest_age_s(
+            stamp_s, None if measurement.string_flow_valid else MEASUREMENT_NAMES[:3])
         msg.covariance_inflations = int(ukf.inflations)
         self.pub.publish(msg)
 
@@ -239,6 +259,7 @@ class EstimatorNode(RigNode):
             "nis_window_per_dof": float(np.nan_to_num(result.window_nis_per_dof))
             if result is not None else 0.0,
             "rejected": float(ukf.rejected), "rejected_channels": float(ukf.rejected_channels),
+            "frozen_samples": float(self.watch.frozen_samples),
             "inflations": float(ukf.inflations),
             "repairs": float(ukf.repairs),
             "resets": float(ukf.resets),

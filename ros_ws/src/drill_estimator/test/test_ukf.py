@@ -27,7 +27,8 @@ from drill_core import hydraulics as hy
 from drill_core.block_control import block_command, integral_rate
 from drill_core.config import load_rig, replace
 from drill_estimator.ukf import RigUkf, frame_inputs
-from drill_plant.plant_model import PlantLayout, build_frame_function, steady_state
+from drill_plant.plant_model import (CLOSED_BOTTOM, PlantLayout, build_frame_function,
+                                     held_parameters, steady_state, wiener_increments)
 
 CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
 CIRCULATION = 1000.0 / 60000.0      # 1000 L/min
@@ -120,8 +121,8 @@ def simulate(cfg, plant, duration_s, circulation, choke_dp, schedule, seed, nan_
             limit = dw_cfg.rate_limit_per_s * h
             block += min(max(change, -limit), limit)
         u[1], u[2], u[3] = opening, bpp, pump
-        dw = rng.normal(0.0, np.sqrt(h / sub), size=(lay.size, steps * sub))
-        x = np.asarray(frame(x, u, dw))[:, -1]
+        dw = wiener_increments(rng, lay, steps * sub, h / sub)
+        x = np.asarray(frame(x, u, dw, held_parameters(CLOSED_BOTTOM, steps)))[:, -1]
         y = measure(x, circulating)
         if k in nan_frames:
             y[2] = np.nan

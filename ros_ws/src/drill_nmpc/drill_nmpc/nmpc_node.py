@@ -31,6 +31,7 @@ rate limit then clamped the first commands.)
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 
@@ -47,6 +48,9 @@ from drill_nmpc.inputs import choke_command, choke_input
 from drill_nmpc.setpoint_messages import merge_request, to_msg
 from drill_nmpc.soft_constraints import SLACK_NAMES
 from drill_nmpc.supervisor import SolveResult, Supervisor
+
+CLAMPED_BLOCK_TOLERANCE_M = 1.0e-3   # applied block reference this far from ours: it was changed
+
 
 class NmpcNode(AdvisorNode):
     def __init__(self):
@@ -189,12 +193,31 @@ class NmpcNode(AdvisorNode):
             self.publish_events(self.book.resolve_bhp(float(x[self.em.pressure(self.em.n)])), stamp)
             if self.u_prev is None:
                 self.u_prev = self._initial_input(x)
+            self._adopt_applied_block(actuators)
             if self.book.active.controller_enabled:
-                result = self.supervisor.step(x, self.book.active, self.u_prev, actuators=actuators)
+                result = self.supervisor.step(x, self._plan_setpoints(msg), self.u_prev,
+                                              actuators=actuators)
             else:
                 result = self._manual(x)
         self.u_prev = result.u
         self._publish(stamp, result)
+
+    def _plan_setpoints(self, msg: StateEstimate):
+        """The setpoints to plan with: the mud pump off while the rig says it delivers
+        nothing (a tripped pump: the string flow meter has no reading) though it is on."""
+        active = self.book.active
+        if active.mud_pump_on and not msg.string_flow_observable:
+            return dataclasses.replace(active, mud_pump_on=False)
+        return active
+
+    def _adopt_applied_block(self, actuators) -> None:
+        """Plan from the block reference the drawworks was given when the process protection
+        changed ours (a trip held on an alarm, a clamp), not from the one we sent."""
+        applied = (actuators or {}).get("block_reference_m")
+        if applied is not None and math.isfinite(applied) \
+                and abs(applied - self.u_prev[0]) > CLAMPED_BLOCK_TOLERANCE_M:
+            self.u_prev = self.u_prev.copy()
+            self.u_prev[0] = applied
 
     def _manual(self, x) -> SolveResult:
         """Hand-back to manual: hold the string where it is, the other inputs as they were."""

@@ -4,8 +4,8 @@ Plain module (no rclpy). The supervisor's /set_setpoints service adopts a reques
 when :func:`validate_setpoints` accepts it; a refusal names the field, the requested value
 and the allowed range (SI, with drilling units in brackets for the operator).
 
-Pressure window: config/protection.yaml (``pore_pressure_pa``, ``fracture_pressure_pa`` at
-the BHP depth, ``pressure_margin_pa`` kept clear of both edges) -- the same window the
+Pressure window: config/well.yaml's formation (``pore_pressure_pa``, ``fracture_pressure_pa``
+at the BHP depth) and protection.yaml's ``pressure_margin_pa`` kept clear of both edges -- the same window the
 process-protection layer enforces. A BHP target is accepted when its whole band lies inside
 the window less the margin and the target is above the static mud column (the BHP can only
 be raised above hydrostatic by friction and choke back-pressure, never lowered below it).
@@ -41,10 +41,11 @@ class Envelope:
     def from_config(cls, config: RigConfig, geometry: WellGeometry) -> "Envelope":
         n, p = config.nmpc, config.protection
         w = config.well
+        f = w.formation
         hydrostatic = w.mud.density_kgm3 * w.gravity_mps2 * geometry.node_depth_m[-1]
         dw = config.actuators.drawworks
-        pore = p.pore_pressure_pa + p.pressure_margin_pa
-        fracture = p.fracture_pressure_pa - p.pressure_margin_pa
+        pore = f.pore_pressure_pa + p.pressure_margin_pa
+        fracture = f.fracture_pressure_pa - p.pressure_margin_pa
         return cls(
             pore_pressure_pa=pore,
             fracture_pressure_pa=fracture,

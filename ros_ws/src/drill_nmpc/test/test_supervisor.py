@@ -272,9 +272,9 @@ def test_validator_refuses_with_a_reason(config, em, changes, word):
 def test_validator_accepts_a_sound_request(config, em):
     env = Envelope.from_config(config, em.wm.geometry)
     assert validate_setpoints(_sp(), env) == (True, "")
-    p = config.protection
-    assert env.pore_pressure_pa == p.pore_pressure_pa + p.pressure_margin_pa
-    assert env.fracture_pressure_pa == p.fracture_pressure_pa - p.pressure_margin_pa
+    f, margin = config.well.formation, config.protection.pressure_margin_pa
+    assert env.pore_pressure_pa == f.pore_pressure_pa + margin
+    assert env.fracture_pressure_pa == f.fracture_pressure_pa - margin
     assert 6.3e7 < env.hydrostatic_pa < 6.45e7                 # ~637 bar at the bit
 
 

@@ -9,14 +9,18 @@ from the sample they were computed at. The choke honours the command's manual mo
 ``choke_dp_ref_rate_pa_s``, with ``choke_flow_ref_m3s`` as flow feedforward) and otherwise
 its PI flow controller on ``choke_flow_ref_m3s``. If commands stop for longer than the
 watchdog timeout it holds a safe state (block held where it is, choke opening and
-pumps held) and says so on its status topic.
+pumps held) and says so on its status topic. A scenario's actuator faults
+(drill_core.events) act here: ``stuck`` freezes the output, ``trip`` stops a pump whatever
+it is commanded; the frame names the fault acting.
 """
 from __future__ import annotations
 
 import sys
 
+import numpy as np
 from drill_msgs.msg import ActuatorFrame, RigCommand, RigMeasurement
 
+from drill_core.events import of_owner
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
@@ -56,6 +60,8 @@ class ActuatorNode(RigNode):
         self.watchdog = Watchdog(cfg.actuators.watchdog_timeout_s)
         self.safe_hold = None
         self.command = None
+        self.faults = of_owner(ctx.scenario.events, "actuator", self.actuator)
+        self._start_ns: int | None = None       # stamp of the first measurement: scenario time 0
         self.inbox = StampedInbox(("measurement", "command"))
         self.status = StatusReporter(self, ctx.mode)
         self.pub = self.create_publisher(ActuatorFrame, topics.actuator_frame(self.actuator),
@@ -106,16 +112,27 @@ class ActuatorNode(RigNode):
         elif not tripped:
             self.safe_hold = None
         target = self.safe_hold if tripped else self._command_value(self.command)
-        out = self._frame(target, measurement, hold=tripped)
+        fault = self._fault(to_ns(measurement.header.stamp))
+        if fault == "stuck":
+            out = FrameOutput(target, target, np.full(self.steps, self.model.lag.value))
+        else:
+            out = self._frame(0.0 if fault == "trip" else target, measurement, hold=tripped)
         frame = ActuatorFrame(actuator=self.actuator, unit=UNITS[self.actuator],
                               command=float(out.command), output=[float(v) for v in out.output],
                               sample_period_s=self.step_s, reference=float(out.reference),
-                              watchdog_active=tripped)
+                              watchdog_active=tripped, fault=fault)
         frame.header.stamp = measurement.header.stamp
         self.pub.publish(frame)
         self.status.mode = f"{self.ctx.mode}/{'watchdog' if tripped else 'commanded'}"
         self.status.values = {"command": out.command, "output": float(out.output[-1])}
         self.status.tick(now_ns)
+
+    def _fault(self, stamp_ns: int) -> str:
+        """The scenario fault acting at this measurement ('' none)."""
+        if self._start_ns is None:
+            self._start_ns = stamp_ns
+        time_s = (stamp_ns - self._start_ns) * 1e-9
+        return next((e.kind for e in self.faults if e.active(time_s)), "")
 
     def _command_value(self, cmd: RigCommand) -> float:
         return {"drawworks": cmd.block_position_ref_m, "choke": cmd.choke_flow_ref_m3s,

@@ -6,7 +6,10 @@ on with t_{k+1}. Before t_0 it waits until the graph named in ``wait_for`` is
 connected, so no message is published into the void. realtime mode: a wall timer at
 the sensor rate integrates each frame with the latest actuator frames.
 The node exits (code 0) once every node has acted on the last sample of the scenario
-(the actuator frames stamped t_end have arrived).
+(the actuator frames stamped t_end have arrived). It is the world of the scenario's events
+(drill_core.events): formation and choke-plugging events change the plant's parameters,
+sensor faults the published samples, and it announces every event on /rig/events when it
+starts and when it ends.
 """
 from __future__ import annotations
 
@@ -15,9 +18,10 @@ import time
 
 import numpy as np
 import rclpy
-from drill_msgs.msg import ActuatorFrame, PlantTruth, RigMeasurement
+from drill_msgs.msg import ActuatorFrame, OperatorEvent, PlantTruth, RigMeasurement
 from rosgraph_msgs.msg import Clock
 
+from drill_core.events import EVENT_KINDS
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
@@ -25,7 +29,8 @@ from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns
 from drill_core.ros.status import StatusReporter
-from drill_plant.plant_model import PlantLayout, plant_steady_state
+from drill_plant.plant_model import EVENT_PARAMETERS, PlantLayout, plant_steady_state
+from drill_plant.sensor_faults import SensorFaults
 from drill_plant.simulator import PlantDiverged, PlantSimulator
 
 
@@ -48,10 +53,14 @@ class PlantNode(RigNode):
         self.circulating = ini.circulation_m3s > 0.0
         self.frames = StampedInbox(topics.ACTUATORS)
         self.status = StatusReporter(self, ctx.mode)
+        self.events = ctx.scenario.events
+        self.sensor_faults = SensorFaults(self.events, seed)
+        self._announced: set[tuple[int, str]] = set()     # (event index, "starts" | "ends")
 
         self.pub_measurement = self.create_publisher(RigMeasurement, topics.MEASUREMENT, topics.RELIABLE)
         self.pub_truth = self.create_publisher(PlantTruth, topics.TRUTH, topics.RELIABLE)
         self.pub_clock = self.create_publisher(Clock, "/clock", topics.RELIABLE) if ctx.fast else None
+        self.pub_events = self.create_publisher(OperatorEvent, topics.RIG_EVENTS, topics.RELIABLE)
         for name in topics.ACTUATORS:
             self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
                                      lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
@@ -163,10 +172,14 @@ class PlantNode(RigNode):
         stamp = from_ns(stamp_ns)
         if self.pub_clock is not None:
             self.pub_clock.publish(Clock(clock=stamp))
-        m = self.sim.measure(self.circulating)
+        time_s = self.k * self.ctx.config.plant.sensor_period_s
+        self._scenario_events(time_s, stamp)
+        m, _ = self.sensor_faults.apply(time_s, self.sim.measure(self.circulating))
         msg = RigMeasurement(block_position_m=m.block_position_m, choke_dp_pa=m.choke_dp_pa,
                              bhp_pa=m.bhp_pa, string_flow_m3s=m.string_flow_m3s,
-                             string_flow_valid=m.string_flow_valid)
+                             string_flow_valid=m.string_flow_valid,
+                             return_flow_m3s=m.return_flow_m3s, pit_volume_m3=m.pit_volume_m3,
+                             bpp_flow_m3s=m.bpp_flow_m3s)
         msg.header.stamp = stamp
         self.pub_measurement.publish(msg)
         self.pub_truth.publish(self._truth_msg(stamp))
@@ -176,6 +189,19 @@ class PlantNode(RigNode):
             self._try_advance()
         elif self.k >= self.last_k:
             self._finish(stamp_ns)
+
+    def _scenario_events(self, time_s: float, stamp) -> None:
+        """Apply the parameter events due by ``time_s``; announce starts and ends."""
+        for i, event in enumerate(self.events):
+            for edge, at_s in (("starts", event.time_s), ("ends", event.end_s)):
+                if (i, edge) in self._announced or time_s + 1e-9 < at_s:
+                    continue
+                self._announced.add((i, edge))
+                if edge == "starts" and event.kind in EVENT_PARAMETERS:
+                    self.sim.set_parameter(EVENT_PARAMETERS[event.kind], event.value)
+                msg = OperatorEvent(kind=EVENT_KINDS[event.kind].category, text=f"{event.describe()}: {edge}", accepted=True)
+                msg.header.stamp = stamp
+                self.pub_events.publish(msg)
 
     def _truth_msg(self, stamp) -> PlantTruth:
         t = self.sim.truth()
@@ -197,6 +223,11 @@ class PlantNode(RigNode):
         msg.choke_opening = float(t.inputs[1])
         msg.bpp_flow_m3s = float(t.inputs[2])
         msg.spp_pa = float(t.inputs[3])
+        msg.influx_m3s, msg.loss_m3s = t.influx_m3s, t.loss_m3s
+        msg.pit_gain_m3 = t.pit_gain_m3
+        msg.influx_volume_m3, msg.loss_volume_m3 = t.influx_volume_m3, t.loss_volume_m3
+        msg.pore_pressure_pa, msg.fracture_pressure_pa, msg.choke_capacity_factor = \
+            (float(v) for v in t.parameters)
         return msg
 
 

@@ -8,8 +8,9 @@ import numpy as np
 
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
-from drill_plant.plant_model import (PlantLayout, SteadyState, build_frame_function,
-                                     build_outputs_function)
+from drill_plant.plant_model import (PARAMETER_NAMES, PlantLayout, SteadyState,
+                                     build_frame_function, build_outputs_function,
+                                     held_parameters, nominal_parameters, wiener_increments)
 
 
 class PlantDiverged(RuntimeError):
@@ -24,6 +25,9 @@ class Measurement:
     bhp_pa: float
     string_flow_m3s: float
     string_flow_valid: bool
+    return_flow_m3s: float       # Coriolis meter on the choke line
+    pit_volume_m3: float         # active pit
+    bpp_flow_m3s: float          # back-pressure pump stroke counter
 
 
 @dataclass(frozen=True)
@@ -36,6 +40,12 @@ class Truth:
     annulus_friction_pa: np.ndarray
     string_friction_pa: float
     ecd_kgm3: float
+    influx_m3s: float            # from the formation below pore pressure
+    loss_m3s: float              # into the formation above fracture pressure
+    pit_gain_m3: float           # active pit volume minus its volume at the start
+    influx_volume_m3: float
+    loss_volume_m3: float
+    parameters: np.ndarray       # PARAMETER_NAMES in force
 
 
 class PlantSimulator:
@@ -48,9 +58,13 @@ class PlantSimulator:
         self.layout = PlantLayout(self.wm.n)
         self._frame = build_frame_function(self.wm, config)
         self._outputs = build_outputs_function(self.wm)
-        process_seed, sensor_seed = np.random.SeedSequence(seed).spawn(2)
+        # the surface-flow sensors draw from their own stream so the paper's four sensors
+        # (and runs recorded before the surface sensors existed) keep their noise
+        process_seed, sensor_seed, surface_seed = np.random.SeedSequence(seed).spawn(3)
         self._process_rng = np.random.default_rng(process_seed)
         self._sensor_rng = np.random.default_rng(sensor_seed)
+        self._surface_rng = np.random.default_rng(surface_seed)
+        self.parameters = nominal_parameters(config.well)
         self.state = initial.state.astype(float).copy()
         self.inputs = initial.inputs.astype(float).copy()
         self.steps_per_frame = config.plant.steps_per_frame
@@ -60,34 +74,51 @@ class PlantSimulator:
         """Integrate one frame with ``inputs`` [4 x steps_per_frame] held per plant step."""
         inputs = np.asarray(inputs, dtype=float)
         count = self.steps_per_frame * self.config.plant.substeps
-        dw = self._process_rng.normal(0.0, np.sqrt(self._substep_s), size=(self.layout.size, count))
-        states = np.asarray(self._frame(self.state, inputs, dw))
+        dw = wiener_increments(self._process_rng, self.layout, count, self._substep_s)
+        states = np.asarray(self._frame(self.state, inputs, dw,
+                                        held_parameters(self.parameters, self.steps_per_frame)))
         final = states[:, -1]
         if not np.all(np.isfinite(final)):
             raise PlantDiverged(f"non-finite plant state after inputs {inputs[:, -1]}")
         self.state = final
         self.inputs = inputs[:, -1].copy()
 
+    def set_parameter(self, name: str, value: float) -> None:
+        """Change one of PARAMETER_NAMES from the next frame on (a scenario event)."""
+        self.parameters[PARAMETER_NAMES.index(name)] = value
+
     def measure(self, circulating: bool) -> Measurement:
-        """Sensors of eq. 48 with the configured noise; no string flow while not circulating."""
+        """Sensors of eq. 48 and the surface-flow sensors (return flow, pit volume) with the
+        configured noise; no string flow while not circulating."""
         lay, noise, x = self.layout, self.config.plant.measurement_noise, self.state
         draw = self._sensor_rng.normal(size=4)
         p0 = self.config.well.choke_downstream_pressure_pa
         flow = x[lay.string_flow] + noise.string_flow_m3s * draw[3]
+        surface, surface_noise = self._surface_rng.normal(size=3), self.config.plant.surface_sensor_noise
+        returns = self._outputs(x, self.inputs, self.parameters)[0]
         return Measurement(
             block_position_m=float(x[lay.position] + noise.block_position_m * draw[0]),
             choke_dp_pa=float(x[lay.pressure(1)] - p0 + noise.choke_dp_pa * draw[1]),
             bhp_pa=float(x[lay.pressure(self.wm.n)] + noise.bhp_pa * draw[2]),
             string_flow_m3s=float(flow) if circulating else float("nan"),
-            string_flow_valid=circulating)
+            string_flow_valid=circulating,
+            return_flow_m3s=float(returns) + surface_noise.return_flow_m3s * float(surface[0]),
+            pit_volume_m3=float(self.config.plant.active_pit_volume_m3 + x[lay.pit_gain]
+                                + surface_noise.pit_volume_m3 * surface[1]),
+            bpp_flow_m3s=float(self.inputs[2] + surface_noise.bpp_flow_m3s * surface[2]))
 
     def truth(self) -> Truth:
-        out = np.asarray(self._outputs(self.state, self.inputs)).ravel()
-        n = self.wm.n
+        out = np.asarray(self._outputs(self.state, self.inputs, self.parameters)).ravel()
+        n, lay = self.wm.n, self.layout
         g = self.config.well.gravity_mps2
-        bhp = self.state[self.layout.pressure(n)]
+        bhp = self.state[lay.pressure(n)]
         return Truth(state=self.state.copy(), inputs=self.inputs.copy(),
                      choke_flow_m3s=float(out[0]), bit_flow_m3s=float(out[1]),
                      annulus_friction_pa=out[2:2 + n - 1].copy(),
                      string_friction_pa=float(out[1 + n]),
-                     ecd_kgm3=float(bhp / (g * self.wm.geometry.node_depth_m[-1])))
+                     ecd_kgm3=float(bhp / (g * self.wm.geometry.node_depth_m[-1])),
+                     influx_m3s=float(out[2 + n]), loss_m3s=float(out[3 + n]),
+                     pit_gain_m3=float(self.state[lay.pit_gain]),
+                     influx_volume_m3=float(self.state[lay.influx_volume]),
+                     loss_volume_m3=float(self.state[lay.loss_volume]),
+                     parameters=self.parameters.copy())

@@ -27,10 +27,9 @@ from scipy.optimize import brentq  # noqa: E402
 
 from drill_core import hydraulics as hy  # noqa: E402
 from drill_core.backend import CASADI, NUMPY  # noqa: E402
-from drill_core.config import load_rig, replace  # noqa: E402
+from drill_core.config import replace  # noqa: E402
 from drill_plant import plant_model as pm  # noqa: E402
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
 
 # Paper Table 2 / docs/design.md §3, typed here on purpose (not read from the model).
 RHO, RHO_STEEL, G, BETA = 1800.0, 7850.0, 9.81, 6.5e9
@@ -54,30 +53,37 @@ def area(d):
 
 # ----------------------------------------------------------------------------- fixtures
 @pytest.fixture(scope="module")
-def cfg():
-    return load_rig(CONFIG_DIR)
-
-
-@pytest.fixture(scope="module")
-def wm(cfg):
-    return hy.build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
-                               cfg.plant.choke_regularisation_pa)
-
-
-@pytest.fixture(scope="module")
 def lay(wm):
     return pm.PlantLayout(wm.n)
 
 
+CLOSED_BOTTOM = np.array(pm.CLOSED_BOTTOM)    # the paper's well (formation: test_formation.py)
+
+
+def nominal_frame(wm, cfg):
+    """The frame function of the paper's closed-bottom well."""
+    f = pm.build_frame_function(wm, cfg)
+    return lambda x, u, dw: f(x, u, dw, pm.held_parameters(CLOSED_BOTTOM, np.shape(u)[1]))
+
+
+def nominal_outputs(wm, cfg, count=None):
+    """The outputs function (mapped over ``count`` columns) of the closed-bottom well."""
+    f = pm.build_outputs_function(wm)
+    theta = CLOSED_BOTTOM
+    if count is None:
+        return lambda x, u: f(x, u, theta)
+    return lambda x, u: f.map(count)(x, u, pm.held_parameters(theta, count))
+
+
 @pytest.fixture(scope="module")
 def frame(wm, cfg):
-    return pm.build_frame_function(wm, cfg)
+    return nominal_frame(wm, cfg)
 
 
 @pytest.fixture(scope="module")
 def jacobian(wm, lay):
     x, u = ca.SX.sym("x", lay.size), ca.SX.sym("u", 4)
-    f = ca.vertcat(*pm.drift(CASADI, wm, [x[i] for i in range(lay.size)], u))
+    f = ca.vertcat(*pm.drift(CASADI, wm, [x[i] for i in range(lay.size)], u, CLOSED_BOTTOM))
     return ca.Function("plant_jacobian", [x, u], [ca.jacobian(f, x)])
 
 
@@ -276,7 +282,7 @@ def _surge_of(xs, lay, n):
 
 
 def test_surge_swab_dynamic(cfg, wm, lay, tripping_runs):
-    outputs = pm.build_outputs_function(wm)
+    outputs = nominal_outputs(wm, cfg)
     measured = {}
     for v, (t, xs, us) in tripping_runs.items():
         window = t > 40.0
@@ -314,7 +320,7 @@ def test_fluid_mass_balance_while_tripping(cfg, wm, lay, frame):
 
     t, xs, us = simulate(frame, cfg, ss.state, inputs, 60.0)
     xs = np.hstack([ss.state[:, None], xs])                           # include t = 0
-    outputs = pm.build_outputs_function(wm).map(xs.shape[1])
+    outputs = nominal_outputs(wm, cfg, xs.shape[1])
     u_c = np.hstack([us[:, :1], us])                                  # choke opening is constant
     q_c = np.array(outputs(xs, u_c))[0]
     q_d = xs[lay.string_flow]
@@ -351,7 +357,7 @@ def test_circulating_steady_state_u_tube(cfg, wm, lay, frame):
     x, u = ss.state, ss.inputs
 
     # drift ~ 0, each balance scaled to its own units and compared with its largest term
-    f = np.array([float(v) for v in pm.drift(NUMPY, wm, list(x), list(u))])
+    f = np.array([float(v) for v in pm.drift(NUMPY, wm, list(x), list(u), CLOSED_BOTTOM)])
     geo = wm.geometry
     for i in range(1, wm.n + 1):
         assert abs(f[lay.pressure(i)] * geo.annulus_volume_m3[i - 1] / BETA) < 1e-9 * q
@@ -405,7 +411,7 @@ def _frictionless_annulus_frequencies(cfg, segments):
     lay = pm.PlantLayout(wm.n)
     x, u = ca.SX.sym("x", lay.size), ca.SX.sym("u", 4)
     jac = ca.Function("j", [x, u], [ca.jacobian(ca.vertcat(*pm.drift(
-        CASADI, wm, [x[i] for i in range(lay.size)], u)), x)])
+        CASADI, wm, [x[i] for i in range(lay.size)], u, CLOSED_BOTTOM)), x)])
     rest = pm.steady_state(wm, 0.0, 0.0, 0.0)
     x0 = rest.state.copy()
     x0[lay.string_pressure] -= 1.0 * BAR            # float clearly shut: annulus decoupled
@@ -500,7 +506,7 @@ def test_stiffness_and_step(cfg, wm, lay, jacobian, tripping_runs):
 def test_step_halving(cfg, wm, lay, frame):
     """Deterministic frame result converges under step halving (substeps 2 -> 4)."""
     fine_cfg = dataclasses.replace(cfg, plant=replace(cfg.plant, substeps=2 * cfg.plant.substeps))
-    fine = pm.build_frame_function(wm, fine_cfg)
+    fine = nominal_frame(wm, fine_cfg)
     rest = pm.steady_state(wm, 0.0, 0.0, 0.0)
 
     def start_tripping(t):                          # passes through the yield jump at v = 0

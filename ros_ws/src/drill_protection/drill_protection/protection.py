@@ -6,7 +6,13 @@ machines respects the most conservative of
 * operator limits: the trip-speed limit of the setpoints in force, the emergency stop,
 * model-derived surge/swab limits: the largest trip speed, each way, for which the
   steady Herschel-Bulkley surge/swab model keeps the BHP inside the pore/fracture
-  window (with margin), and a limit on the change of trip speed (acceleration).
+  window (with margin), and a limit on the change of trip speed (acceleration),
+* the pressure window itself (``window_guard``): while the measured BHP is over the
+  fracture pressure less the margin, the choke's flow reference is set one slew above
+  the measured return flow and the back-pressure pump one slew below its measured flow
+  (unless the advisor asks for more of that), the other way round under the pore
+  pressure plus the margin (the choke on its flow loop while it acts). Starting from the
+  measured flows, not the last commands, it cannot wind up behind the pumps' lags.
 
 A manual choke opening (choke panel in manual) is kept inside the choke's range; its
 rate is limited by the choke actuator's own lag. A choke-dp set-point (the choke on its
@@ -63,6 +69,7 @@ class ProcessProtection:
         self.previous_speed_mps = 0.0
         self.emergency_stop = False
         self.automation_level = "closed_loop"
+        self.trip_hold = ""          # why the trip is stopped (a well-control alarm), "" if not
         a, n = config.actuators, config.nmpc
         self.lower = np.array([a.drawworks.minimum, 0.0, a.bpp.minimum, a.mud_pump.minimum])
         self.upper = np.array([a.drawworks.maximum, n.input_max.choke_flow_m3s, a.bpp.maximum,
@@ -77,6 +84,9 @@ class ProcessProtection:
         the measured string velocity, then the model predicts BHP at each candidate speed.
         """
         p = self.config.protection
+        if self.trip_hold:
+            held = (0.0, self.trip_hold)
+            return held, held
         if not (np.isfinite(bhp_pa) and np.isfinite(string_velocity_mps)):
             held = (0.0, "no finite BHP or string-speed measurement: trip held")
             return held, held
@@ -86,7 +96,8 @@ class ProcessProtection:
         grid = np.linspace(0.0, cap, _SPEED_GRID_POINTS)
         current = surge_swab_pa(self.wm, np.array([string_velocity_mps]), circulation_m3s)[0]
         static_bhp = bhp_pa - current
-        low, high = p.pore_pressure_pa + p.pressure_margin_pa, p.fracture_pressure_pa - p.pressure_margin_pa
+        f = self.config.well.formation
+        low, high = f.pore_pressure_pa + p.pressure_margin_pa, f.fracture_pressure_pa - p.pressure_margin_pa
 
         def outside(bhp):
             return np.maximum(low - bhp, 0.0) + np.maximum(bhp - high, 0.0)
@@ -107,10 +118,13 @@ class ProcessProtection:
     def apply(self, request, position_m: float, string_velocity_mps: float, bhp_pa: float,
               circulation_m3s: float, operator_speed_limit_mps: float,
               manual_choke_opening: float | None = None,
-              choke_dp_setpoint: tuple[float, float] | None = None) -> Decision:
+              choke_dp_setpoint: tuple[float, float] | None = None,
+              surface_flows: tuple[float, float] | None = None) -> Decision:
         """Limit ``request`` [u_r, q_c, q_bpp, p_spp], the requested manual choke opening and
         choke-dp set-point (dp Pa, ramp Pa/s) (both None: the choke on its PI flow
-        controller; a manual opening wins); returns the command to send and why."""
+        controller; a manual opening wins); ``surface_flows`` are the measured return and
+        back-pressure pump flows [m^3/s] the window guard starts from. Returns the command
+        to send and why."""
         p = self.config.protection
         period = p.command_period_s
         request = np.asarray(request, dtype=float)
@@ -138,12 +152,18 @@ class ProcessProtection:
         if manual_choke_opening is not None:
             choke_dp_setpoint = None
 
+        guard = self._window_guard(bhp_pa, clamps)
+        if guard:
+            manual_choke_opening, choke_dp_setpoint = None, None
+
         for i in (1, 2, 3):
             limited = np.clip(command[i], self.previous[i] - self.slew[i], self.previous[i] + self.slew[i])
             limited = float(np.clip(limited, self.lower[i], self.upper[i]))
-            if limited != command[i]:
+            if limited != command[i] and not (guard and i in (1, 2)):
                 clamps.append(f"{INPUTS[i]} {command[i]:.6g} -> {limited:.6g} (machine range/rate)")
-                command[i] = limited
+            command[i] = limited
+        if guard:
+            self._drive_back(guard, command, surface_flows)
 
         (down, why_down), (up, why_up) = self.speed_limits(
             bhp_pa, string_velocity_mps, circulation_m3s, operator_speed_limit_mps)
@@ -169,6 +189,36 @@ class ProcessProtection:
         self.previous_dp_setpoint = choke_dp_setpoint
         return Decision(command, tuple(clamps), (down, up), manual_choke_opening,
                         choke_dp_setpoint)
+
+    def _drive_back(self, guard: int, command: np.ndarray, surface_flows) -> None:
+        """Choke flow reference and back-pressure pump one slew from where the machines are
+        (the measured return and pump flows; the last commands where unmeasured), toward the
+        window: more flow out and less pumped in over it (guard +1), the other way under it,
+        unless the advisor already asks for more of that."""
+        measured = [float(v) for v in (surface_flows or (np.nan, np.nan))]
+        now = [m if np.isfinite(m) else self.previous[i] for i, m in zip((1, 2), measured)]
+        choke = now[0] + guard * self.slew[1]
+        pump = now[1] - guard * self.slew[2]
+        command[1] = max(command[1], choke) if guard > 0 else min(command[1], choke)
+        command[2] = min(command[2], pump) if guard > 0 else max(command[2], pump)
+        command[1:3] = np.clip(command[1:3], self.lower[1:3], self.upper[1:3])
+
+    def _window_guard(self, bhp_pa: float, clamps: list[str]) -> int:
+        """+1 while the measured BHP is over the fracture pressure less the margin (relieve:
+        more choke flow, less back-pressure pump), -1 under the pore pressure plus the margin
+        (hold back: less choke flow, more pump), else 0; the reason goes to ``clamps``."""
+        p, f = self.config.protection, self.config.well.formation
+        if not (p.window_guard and np.isfinite(bhp_pa)):
+            return 0
+        high, low = f.fracture_pressure_pa - p.pressure_margin_pa, f.pore_pressure_pa + p.pressure_margin_pa
+        if low <= bhp_pa <= high:
+            return 0
+        over = bhp_pa > high
+        clamps.append(f"BHP {bhp_pa / 1e5:.1f} bar {'over' if over else 'under'} the window's "
+                      f"{'fracture' if over else 'pore'} limit {(high if over else low) / 1e5:.1f} "
+                      f"bar: choke flow reference {'up' if over else 'down'}, back-pressure pump "
+                      f"{'down' if over else 'up'}")
+        return 1 if over else -1
 
     def _limit_opening(self, opening: float | None, clamps: list[str]) -> float | None:
         """A manual choke opening inside the choke's range [1] (None stays None)."""

@@ -7,7 +7,10 @@ t_k and published stamped t_k. realtime mode: each request is limited with the
 latest measurement. The latched /setpoints give the operator's trip-speed limit;
 the latched /operator/emergency_stop (std_msgs/Bool) stops the block and holds pressures;
 the latched /operator/automation_level (std_msgs/String: manual, advisory, closed_loop)
-says whether advisor commands reach the machines (only in closed_loop).
+says whether advisor commands reach the machines (only in closed_loop). Every
+measurement feeds the flow-balance kick detector (drill_protection.kick_detection); a
+kick or losses alarm is raised and cleared as an event and, with ``stop_trip``, holds the
+trip (the block reference brakes to rest within the acceleration limit) until it clears.
 """
 from __future__ import annotations
 
@@ -20,6 +23,7 @@ from drill_msgs.msg import OperatorEvent, RigCommand, RigMeasurement, Setpoints
 from std_msgs.msg import Bool, String
 
 from drill_core.automation import AUTOMATION_LEVELS
+from drill_core.units import L_PER_M3, LPM_PER_M3S
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
@@ -27,6 +31,7 @@ from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_core.ros.status import StatusReporter
+from drill_protection.kick_detection import FlowSample, detector_for
 from drill_protection.protection import ProcessProtection
 
 VELOCITY_WINDOW_S = 1.0
@@ -42,6 +47,7 @@ class ProtectionNode(RigNode):
         op = ctx.operating_point
         start = np.array([0.0, op.choke_flow_m3s, ini.bpp_flow_m3s, op.spp_pa])
         self.protection = ProcessProtection(ctx.config, ctx.well_model, start)
+        self.detector = detector_for(ctx.config, ctx.well_model.geometry)
         self.operator_speed_limit = ctx.config.protection.trip_speed_max_mps
         self.positions: deque = deque()
         self.inbox = StampedInbox(("command", "measurement"))
@@ -97,11 +103,29 @@ class ProtectionNode(RigNode):
 
     def _on_measurement(self, msg: RigMeasurement) -> None:
         stamp = to_ns(msg.header.stamp)
+        self._detect(msg, stamp)
         self.positions.append((stamp, msg.block_position_m))
         while self.positions and stamp - self.positions[0][0] > VELOCITY_WINDOW_S * 1e9:
             self.positions.popleft()
         self.inbox.put("measurement", msg)
         self._process()
+
+    def _detect(self, m: RigMeasurement, stamp: int) -> None:
+        """Feed the kick detector; raise or clear its alarm (and the trip hold)."""
+        before = self.detector.alarm
+        reading = self.detector.update(FlowSample(
+            stamp * 1e-9, m.return_flow_m3s, m.string_flow_m3s if m.string_flow_valid else math.nan,
+            m.bpp_flow_m3s, m.block_position_m, m.choke_dp_pa, m.bhp_pa))
+        if reading.raised:
+            self.alarm_count += 1
+            self._event("alarm", f"{reading.alarm} detected: excess flow "
+                                 f"{reading.excess_flow_m3s * LPM_PER_M3S:+.0f} L/min, "
+                                 f"{reading.volume_at_alarm_m3 * L_PER_M3:+.0f} L since it began", stamp)
+        elif before and not reading.alarm:
+            self._event("alarm", f"{before} alarm cleared: excess flow "
+                                 f"{reading.excess_flow_m3s * LPM_PER_M3S:+.0f} L/min", stamp)
+        if self.ctx.config.protection.kick_detection.stop_trip:
+            self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" if reading.alarm else ""
 
     def _on_command(self, msg: RigCommand) -> None:
         self.inbox.put("command", msg)
@@ -135,7 +159,8 @@ class ProtectionNode(RigNode):
              request.spp_pa], m.block_position_m, self._velocity(), m.bhp_pa, max(circulation, 0.0),
             self.operator_speed_limit, request.choke_opening_ref if request.choke_manual else None,
             (request.choke_dp_ref_pa, request.choke_dp_ref_rate_pa_s)
-            if request.choke_pressure_control else None)
+            if request.choke_pressure_control else None,
+            surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s))
         manual = decision.manual_choke_opening
         dp_setpoint = decision.choke_dp_setpoint
         out = RigCommand(block_position_ref_m=float(decision.command[0]),
@@ -156,12 +181,15 @@ class ProtectionNode(RigNode):
         level = "emergency_stop" if self.protection.emergency_stop else self.protection.automation_level
         self.status.mode = f"{self.ctx.mode}/{level}"
         self.status.values = {"clamps": float(self.clamp_count), "alarms": float(self.alarm_count),
+                              "rejected_flow_samples": float(self.detector.rejected),
                               "trip_speed_limit_in_mps": decision.trip_speed_limits_mps[0],
                               "trip_speed_limit_out_mps": decision.trip_speed_limits_mps[1]}
         self.status.tick(stamp)
 
     def _check_window(self, bhp_pa: float, stamp: int) -> None:
-        p = self.ctx.config.protection
+        p = self.ctx.config.well.formation
+        if not math.isfinite(bhp_pa):
+            return              # no reading: the window is judged on the next one
         inside = p.pore_pressure_pa <= bhp_pa <= p.fracture_pressure_pa
         if inside != self.in_window:
             self.in_window = inside

@@ -65,7 +65,7 @@ def test_operator_trip_speed_and_acceleration_limits(setup):
 def test_model_derived_swab_limit_keeps_bhp_in_window(setup):
     config, wm = setup
     p = fresh(setup, start=(0.0, 0.0, 0.0, 0.0))
-    low = config.protection.pore_pressure_pa + config.protection.pressure_margin_pa
+    low = config.well.formation.pore_pressure_pa + config.protection.pressure_margin_pa
     bhp_at_rest = low + 10e5                              # only 10 bar above the window edge
     d = p.apply([28.0, 0.0, 0.0, 0.0], 0.0, 0.0, bhp_at_rest, 0.0, 0.5)
     allowed_out = d.trip_speed_limits_mps[1]
@@ -175,3 +175,29 @@ def test_choke_dp_set_point_held_without_its_ramp_by_emergency_stop_and_manual_l
     p.automation_level = "advisory"
     d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(float("nan"), 0.0))
     assert d.choke_dp_setpoint == (2.3e6, 0.0)               # the advisor's request is not applied
+
+
+def test_outside_the_window_the_choke_and_pump_are_driven_back_from_where_they_are(setup):
+    config, _ = setup
+    f, margin = config.well.formation, config.protection.pressure_margin_pa
+    slew = config.nmpc.input_slew
+    p = fresh(setup, start=(0.0, 0.0, 0.02, 0.0))            # choke shut, bpp commanded 1200 L/min
+    held = [0.0, 0.0, 0.02, 0.0]                             # an advisor holding that
+    over = f.fracture_pressure_pa - margin + 1.0e5
+    flows = (0.001, 0.0125)                                  # measured: 60 L/min out, bpp at 750 L/min
+    d = p.apply(held, 0.0, 0.0, over, 0.0, 0.5, manual_choke_opening=0.0, surface_flows=flows)
+    assert d.command[1] == pytest.approx(0.001 + slew.choke_flow_m3s)      # opening the choke
+    assert d.command[2] == pytest.approx(0.0125 - slew.bpp_flow_m3s)       # below the pump, not
+    assert d.manual_choke_opening is None                                 # its command
+    assert any("over the window's fracture limit 705.0 bar" in c for c in d.clamps)
+    asked = p.apply([0.0, 0.03, 0.0, 0.0], 0.0, 0.0, over, 0.0, 0.5, surface_flows=flows)
+    # an advisor cutting the pump faster (at the machine slew) keeps its cut
+    assert asked.command[2] == pytest.approx(0.0125 - 2 * slew.bpp_flow_m3s)
+    under = f.pore_pressure_pa + margin - 1.0e5
+    p = fresh(setup, start=(0.0, 0.02, 0.005, 0.0))           # an advisor asking for 1200 L/min out
+    d = p.apply([0.0, 0.02, 0.0, 0.0], 0.0, 0.0, under, 0.0, 0.5, surface_flows=(0.01, 0.005))
+    assert d.command[1] == pytest.approx(0.01 - slew.choke_flow_m3s)       # closing, not opening
+    assert d.command[2] == pytest.approx(0.005 + slew.bpp_flow_m3s)        # pump back up
+    assert any("under the window's pore limit 665.0 bar" in c for c in d.clamps)
+    inside = p.apply([0.0, 0.02, 0.0, 0.0], 0.0, 0.0, 6.85e7, 0.0, 0.5, surface_flows=flows)
+    assert not any("window's" in c for c in inside.clamps)

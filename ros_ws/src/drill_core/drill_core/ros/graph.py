@@ -30,6 +30,8 @@ class Topic:
 TOPICS = (
     Topic(topics.MEASUREMENT, "drill_msgs/RigMeasurement", "reliable"),
     Topic(topics.TRUTH, "drill_msgs/PlantTruth", "reliable", "evaluation only"),
+    Topic(topics.RIG_EVENTS, "drill_msgs/OperatorEvent", "reliable",
+          "scenario events (faults, formation): evaluation and console only"),
     *(Topic(frame, "drill_msgs/ActuatorFrame", "reliable") for frame in FRAMES),
     Topic(topics.COMMAND, "drill_msgs/RigCommand", "reliable", "advisor's command"),
     Topic(topics.MACHINE_COMMAND, "drill_msgs/RigCommand", "reliable",
@@ -98,15 +100,18 @@ NODES = (
          (topics.OPERATOR_EVENTS, topics.AUTOMATION_LEVEL, topics.EMERGENCY_STOP),
          (topics.MEASUREMENT, topics.TRUTH, topics.ESTIMATE, topics.NMPC_STATUS, topics.SETPOINTS,
           topics.OPERATOR_EVENTS, topics.PROTECTION_EVENTS, topics.AUTOMATION_LEVEL,
-          topics.EMERGENCY_STOP, topics.LEVEL_IN_FORCE, topics.ESTOP_IN_FORCE, *FRAMES),
+          topics.EMERGENCY_STOP, topics.LEVEL_IN_FORCE, topics.ESTOP_IN_FORCE, topics.RIG_EVENTS,
+          *FRAMES),
          realtime_only=True),
-    Node("plant", "drill_plant.plant_node", (topics.MEASUREMENT, topics.TRUTH, CLOCK), FRAMES),
+    Node("plant", "drill_plant.plant_node",
+         (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, CLOCK), FRAMES),
 )
 BY_NAME = {n.name: n for n in NODES}
 CONTROLLERS = tuple(n.controller for n in NODES if n.controller)
-# The plant starts frame 0 once these are matched: everything the lockstep passes on.
-LOCKSTEP_TOPICS = (topics.MEASUREMENT, topics.TRUTH, topics.ESTIMATE, CLOCK, topics.COMMAND,
-                   topics.MACHINE_COMMAND, *FRAMES)
+# The plant starts frame 0 once these are matched: everything the lockstep passes on, and
+# the scenario events the recorder must not miss.
+LOCKSTEP_TOPICS = (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, topics.ESTIMATE, CLOCK,
+                   topics.COMMAND, topics.MACHINE_COMMAND, *FRAMES)
 
 
 def run_nodes(controller: str, fast: bool) -> list[Node]:

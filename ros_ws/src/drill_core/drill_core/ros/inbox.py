@@ -20,8 +20,15 @@ class StampedInbox:
     def has(self, name: str, stamp_ns: int) -> bool:
         return stamp_ns in self._slots[name]
 
+    def passed(self, name: str, stamp_ns: int) -> bool:
+        """Whether ``name`` has a message newer than ``stamp_ns`` but none stamped
+        ``stamp_ns``: on a reliable topic, which delivers in order, that one is lost (it was
+        published before the subscription matched)."""
+        slot = self._slots[name]
+        return stamp_ns not in slot and any(s > stamp_ns for s in slot)
+
     def ready(self, stamp_ns: int, names=None) -> bool:
-        return all(stamp_ns in self._slots[n] for n in (names or self._slots))
+        return all(stamp_ns in self._slots[n] for n in (self._slots if names is None else names))
 
     def take(self, name: str, stamp_ns: int):
         """Remove and return the message of ``name`` stamped ``stamp_ns``; drop older ones."""

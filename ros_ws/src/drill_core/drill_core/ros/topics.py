@@ -5,6 +5,8 @@ with keep-all history; setpoints are latched (transient local, depth 1).
 """
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from drill_core.events import ACTUATORS  # noqa: F401  (re-exported: the actuator topics)
+
 MATCH_SETTLE_S = 2.0    # discovery precedes endpoint matching: let reliable matches complete
 
 MEASUREMENT = "/rig/measurement"        # drill_msgs/RigMeasurement, plant -> estimator, actuators
@@ -22,7 +24,7 @@ NMPC_NODE_STATUS = "/nmpc/node_status"  # drill_msgs/NodeStatus of the nmpc node
 SETPOINTS = "/setpoints"                # drill_msgs/Setpoints, latched
 SET_SETPOINTS = "/set_setpoints"        # drill_msgs/srv/SetSetpoints, validating
 OPERATOR_EVENTS = "/operator/events"    # drill_msgs/OperatorEvent
-ACTUATORS = ("drawworks", "choke", "bpp", "mud_pump")
+RIG_EVENTS = "/rig/events"              # drill_msgs/OperatorEvent, plant: scenario events (faults)
 
 
 def actuator_frame(name: str) -> str:

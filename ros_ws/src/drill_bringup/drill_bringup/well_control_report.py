@@ -1,0 +1,116 @@
+"""The well-control part of a run report: formation flows against the truth (influx,
+losses, pit gain), time spent under the pore or over the fracture pressure in force, the
+kick and loss detector's alarms against the truth (delay, volume in at detection, false
+alarms), and the event timeline (scenario events from /rig/events, protection alarms).
+Plain Python over the report's Series (drill_bringup.report); SI in the summary, bar and
+L at the display edge."""
+from __future__ import annotations
+
+import numpy as np
+
+from drill_core.units import L_PER_M3, PA_PER_BAR
+
+TIMELINE_KINDS = {("rig", "fault"), ("rig", "formation"), ("protection", "alarm")}
+# The protection's detector alarms (drill_protection.kick_detection), the truth volume they
+# answer to, and the volume below which an alarm is a false one.
+DETECTIONS = {"kick": ("kick detected", "influx_volume"), "losses": ("losses detected", "loss_volume")}
+FALSE_ALARM_BELOW_M3 = 1.0e-3
+
+
+def detections(s, t) -> dict:
+    """Per kind: the first true alarm's delay after the truth's onset and the volume in (or
+    lost) by then, and the alarms raised before any such volume (false alarms)."""
+    out = {}
+    for kind, (prefix, key) in DETECTIONS.items():
+        _, volume = s.get(key)
+        alarms = [e[0] for e in s.events if e[1] == "protection" and e[3].startswith(prefix)]
+        at = [float(np.interp(a, t, volume)) for a in alarms]
+        true = [(a, v) for a, v in zip(alarms, at) if v >= FALSE_ALARM_BELOW_M3]
+        started = np.nonzero(volume > 0.0)[0]
+        onset = float(t[started[0]]) if len(started) else None
+        out[kind] = {
+            "onset_s": onset,
+            "false_alarms": len(alarms) - len(true),
+            "delay_s": true[0][0] - onset if true and onset is not None else None,
+            "volume_at_detection_m3": true[0][1] if true else None,
+        }
+    return out
+
+def summarise(s, t, bhp) -> dict:
+    """Formation figures of a run from its truth samples (empty for a recording made
+    before the plant had a formation)."""
+    _, pore = s.get("pore")
+    _, fracture = s.get("fracture")
+    if len(pore) != len(t) or not len(t) or not np.all(np.isfinite(pore)):
+        return {}
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    _, pit_gain = s.get("pit_gain")
+    _, influx = s.get("influx_volume")
+    _, loss = s.get("loss_volume")
+    return {
+        "influx_volume_m3": float(influx[-1]),
+        "loss_volume_m3": float(loss[-1]),
+        "pit_gain_max_m3": float(np.max(pit_gain)),
+        "pit_gain_final_m3": float(pit_gain[-1]),
+        "bhp_under_pore_s": float(np.count_nonzero(bhp < pore) * dt),
+        "bhp_over_fracture_s": float(np.count_nonzero(bhp > fracture) * dt),
+        "worst_underbalance_pa": float(max(np.max(pore - bhp), 0.0)),
+        "worst_overbalance_over_fracture_pa": float(max(np.max(bhp - fracture), 0.0)),
+        "events": [list(e) for e in s.events if (e[1], e[2]) in TIMELINE_KINDS],
+        "detection": detections(s, t),
+    }
+
+
+def format_rows(summary: dict) -> list[str]:
+    """Table rows for the printed report (none without formation figures)."""
+    if "influx_volume_m3" not in summary:
+        return []
+    rows = [
+        f"  formation                     influx {summary['influx_volume_m3'] * L_PER_M3:.0f} L, "
+        f"losses {summary['loss_volume_m3'] * L_PER_M3:.0f} L, pit gain max "
+        f"{summary['pit_gain_max_m3'] * L_PER_M3:+.0f} L (final "
+        f"{summary['pit_gain_final_m3'] * L_PER_M3:+.0f} L)",
+        f"  BHP under pore pressure       {summary['bhp_under_pore_s']:.1f} s (worst "
+        f"{summary['worst_underbalance_pa'] / PA_PER_BAR:.2f} bar under), over fracture "
+        f"{summary['bhp_over_fracture_s']:.1f} s",
+    ]
+    for kind, d in summary["detection"].items():
+        if d["onset_s"] is None and not d["false_alarms"]:
+            continue
+        found = "not detected" if d["delay_s"] is None else \
+            f"detected {d['delay_s']:.1f} s after its onset, {d['volume_at_detection_m3'] * L_PER_M3:.0f} L by then"
+        rows.append(f"  {kind + ' detection':<30}{found}; {d['false_alarms']} false alarms")
+    events = summary["events"]
+    if events:
+        rows.append(f"  event timeline                {len(events)} events")
+        rows += [f"    t = {t:7.1f} s  {source:<10} {kind:<9} {text}"
+                 for t, source, kind, text in events]
+    return rows
+
+
+def plot(s, ax_pressure, ax_volume) -> bool:
+    """BHP against the window in force, and pit gain (true, measured) with the influx and
+    loss volumes; False (nothing drawn) for a recording without them."""
+    t, bhp = s.get("bhp")
+    _, pore = s.get("pore")
+    if len(pore) != len(t) or not len(t) or not np.all(np.isfinite(pore)):
+        return False
+    _, fracture = s.get("fracture")
+    ax_pressure.plot(t, bhp / PA_PER_BAR, lw=1.2, label="BHP (true)")
+    ax_pressure.plot(t, pore / PA_PER_BAR, "r-", lw=0.9, label="pore pressure")
+    ax_pressure.plot(t, fracture / PA_PER_BAR, "m-", lw=0.9, label="fracture pressure")
+    ax_pressure.set(ylabel="pressure [bar]", title="Bottom-hole pressure in the formation window")
+    for time_s, _, _, _ in (e for e in s.events if (e[1], e[2]) in TIMELINE_KINDS):
+        ax_pressure.axvline(time_s, color="0.5", ls=":", lw=0.8)
+    ax_pressure.legend(fontsize=7, loc="best")
+    tm, pit = s.get("pit_meas")
+    if len(pit):
+        ax_volume.plot(tm, (pit - pit[0]) * L_PER_M3, ".", ms=1, color="0.7",
+                       label="pit volume change (measured)")
+    for key, label in (("pit_gain", "pit gain (true)"), ("influx_volume", "influx"),
+                       ("loss_volume", "losses")):
+        _, volume = s.get(key)
+        ax_volume.plot(t, volume * L_PER_M3, lw=1, label=label)
+    ax_volume.set(xlabel="time [s]", ylabel="volume [L]")
+    ax_volume.legend(fontsize=7, loc="best")
+    return True

@@ -1,0 +1,152 @@
+"""Kick and loss detection from the surface flows (plain Python; docs/design.md §10).
+
+The well's mud balance (docs/model.md, formation and pit) says what leaves the well
+beyond what is pumped in is the formation's, once two known terms are taken out:
+
+    influx - losses = ∫ (q_return - q_string - q_bpp) dt + A_net Δx_s
+                      + C_top Δp_choke + C_bottom Δp_bottom
+
+(A_net Δx_s: the volume the moving string vacates; the C terms: the mud that pressure
+changes compress, the annulus pressure taken linear in depth between the choke and the
+bottom-hole gauge, the string's with the bottom one, both pressures averaged over a
+second against their noise). That *excess volume*, averaged into an *excess flow* over a
+window,
+raises a kick alarm when it stays above the threshold for the confirmation time, a losses
+alarm when it stays below minus the threshold, and clears once it has stayed within half
+the threshold as long. Non-finite samples are rejected and counted; a sample without a
+string-flow reading (mud pump off) adds nothing to the balance, so detection pauses.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+from drill_core.config import KickDetection, RigConfig
+from drill_core.well import WellGeometry
+
+
+@dataclass(frozen=True)
+class FlowSample:
+    """One sensor sample of what the detector reads (SI)."""
+    time_s: float
+    return_flow_m3s: float      # Coriolis on the choke line
+    string_flow_m3s: float      # into the string (NaN: not measured, pump off)
+    bpp_flow_m3s: float         # back-pressure pump, into the choke line
+    string_position_m: float
+    choke_dp_pa: float
+    bhp_pa: float
+
+
+@dataclass(frozen=True)
+class Detection:
+    """The detector's reading after a sample."""
+    excess_flow_m3s: float      # averaged over the window (NaN until it has one)
+    excess_volume_m3: float     # influx - losses since the balance started, as it reads them
+    alarm: str                  # "", "kick" or "losses"
+    raised: bool                # the alarm was raised on this sample
+    volume_at_alarm_m3: float   # excess volume gained since the flow first crossed the threshold
+
+
+class KickDetector:
+    """Flow-balance kick and loss detector for one run."""
+
+    def __init__(self, config: KickDetection, net_displacement_area_m2: float,
+                 compliance_top_m3_pa: float, compliance_bottom_m3_pa: float):
+        self.config = config
+        self.area_m2 = net_displacement_area_m2
+        self.compliance_m3_pa = (compliance_top_m3_pa, compliance_bottom_m3_pa)
+        self._pressures: deque = deque()        # (time s, choke dp Pa, BHP Pa) of the last second
+        self.rejected = 0
+        self.alarm = ""
+        self._integral_m3 = 0.0
+        self._first: FlowSample | None = None
+        self._last_time_s: float | None = None
+        self._history: deque = deque()          # (time s, excess volume m^3)
+        self._since: dict[str, float | None] = {"kick": None, "losses": None, "clear": None}
+        self._onset_volume: dict[str, float] = {}
+        self._raised_volume = math.nan
+
+    def update(self, s: FlowSample) -> Detection:
+        """Take one sample; the reading after it."""
+        needed = (s.time_s, s.return_flow_m3s, s.bpp_flow_m3s, s.string_position_m, s.choke_dp_pa,
+                  s.bhp_pa)
+        if not all(math.isfinite(v) for v in needed):
+            self.rejected += 1
+            return self._reading(False)
+        if not math.isfinite(s.string_flow_m3s):          # pump off: no balance to keep
+            self._first = None
+            self._history.clear()
+            return self._reading(False)
+        self._pressures.append((s.time_s, s.choke_dp_pa, s.bhp_pa))
+        while self._pressures[0][0] < s.time_s - self.config.pressure_average_s + 1e-9:
+            self._pressures.popleft()
+        pressures = [sum(p[i] for p in self._pressures) / len(self._pressures) for i in (1, 2)]
+        if self._first is None:                           # (re)start the balance here
+            self._first, self._last_time_s, self._integral_m3 = s, s.time_s, 0.0
+            self._first_pressures = pressures
+        dt = s.time_s - self._last_time_s
+        self._last_time_s = s.time_s
+        self._integral_m3 += (s.return_flow_m3s - s.string_flow_m3s - s.bpp_flow_m3s) * dt
+        volume = (self._integral_m3
+                  + self.area_m2 * (s.string_position_m - self._first.string_position_m)
+                  + sum(c * (p - p0) for c, p, p0 in zip(self.compliance_m3_pa, pressures,
+                                                          self._first_pressures)))
+        self._history.append((s.time_s, volume))
+        while self._history[0][0] < s.time_s - self.config.window_s - 1e-9:
+            self._history.popleft()
+        return self._reading(self._judge(s.time_s))
+
+    def _judge(self, time_s: float) -> bool:
+        """Advance the alarm state on the windowed excess flow; True when raised now."""
+        flow = self.excess_flow_m3s
+        if math.isnan(flow):
+            return False
+        threshold, confirm = self.config.flow_threshold_m3s, self.config.confirm_s
+        volume = self._history[-1][1]
+        for kind, beyond in (("kick", flow > threshold), ("losses", flow < -threshold)):
+            if not beyond:
+                self._since[kind] = None
+            elif self._since[kind] is None:
+                self._since[kind] = time_s
+                self._onset_volume[kind] = self._history[0][1]
+        quiet = abs(flow) < 0.5 * threshold
+        self._since["clear"] = (self._since["clear"] or time_s) if quiet else None
+        if self.alarm and self._since["clear"] is not None \
+                and time_s - self._since["clear"] >= confirm:
+            self.alarm = ""
+        for kind in ("kick", "losses"):
+            started = self._since[kind]
+            if started is not None and time_s - started >= confirm and self.alarm != kind:
+                self.alarm = kind
+                self._raised_volume = volume - self._onset_volume[kind]
+                return True
+        return False
+
+    @property
+    def excess_flow_m3s(self) -> float:
+        if len(self._history) < 2:
+            return math.nan
+        (t0, v0), (t1, v1) = self._history[0], self._history[-1]
+        if t1 - t0 < self.config.window_s - 1e-9:
+            return math.nan
+        return (v1 - v0) / (t1 - t0)
+
+    def _reading(self, raised: bool) -> Detection:
+        volume = self._history[-1][1] if self._history else math.nan
+        return Detection(self.excess_flow_m3s, volume, self.alarm, raised, self._raised_volume)
+
+
+def detector_for(config: RigConfig, geometry: WellGeometry) -> KickDetector:
+    """The detector of a well: its net displacement area (steel), and the compliance
+    V_i / beta of each annulus volume split between the choke gauge and the bottom gauge by
+    its node's depth (the pressure change taken linear in depth), the string's on the
+    bottom gauge."""
+    beta = config.well.mud.bulk_modulus_pa
+    weights = [depth / geometry.node_depth_m[-1] for depth in geometry.node_depth_m]
+    volumes = geometry.annulus_volume_m3
+    return KickDetector(config.protection.kick_detection,
+                        sum(geometry.displacement_area_m2) - geometry.string_top_inner_area_m2,
+                        sum(v * (1.0 - w) for v, w in zip(volumes, weights)) / beta,
+                        (sum(v * w for v, w in zip(volumes, weights)) + geometry.string_volume_m3)
+                        / beta)

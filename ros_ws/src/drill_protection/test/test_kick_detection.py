@@ -1,0 +1,102 @@
+"""Flow-balance kick detector against a synthetic well whose flows are known exactly."""
+import math
+
+import numpy as np
+import pytest
+
+from drill_core.config import KickDetection
+from drill_protection.kick_detection import FlowSample, KickDetector
+
+CONFIG = KickDetection(window_s=10.0, pressure_average_s=1.0, flow_threshold_m3s=3.3e-4,
+                       confirm_s=5.0, stop_trip=True)
+AREA = 0.01                        # net displacement area [m^2]
+COMPLIANCE = (1.3e-8, 1.1e-8)      # [m^3/Pa] on the choke gauge and on the bottom gauge
+PUMP = 1000.0 / 60000.0
+
+
+def well(seconds, influx=lambda t: 0.0, speed=lambda t: 0.0, dp=lambda t: 2.0e6,
+         bhp=lambda t: 6.85e7, noise=0.0, seed=0, pump_off=()):
+    """Samples at 10 Hz of a well: returns = pump + influx - the volume the string vacates
+    - what the rising pressures compress (the detector's balance, run forward)."""
+    rng = np.random.default_rng(seed)
+    x, out = 0.0, []
+    for k in range(int(seconds * 10)):
+        t = k * 0.1
+        x += speed(t) * 0.1
+        rates = [(f(t + 0.05) - f(t - 0.05)) / 0.1 for f in (dp, bhp)]
+        returns = PUMP + influx(t) - AREA * speed(t) - sum(c * r for c, r in zip(COMPLIANCE, rates))
+        string = math.nan if any(a <= t < b for a, b in pump_off) else PUMP
+        out.append(FlowSample(t, returns + noise * rng.standard_normal(), string, 0.0, x, dp(t),
+                              bhp(t)))
+    return out
+
+
+def run(samples):
+    detector = KickDetector(CONFIG, AREA, *COMPLIANCE)
+    return detector, [detector.update(s) for s in samples]
+
+
+def test_a_trip_and_pressure_moves_raise_nothing():
+    def speed(t):
+        return 0.5 if 30.0 <= t < 90.0 else (-0.5 if 120.0 <= t < 180.0 else 0.0)
+
+    def dp(t):
+        return 2.0e6 + 5.0e5 * np.clip((t - 40.0) / 10.0, 0.0, 1.0)      # +5 bar over 10 s
+
+    def bhp(t):
+        return 6.85e7 - 3.0e5 * np.clip((t - 100.0) / 5.0, 0.0, 1.0)     # -3 bar over 5 s
+    _, readings = run(well(200.0, speed=speed, dp=dp, bhp=bhp, noise=8.3e-5, seed=1))
+    assert not any(r.alarm for r in readings)
+    flows = np.array([r.excess_flow_m3s for r in readings[100:]])
+    assert np.abs(flows).max() < 0.2 * CONFIG.flow_threshold_m3s
+
+
+def test_a_kick_is_raised_after_the_window_and_confirmation_with_its_volume():
+    rate = 81.0 / 60000.0                                             # 81 L/min from t = 50 s
+    detector, readings = run(well(120.0, influx=lambda t: rate if t >= 50.0 else 0.0,
+                                  noise=8.3e-5, seed=2))
+    raised = [k for k, r in enumerate(readings) if r.raised]
+    assert len(raised) == 1 and readings[raised[0]].alarm == "kick"
+    t_alarm = raised[0] * 0.1
+    # the windowed flow crosses 20 L/min after 10 s * 20/81 = 2.5 s; 5 s to confirm
+    assert t_alarm - 50.0 == pytest.approx(2.5 + 5.0, abs=0.5)
+    # the volume the balance gained from the window before the crossing: the influx so far
+    volume = readings[raised[0]].volume_at_alarm_m3
+    assert volume == pytest.approx(rate * (t_alarm - 50.0), rel=0.05)
+    assert readings[-1].excess_volume_m3 == pytest.approx(rate * 70.0, rel=0.02)
+
+
+def test_losses_raise_their_own_alarm_and_it_clears():
+    rate = -40.0 / 60000.0
+    _, readings = run(well(150.0, influx=lambda t: rate if 30.0 <= t < 70.0 else 0.0))
+    alarms = [r.alarm for r in readings]
+    assert "losses" in alarms and "kick" not in alarms
+    assert alarms[-1] == ""                                            # cleared after it stopped
+
+
+def test_bad_samples_are_counted_and_a_pump_stop_restarts_the_balance():
+    samples = well(60.0, pump_off=((20.0, 30.0),))
+    samples[50] = FlowSample(5.0, math.nan, PUMP, 0.0, 0.0, 2.0e6, 6.85e7)
+    detector, readings = run(samples)
+    assert detector.rejected == 1
+    assert not any(r.alarm for r in readings)
+    assert math.isnan(readings[250].excess_flow_m3s)                  # pump off: no reading
+    assert math.isfinite(readings[-1].excess_flow_m3s)
+
+
+def test_the_reference_wells_detector_splits_all_its_compliance_between_the_gauges():
+    from pathlib import Path
+
+    from drill_core import hydraulics as hy
+    from drill_core.config import load_rig
+    from drill_protection.kick_detection import detector_for
+    cfg = load_rig(Path(__file__).resolve().parents[4] / "config")
+    wm = hy.build_well_model(cfg.well, 0.005, 1.0e4)
+    g = wm.geometry
+    detector = detector_for(cfg, g)
+    top, bottom = detector.compliance_m3_pa
+    total = (sum(g.annulus_volume_m3) + g.string_volume_m3) / cfg.well.mud.bulk_modulus_pa
+    assert top + bottom == pytest.approx(total, rel=1e-12)
+    assert top > 0.0 and bottom > top                   # the string's volume sits on the bottom
+    steel = math.pi / 4 * (0.127 ** 2 - 0.1087 ** 2)     # 5" drill pipe body at the surface
+    assert steel < detector.area_m2 < 1.5 * steel        # tool joints and the heavier BHA add

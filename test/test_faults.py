@@ -1,0 +1,76 @@
+"""Integration over DDS: the rig under faults and a kick (issue: a rig that misbehaves like
+a real one). A BHP dropout, a frozen choke gauge, a NaN and a spike must not poison the
+estimate or any command; the estimator reports staleness and the frozen channel; a kick
+zone 7 bar over the BHP reference is detected from the surface flows and stops the trip;
+every event is on /rig/events in the recording."""
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drill_bringup import cli, mcap_io, report
+from drill_core.ros import topics
+
+pytestmark = [pytest.mark.dds, pytest.mark.slow]
+SCENARIO = Path(__file__).resolve().parent / "scenarios" / "faults_short.yaml"
+
+
+@pytest.fixture(scope="module")
+def run_mcap(tmp_path_factory):
+    code, run_dir = cli.run_scenario(SCENARIO, runs_dir=tmp_path_factory.mktemp("faults"),
+                                     domain_id=97, timeout_s=240, quiet=True)
+    assert code == 0, (run_dir / "launch.json").read_text()
+    return next(run_dir.glob("*.mcap"))
+
+
+def _messages(path, topic):
+    return [m for _, m in mcap_io.decoded_messages(path, [topic])]
+
+
+def test_every_event_is_recorded_when_it_starts_and_ends(run_mcap):
+    texts = [m.text for m in _messages(run_mcap, topics.RIG_EVENTS)]
+    assert texts == ["bhp_pa dropout for 5 s: starts", "bhp_pa dropout for 5 s: ends",
+                     "choke_dp_pa frozen for 4 s: starts", "choke_dp_pa frozen for 4 s: ends",
+                     "bhp_pa nan: starts", "choke_dp_pa spike 1e+06: starts",
+                     "pore_pressure to 6.92e+07 Pa: starts"]
+
+
+def test_bad_samples_poison_no_estimate_and_no_command(run_mcap):
+    estimates = _messages(run_mcap, topics.ESTIMATE)
+    assert len(estimates) == 901
+    assert all(np.all(np.isfinite(e.mean)) and math.isfinite(e.bhp_pa) for e in estimates)
+    for topic in (topics.COMMAND, topics.MACHINE_COMMAND):
+        for c in _messages(run_mcap, topic):
+            assert all(math.isfinite(v) for v in (c.block_position_ref_m, c.choke_flow_ref_m3s,
+                                                   c.bpp_flow_m3s, c.spp_pa)), topic
+    by_time = {round(e.header.stamp.sec + e.header.stamp.nanosec * 1e-9, 1): e for e in estimates}
+    # the dropout: BHP left out of 50 updates, the channel ages, the estimate carries on
+    assert all("bhp_pa" not in by_time[t].measurement_names for t in np.arange(8.0, 12.95, 0.1).round(1))
+    assert by_time[12.9].oldest_channel_age_s == pytest.approx(5.0, abs=0.11)
+    assert by_time[14.0].oldest_channel_age_s < 0.11
+    # the frozen gauge (holding the 15.9 s value from 16.0 s): flagged and left out from
+    # the 5th equal sample on, until it moves again
+    frozen = [t for t, e in by_time.items() if "choke_dp_pa" in e.frozen_channels]
+    assert frozen and min(frozen) == pytest.approx(16.3, abs=0.05) and max(frozen) < 20.05
+    assert estimates[-1].rejected_measurements >= 51            # dropout samples and the NaN
+    truth = report.load_series(run_mcap)
+    t, bhp = truth.get("bhp")
+    _, est = truth.get("bhp_est")
+    assert np.sqrt(np.mean((est - bhp) ** 2)) < 1.0e5            # under a bar despite it all
+
+
+def test_the_kick_is_detected_and_the_trip_stopped(run_mcap):
+    series = report.load_series(run_mcap)
+    summary = report.summarise(series)
+    kick = summary["detection"]["kick"]
+    assert kick["false_alarms"] == 0 and kick["delay_s"] is not None
+    assert kick["onset_s"] >= 30.0 and kick["delay_s"] < 15.0
+    assert 0.0 < kick["volume_at_detection_m3"] < 0.2
+    alarm_s = kick["onset_s"] + kick["delay_s"]
+    t, velocity = series.get("velocity")
+    # the block reference brakes at 0.1 m/s^2 (5 s from 0.5 m/s), the string follows it
+    assert np.abs(velocity[t > alarm_s + 12.0]).max() < 0.05
+    _, position = series.get("position")
+    assert position[-1] < 28.0 - 5.0                             # the stand was not finished
+    assert summary["influx_volume_m3"] > kick["volume_at_detection_m3"]
