@@ -57,7 +57,8 @@ def test_bad_samples_poison_no_estimate_and_no_command(run_mcap):
     truth = report.load_series(run_mcap)
     t, bhp = truth.get("bhp")
     _, est = truth.get("bhp_est")
-    assert np.sqrt(np.mean((est - bhp) ** 2)) < 1.0e5            # under a bar despite it all
+    faults = t < 30.0                      # before the kick, which the UKF does not model
+    assert np.sqrt(np.mean((est[faults] - bhp[faults]) ** 2)) < 1.0e5   # under a bar despite it all
 
 
 def test_the_kick_is_detected_and_the_trip_stopped(run_mcap):

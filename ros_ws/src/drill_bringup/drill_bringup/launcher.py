@@ -57,7 +57,11 @@ def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -
     for node in declared:
         # the plant ends the run; in fast mode so does the estimator, after the last sample
         finishes = node.name == "plant" or (fast and node.name == "estimator")
-        nodes.append(NodeSpec(node.name, node.module, dict(own.get(node.name, {})), finishes))
+        params = dict(own.get(node.name, {}))
+        matches = graph_decl.first_publish_matches(node, declared) if fast else []
+        if matches:
+            params["match_before_first_publish"] = matches
+        nodes.append(NodeSpec(node.name, node.module, params, finishes))
     for node in nodes:
         node.params.update(common)
         node.params["use_sim_time"] = uses_sim_time(node.name, fast)

@@ -416,7 +416,7 @@ class Nmpc:
 class KickDetection:
     """Flow-balance kick and loss detector (drill_protection.kick_detection)."""
     window_s: float = param("s", 0.0, 600.0, lo_open=True, doc="excess flow averaged over this window")
-    pressure_average_s: float = param("s", 0.0, 60.0, doc="pressures averaged over this long "
+    pressure_average_s: float = param("s", 0.0, 60.0, doc="pressures: the median of this long "
                                                           "for the compression term")
     flow_threshold_m3s: float = param("m^3/s", 0.0, 0.1, lo_open=True,
                                       doc="excess flow that raises an alarm (minus: losses)")

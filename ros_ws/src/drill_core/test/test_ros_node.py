@@ -30,3 +30,20 @@ def test_rig_node_waits_only_on_what_it_creates(context):
     finally:
         node.destroy_node()
         plain.destroy_node()
+
+
+def test_a_first_publish_waits_for_its_readers_to_match(context):
+    from rclpy.parameter import Parameter
+    node = RigNode("gated", context=context, parameter_overrides=[
+        Parameter("match_before_first_publish", value=["/y:1"])])
+    try:
+        got = []
+        node.create_subscription(Bool, "/y", got.append, 10)
+        pub = node.create_publisher(Bool, "/y", 10)
+        other = node.create_publisher(Bool, "/z", 10)
+        assert "publish" in vars(pub) and "publish" not in vars(other)    # only /y is gated
+        pub.publish(Bool(data=True))                    # returns once the reader has matched
+        assert pub.get_subscription_count() == 1
+        assert "publish" not in vars(pub)               # later messages go straight out
+    finally:
+        node.destroy_node()

@@ -8,17 +8,19 @@ beyond what is pumped in is the formation's, once two known terms are taken out:
 
 (A_net Δx_s: the volume the moving string vacates; the C terms: the mud that pressure
 changes compress, the annulus pressure taken linear in depth between the choke and the
-bottom-hole gauge, the string's with the bottom one, both pressures averaged over a
-second against their noise). That *excess volume*, averaged into an *excess flow* over a
+bottom-hole gauge, the string's with the bottom one, each pressure the median of its last
+second: robust to its noise and to a single bad sample). That *excess volume*, averaged into an *excess flow* over a
 window,
 raises a kick alarm when it stays above the threshold for the confirmation time, a losses
 alarm when it stays below minus the threshold, and clears once it has stayed within half
-the threshold as long. Non-finite samples are rejected and counted; a sample without a
+the threshold as long. A sample with a non-finite flow or position is rejected, a
+non-finite pressure left out of its median, both counted; a sample without a
 string-flow reading (mud pump off) adds nothing to the balance, so detection pauses.
 """
 from __future__ import annotations
 
 import math
+import statistics
 from collections import deque
 from dataclasses import dataclass
 
@@ -69,19 +71,23 @@ class KickDetector:
 
     def update(self, s: FlowSample) -> Detection:
         """Take one sample; the reading after it."""
-        needed = (s.time_s, s.return_flow_m3s, s.bpp_flow_m3s, s.string_position_m, s.choke_dp_pa,
-                  s.bhp_pa)
+        needed = (s.time_s, s.return_flow_m3s, s.bpp_flow_m3s, s.string_position_m)
         if not all(math.isfinite(v) for v in needed):
             self.rejected += 1
             return self._reading(False)
+        pressures_ok = math.isfinite(s.choke_dp_pa) and math.isfinite(s.bhp_pa)
+        self.rejected += not pressures_ok
         if not math.isfinite(s.string_flow_m3s):          # pump off: no balance to keep
             self._first = None
             self._history.clear()
             return self._reading(False)
-        self._pressures.append((s.time_s, s.choke_dp_pa, s.bhp_pa))
-        while self._pressures[0][0] < s.time_s - self.config.pressure_average_s + 1e-9:
+        if pressures_ok:
+            self._pressures.append((s.time_s, s.choke_dp_pa, s.bhp_pa))
+        while self._pressures and self._pressures[0][0] < s.time_s - self.config.pressure_average_s + 1e-9:
             self._pressures.popleft()
-        pressures = [sum(p[i] for p in self._pressures) / len(self._pressures) for i in (1, 2)]
+        if not self._pressures:
+            return self._reading(False)           # no pressure reading yet (or for a second)
+        pressures = [statistics.median(p[i] for p in self._pressures) for i in (1, 2)]
         if self._first is None:                           # (re)start the balance here
             self._first, self._last_time_s, self._integral_m3 = s, s.time_s, 0.0
             self._first_pressures = pressures

@@ -100,3 +100,14 @@ def test_the_reference_wells_detector_splits_all_its_compliance_between_the_gaug
     assert top > 0.0 and bottom > top                   # the string's volume sits on the bottom
     steel = math.pi / 4 * (0.127 ** 2 - 0.1087 ** 2)     # 5" drill pipe body at the surface
     assert steel < detector.area_m2 < 1.5 * steel        # tool joints and the heavier BHA add
+
+
+def test_a_pressure_spike_or_nan_raises_no_alarm():
+    samples = well(60.0)
+    for k, (dp, bhp) in ((240, (1.2e7, 6.85e7)), (300, (2.0e6, math.nan)), (310, (2.0e6, 9.9e7))):
+        s = samples[k]
+        samples[k] = FlowSample(s.time_s, s.return_flow_m3s, s.string_flow_m3s, s.bpp_flow_m3s,
+                                s.string_position_m, dp, bhp)
+    detector, readings = run(samples)
+    assert not any(r.alarm for r in readings) and detector.rejected == 1
+    assert max(abs(r.excess_flow_m3s) for r in readings[100:]) < 1.0e-6

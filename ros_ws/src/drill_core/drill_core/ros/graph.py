@@ -155,6 +155,23 @@ def lockstep_endpoints(nodes: list[Node], fast: bool) -> list[str]:
     return out
 
 
+def first_publish_matches(node: Node, nodes: list[Node]) -> list[str]:
+    """``topic:N`` for each lockstep topic ``node`` publishes in this node set: the
+    subscriptions its publisher must have matched before its first message. DDS matches a
+    publisher with a subscription some time after the graph shows both (the plant's
+    ``wait_for``); a first sample published before that is lost to that reader, and the
+    lockstep waits for it forever."""
+    out = []
+    for topic in LOCKSTEP_TOPICS:
+        if topic not in node.publishes:
+            continue
+        readers = sum(n.reads_clock for n in nodes) if topic == CLOCK else \
+            sum(n.subscribes_to(topic) for n in nodes)
+        if readers:
+            out.append(f"{topic}:{readers}")
+    return out
+
+
 def _frames_of(node: Node) -> str:
     """A node's name, with the actuators whose frames it reads when not all of them."""
     names = [a for a, f in zip(topics.ACTUATORS, FRAMES) if f in node.subscribes]
