@@ -467,6 +467,13 @@ class RigConfig:
     automated_mpd: AutomatedMpd
     directory: str
 
+    @property
+    def pressure_window_pa(self) -> tuple[float, float]:
+        """The BHP window the rig keeps to [Pa]: the formation's pore pressure plus the
+        protection's margin, its fracture pressure less the margin."""
+        f, margin = self.well.formation, self.protection.pressure_margin_pa
+        return f.pore_pressure_pa + margin, f.fracture_pressure_pa - margin
+
 
 _FILES = {"well": Well, "plant": Plant, "actuators": Actuators, "estimator": Estimator, "nmpc": Nmpc,
           "protection": Protection, "automated_mpd": AutomatedMpd}

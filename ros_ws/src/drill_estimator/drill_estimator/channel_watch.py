@@ -1,6 +1,6 @@
 """Screening of the measured channels before the UKF fuses them (plain Python): a channel
-repeating exactly the same value for ``frozen_after`` samples is flagged frozen and left
-out (a live sensor's noise never repeats a float) until it changes again; each channel's
+repeating exactly the same value for ``frozen_after`` samples (0: never) is flagged frozen
+and left out (a live sensor's noise never repeats a float) until it changes again; each channel's
 age is the time since its last usable sample, so a dropout is reported as staleness
 while the filter rides on its model."""
 from __future__ import annotations
@@ -31,7 +31,7 @@ class ChannelWatch:
                 continue
             self._repeats[i] = self._repeats[i] + 1 if value == self._last[i] else 1
             self._last[i] = value
-            if self._repeats[i] >= self.frozen_after:
+            if 0 < self.frozen_after <= self._repeats[i]:
                 frozen.append(self.names[i])
                 y[i] = math.nan
                 self.frozen_samples += 1

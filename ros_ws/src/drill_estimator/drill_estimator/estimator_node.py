@@ -60,7 +60,7 @@ class EstimatorNode(RigNode):
         cfg = ctx.config
         self.ukf = RigUkf(cfg)
         self.wm = self.ukf.em.wm
-        self.watch = ChannelWatch(MEASUREMENT_NAMES, cfg.estimator.frozen_after_samples or 2 ** 31)
+        self.watch = ChannelWatch(MEASUREMENT_NAMES, cfg.estimator.frozen_after_samples)
         self.frozen: tuple[str, ...] = ()
         self.steps = cfg.plant.steps_per_frame
         self.step_ns = int(round(cfg.plant.step_s * 1e9))

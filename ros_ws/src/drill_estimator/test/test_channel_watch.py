@@ -28,3 +28,8 @@ def test_a_dropout_ages_its_channel_and_nan_never_counts_as_frozen():
         y, names = watch.screen(0.1 * k, [math.nan])
         assert names == () and math.isnan(y[0])
     assert watch.oldest_age_s(1.0) == 1.0 and watch.frozen_samples == 0
+
+
+def test_zero_never_freezes_a_channel():
+    watch = ChannelWatch(("a",), frozen_after=0)
+    assert all(watch.screen(0.1 * k, [1.0])[1] == () for k in range(20))

@@ -4,9 +4,9 @@ Plain module (no rclpy). The supervisor's /set_setpoints service adopts a reques
 when :func:`validate_setpoints` accepts it; a refusal names the field, the requested value
 and the allowed range (SI, with drilling units in brackets for the operator).
 
-Pressure window: config/well.yaml's formation (``pore_pressure_pa``, ``fracture_pressure_pa``
-at the BHP depth) and protection.yaml's ``pressure_margin_pa`` kept clear of both edges -- the same window the
-process-protection layer enforces. A BHP target is accepted when its whole band lies inside
+Pressure window: ``RigConfig.pressure_window_pa``, config/well.yaml's formation (pore and
+fracture pressure at the BHP depth) less protection.yaml's ``pressure_margin_pa`` at both
+edges -- the same window the process-protection layer enforces. A BHP target is accepted when its whole band lies inside
 the window less the margin and the target is above the static mud column (the BHP can only
 be raised above hydrostatic by friction and choke back-pressure, never lowered below it).
 Trip speed: at most the smaller of the NMPC's string-velocity limit and the drawworks'
@@ -41,11 +41,9 @@ class Envelope:
     def from_config(cls, config: RigConfig, geometry: WellGeometry) -> "Envelope":
         n, p = config.nmpc, config.protection
         w = config.well
-        f = w.formation
         hydrostatic = w.mud.density_kgm3 * w.gravity_mps2 * geometry.node_depth_m[-1]
         dw = config.actuators.drawworks
-        pore = f.pore_pressure_pa + p.pressure_margin_pa
-        fracture = f.fracture_pressure_pa - p.pressure_margin_pa
+        pore, fracture = config.pressure_window_pa
         return cls(
             pore_pressure_pa=pore,
             fracture_pressure_pa=fracture,

@@ -44,20 +44,11 @@ def nominal_parameters(well: Well) -> np.ndarray:
 
 @dataclass(frozen=True)
 class PlantLayout:
-    """Names and indices of the plant state vector for n annulus segments."""
+    """Indices of the plant state vector for n annulus segments, by name of the state."""
     n: int
 
     position = 0
     velocity = 1
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        hydraulic = ["p_1"] + [f"{kind}_{i}" for i in range(2, self.n + 1) for kind in ("q", "p")]
-        return ("x_s", "v_s", *hydraulic, "q_d", "p_I",
-                "pit_gain_m3", "influx_volume_m3", "loss_volume_m3")
-
-    def index(self, name: str) -> int:
-        return self.names.index(name)
 
     @property
     def size(self) -> int:

@@ -174,7 +174,7 @@ class PlantNode(RigNode):
             self.pub_clock.publish(Clock(clock=stamp))
         time_s = self.k * self.ctx.config.plant.sensor_period_s
         self._scenario_events(time_s, stamp)
-        m, _ = self.sensor_faults.apply(time_s, self.sim.measure(self.circulating))
+        m = self.sensor_faults.apply(time_s, self.sim.measure(self.circulating))
         msg = RigMeasurement(block_position_m=m.block_position_m, choke_dp_pa=m.choke_dp_pa,
                              bhp_pa=m.bhp_pa, string_flow_m3s=m.string_flow_m3s,
                              string_flow_valid=m.string_flow_valid,
@@ -199,7 +199,8 @@ class PlantNode(RigNode):
                 self._announced.add((i, edge))
                 if edge == "starts" and event.kind in EVENT_PARAMETERS:
                     self.sim.set_parameter(EVENT_PARAMETERS[event.kind], event.value)
-                msg = OperatorEvent(kind=EVENT_KINDS[event.kind].category, text=f"{event.describe()}: {edge}", accepted=True)
+                msg = OperatorEvent(kind=EVENT_KINDS[event.kind].category,
+                                    text=f"{event.describe()}: {edge}", accepted=True)
                 msg.header.stamp = stamp
                 self.pub_events.publish(msg)
 

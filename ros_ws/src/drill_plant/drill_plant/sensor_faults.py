@@ -24,8 +24,8 @@ class SensorFaults:
 
     def apply(self, time_s: float, sample):
         """``sample`` (a dataclass with the channel fields) with the faults acting at
-        ``time_s``; the names of those faults."""
-        changes, acting = {}, []
+        ``time_s``."""
+        changes = {}
         for i, event in enumerate(self.events):
             channel = event.target
             value = changes.get(channel, getattr(sample, channel))
@@ -36,11 +36,10 @@ class SensorFaults:
             elif not event.active(time_s):
                 continue
             changes[channel] = self._faulted(i, event, value, time_s)
-            acting.append(event.describe())
         faulted = dataclasses.replace(sample, **changes) if changes else sample
         for channel in {e.target for e in self.events}:
             self._last[channel] = getattr(faulted, channel)
-        return faulted, acting
+        return faulted
 
     def _faulted(self, i: int, event: ScenarioEvent, value: float, time_s: float) -> float:
         if event.kind == "frozen":

@@ -65,6 +65,7 @@ class PlantSimulator:
         self._sensor_rng = np.random.default_rng(sensor_seed)
         self._surface_rng = np.random.default_rng(surface_seed)
         self.parameters = nominal_parameters(config.well)
+        self._algebraic_now: np.ndarray | None = None   # build_outputs_function at the state
         self.state = initial.state.astype(float).copy()
         self.inputs = initial.inputs.astype(float).copy()
         self.steps_per_frame = config.plant.steps_per_frame
@@ -82,10 +83,20 @@ class PlantSimulator:
             raise PlantDiverged(f"non-finite plant state after inputs {inputs[:, -1]}")
         self.state = final
         self.inputs = inputs[:, -1].copy()
+        self._algebraic_now = None
 
     def set_parameter(self, name: str, value: float) -> None:
         """Change one of PARAMETER_NAMES from the next frame on (a scenario event)."""
         self.parameters[PARAMETER_NAMES.index(name)] = value
+        self._algebraic_now = None
+
+    def _algebraic(self) -> np.ndarray:
+        """The algebraic outputs at the current state, evaluated once per frame for the
+        sensors and the truth."""
+        if self._algebraic_now is None:
+            self._algebraic_now = np.asarray(
+                self._outputs(self.state, self.inputs, self.parameters)).ravel()
+        return self._algebraic_now
 
     def measure(self, circulating: bool) -> Measurement:
         """Sensors of eq. 48 and the surface-flow sensors (return flow, pit volume) with the
@@ -95,7 +106,7 @@ class PlantSimulator:
         p0 = self.config.well.choke_downstream_pressure_pa
         flow = x[lay.string_flow] + noise.string_flow_m3s * draw[3]
         surface, surface_noise = self._surface_rng.normal(size=3), self.config.plant.surface_sensor_noise
-        returns = self._outputs(x, self.inputs, self.parameters)[0]
+        returns = self._algebraic()[0]
         return Measurement(
             block_position_m=float(x[lay.position] + noise.block_position_m * draw[0]),
             choke_dp_pa=float(x[lay.pressure(1)] - p0 + noise.choke_dp_pa * draw[1]),
@@ -108,7 +119,7 @@ class PlantSimulator:
             bpp_flow_m3s=float(self.inputs[2] + surface_noise.bpp_flow_m3s * surface[2]))
 
     def truth(self) -> Truth:
-        out = np.asarray(self._outputs(self.state, self.inputs, self.parameters)).ravel()
+        out = self._algebraic()
         n, lay = self.wm.n, self.layout
         g = self.config.well.gravity_mps2
         bhp = self.state[lay.pressure(n)]

@@ -9,11 +9,10 @@ beyond what is pumped in is the formation's, once two known terms are taken out:
 (A_net Δx_s: the volume the moving string vacates; the C terms: the mud that pressure
 changes compress, the annulus pressure taken linear in depth between the choke and the
 bottom-hole gauge, the string's with the bottom one, each pressure the median of its last
-second: robust to its noise and to a single bad sample). That *excess volume*, averaged into an *excess flow* over a
-window,
-raises a kick alarm when it stays above the threshold for the confirmation time, a losses
-alarm when it stays below minus the threshold, and clears once it has stayed within half
-the threshold as long. A sample with a non-finite flow or position is rejected, a
+second: robust to its noise and to a single bad sample). That *excess volume*, averaged
+into an *excess flow* over a window, raises a kick alarm when it stays above the
+threshold for the confirmation time, a losses alarm when it stays below minus the
+threshold, and clears once it has stayed within half the threshold as long. A sample with a non-finite flow or position is rejected, a
 non-finite pressure left out of its median, both counted; a sample without a
 string-flow reading (mud pump off) adds nothing to the balance, so detection pauses.
 """
@@ -63,6 +62,7 @@ class KickDetector:
         self.alarm = ""
         self._integral_m3 = 0.0
         self._first: FlowSample | None = None
+        self._first_pressures: list[float] = []  # the pressures' medians when the balance began
         self._last_time_s: float | None = None
         self._history: deque = deque()          # (time s, excess volume m^3)
         self._since: dict[str, float | None] = {"kick": None, "losses": None, "clear": None}

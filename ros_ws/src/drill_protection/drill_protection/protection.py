@@ -29,6 +29,7 @@ import numpy as np
 
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
+from drill_core.units import PA_PER_BAR
 
 INPUTS = ("block_position_ref_m", "choke_flow_ref_m3s", "bpp_flow_m3s", "spp_pa")
 _SPEED_GRID_POINTS = 61
@@ -96,8 +97,7 @@ class ProcessProtection:
         grid = np.linspace(0.0, cap, _SPEED_GRID_POINTS)
         current = surge_swab_pa(self.wm, np.array([string_velocity_mps]), circulation_m3s)[0]
         static_bhp = bhp_pa - current
-        f = self.config.well.formation
-        low, high = f.pore_pressure_pa + p.pressure_margin_pa, f.fracture_pressure_pa - p.pressure_margin_pa
+        low, high = self.config.pressure_window_pa
 
         def outside(bhp):
             return np.maximum(low - bhp, 0.0) + np.maximum(bhp - high, 0.0)
@@ -207,15 +207,14 @@ class ProcessProtection:
         """+1 while the measured BHP is over the fracture pressure less the margin (relieve:
         more choke flow, less back-pressure pump), -1 under the pore pressure plus the margin
         (hold back: less choke flow, more pump), else 0; the reason goes to ``clamps``."""
-        p, f = self.config.protection, self.config.well.formation
-        if not (p.window_guard and np.isfinite(bhp_pa)):
+        if not (self.config.protection.window_guard and np.isfinite(bhp_pa)):
             return 0
-        high, low = f.fracture_pressure_pa - p.pressure_margin_pa, f.pore_pressure_pa + p.pressure_margin_pa
+        low, high = self.config.pressure_window_pa
         if low <= bhp_pa <= high:
             return 0
         over = bhp_pa > high
-        clamps.append(f"BHP {bhp_pa / 1e5:.1f} bar {'over' if over else 'under'} the window's "
-                      f"{'fracture' if over else 'pore'} limit {(high if over else low) / 1e5:.1f} "
+        clamps.append(f"BHP {bhp_pa / PA_PER_BAR:.1f} bar {'over' if over else 'under'} the window's "
+                      f"{'fracture' if over else 'pore'} limit {(high if over else low) / PA_PER_BAR:.1f} "
                       f"bar: choke flow reference {'up' if over else 'down'}, back-pressure pump "
                       f"{'down' if over else 'up'}")
         return 1 if over else -1
