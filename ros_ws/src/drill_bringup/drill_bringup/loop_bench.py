@@ -22,10 +22,12 @@ from drill_bringup.runs import scenario_path
 from drill_bringup.report import format_legs, tracking_metrics
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
-from drill_core.estimation_model import build_estimation_model, fitted_friction_parameters
+from drill_core.estimation_model import (BLOCK_INTEGRAL, build_estimation_model,
+                                         fitted_friction_parameters)
 from drill_core.scenario import initial_setpoints, load_scenario_config, setpoints_at
 from drill_core.units import PA_PER_BAR
-from drill_estimator.ukf import RigUkf, frame_inputs
+from drill_estimator.model_inputs import frame_inputs
+from drill_estimator.ukf import RigUkf
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.inputs import choke_command, choke_input
 from drill_nmpc.supervisor import Supervisor
@@ -96,8 +98,9 @@ class TruthState:
         flows = [x[lay.flow(i)] for i in range(2, self.em.n + 1)]
         theta = fitted_friction_parameters(self.em, flows, truth.annulus_friction_pa,
                                            float(x[lay.velocity]))
-        x_hat = np.concatenate([x[:2], [self.rig.drawworks.integral_m_s], x[2:lay.hydraulic_size],
-                                theta])
+        x_hat = self.em.vector({**dict(zip(lay.names, x)),
+                                BLOCK_INTEGRAL: self.rig.drawworks.integral_m_s,
+                                **{self.em.theta_name(i): v for i, v in enumerate(theta, 2)}})
         return EstimateView(bhp_pa=float(x[lay.pressure(self.em.n)]),
                             string_position_m=float(x[lay.position]),
                             string_velocity_mps=float(x[lay.velocity]),
@@ -124,8 +127,8 @@ class UkfState:
             ukf.update(y, True)
         self.dp_pa = m.choke_dp_pa
         x = ukf.mean
-        return EstimateView(bhp_pa=ukf.bhp_pa, string_position_m=float(x[0]),
-                            string_velocity_mps=float(x[1]),
+        return EstimateView(bhp_pa=ukf.bhp_pa, string_position_m=float(x[ukf.em.position]),
+                            string_velocity_mps=float(x[ukf.em.velocity]),
                             string_flow_m3s=float(x[ukf.em.string_flow]),
                             friction_factor=tuple(float(v) for v in ukf.theta)), ukf.mean
 

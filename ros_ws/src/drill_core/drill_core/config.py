@@ -11,11 +11,8 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-import re
-
-import yaml
-
 from drill_core.schema import ConfigError, FieldError, build, param
+from drill_core.yaml_files import load_yaml, merge
 
 
 # --------------------------------------------------------------------------- well
@@ -479,49 +476,6 @@ _FILES = {"well": Well, "plant": Plant, "actuators": Actuators, "estimator": Est
           "protection": Protection, "automated_mpd": AutomatedMpd}
 
 
-class _Loader(yaml.SafeLoader):
-    """Safe YAML loader that reads 6.5e9 as a float (YAML 1.2), not as a string, and refuses
-    a key given twice in one mapping (PyYAML would silently keep the last value)."""
-
-    def construct_mapping(self, node, deep=False):
-        if isinstance(node, yaml.MappingNode):
-            seen = set()
-            for key_node, _ in node.value:
-                if key_node.tag == "tag:yaml.org,2002:merge":
-                    continue
-                key = self.construct_object(key_node, deep=True)
-                try:
-                    duplicate = key in seen
-                    seen.add(key)
-                except TypeError:  # unhashable key: SafeConstructor reports it
-                    continue
-                if duplicate:
-                    raise yaml.constructor.ConstructorError(
-                        "while constructing a mapping", node.start_mark,
-                        f"found duplicate key {key!r}", key_node.start_mark)
-        return super().construct_mapping(node, deep=deep)
-
-
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)$"),
-    list("-+0123456789"))
-
-
-def load_yaml(path: str | os.PathLike) -> object:
-    """Parse one YAML file; syntax errors name the file."""
-    try:
-        with open(path, encoding="utf-8") as handle:
-            return yaml.load(handle, Loader=_Loader)
-    except OSError as err:
-        raise ConfigError(f"{path}: cannot read: {err.strerror}") from None
-    except UnicodeDecodeError as err:
-        raise ConfigError(f"{path}: cannot read: not UTF-8 text ({err.reason} at byte {err.start})") \
-            from None
-    except yaml.YAMLError as err:
-        raise ConfigError(f"{path}: not valid YAML: {err}") from None
-
-
 def load_section(cls: type, path: str | os.PathLike) -> object:
     """Load one YAML file into the typed object ``cls``."""
     return build(cls, load_yaml(path), str(path))
@@ -550,16 +504,6 @@ def load_rig(directory: str | os.PathLike, overrides: dict[str, dict] | None = N
     return RigConfig(directory=str(directory), **sections)
 
 
-def merge(base: object, over: object) -> object:
-    """Recursive merge of mappings; ``over`` wins."""
-    if isinstance(base, dict) and isinstance(over, dict):
-        out = dict(base)
-        for key, value in over.items():
-            out[key] = merge(base.get(key), value) if key in base else value
-        return out
-    return over
-
-
 def replace(obj: object, **changes: object) -> object:
     """A copy of a frozen configuration object with some fields changed (re-validated)."""
     new = dataclasses.replace(obj, **changes)
@@ -573,4 +517,4 @@ __all__ = ["ConfigError", "RigConfig", "Well", "StringSection", "Mud", "Turbulen
            "MeasurementNoise", "SurfaceSensorNoise", "Lag", "Actuators", "Estimator", "FrictionLawTuning", "FRICTION_LAWS",
            "Nmpc", "ChokeDpSetpoint", "AutomatedMpd", "InputVector", "OutputVector", "Protection",
            "KickDetection", "Formation",
-           "load_rig", "load_section", "load_yaml", "merge", "replace"]
+           "load_rig", "load_section", "replace"]

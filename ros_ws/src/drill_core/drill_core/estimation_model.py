@@ -21,6 +21,7 @@ numpy rows (all sigma points at once) and on CasADi symbols.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -32,8 +33,11 @@ from drill_core.block_control import block_command, integral_rate
 from drill_core.config import RigConfig
 from drill_core.integrators import euler_step, rk4_step
 from drill_core.rheology import wall_stress_magnitude
+from drill_core.state_layout import POSITION, VELOCITY, WellboreLayout, hydraulic_state_names
 
 MEASUREMENT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa", "string_flow_m3s")
+BLOCK_INTEGRAL = "block_integral_m_s"
+BOTTOM_INFLUX = "bottom_influx_m3s"
 INPUT_NAMES = ("block_position_ref_m", "choke_flow_m3s", "bpp_flow_m3s", "pump_pressure_pa")
 
 
@@ -105,7 +109,7 @@ class NominalFriction:
 
 
 @dataclass(frozen=True)
-class EstimationModel:
+class EstimationModel(WellboreLayout):
     """Estimation model of a well: equations' parameters, friction law and state layout."""
     wm: hy.WellModel
     block_kp: float
@@ -118,55 +122,37 @@ class EstimationModel:
     def n(self) -> int:
         return self.wm.n
 
-    # ---- layout
-    @property
-    def size(self) -> int:
-        return 3 + (2 * self.n - 1) + 2 + (self.n - 1) + int(self.with_disturbance)
+    # ---- layout (drill_core.state_layout: indices by name)
+    def theta_name(self, i: int) -> str:
+        """Name of the friction parameter theta_i, i = 2..n, in the law's unit."""
+        law = "friction_parameter_{}_pa_s2_m2" if self.friction_law == "quadratic" \
+            else "friction_factor_{}"
+        return law.format(i)
 
-    def pressure(self, i: int) -> int:
-        """Index of p_i, i = 1..n."""
-        return 1 + 2 * i
-
-    def flow(self, i: int) -> int:
-        """Index of q_i, i = 2..n."""
-        return 2 * i
-
-    @property
-    def string_flow(self) -> int:
-        return 2 * self.n + 2
-
-    @property
-    def string_pressure(self) -> int:
-        return 2 * self.n + 3
+    @functools.cached_property
+    def names(self) -> tuple[str, ...]:
+        return (POSITION, VELOCITY, BLOCK_INTEGRAL, *hydraulic_state_names(self.n),
+                *(self.theta_name(i) for i in range(2, self.n + 1)),
+                *((BOTTOM_INFLUX,) if self.with_disturbance else ()))
 
     def theta(self, i: int) -> int:
         """Index of theta_i, i = 2..n."""
-        return 2 * self.n + 2 + i
+        return self.index(self.theta_name(i))
+
+    @property
+    def block_integral(self) -> int:
+        return self.index(BLOCK_INTEGRAL)
 
     @property
     def disturbance(self) -> int:
         if not self.with_disturbance:
             raise AttributeError("model has no disturbance state")
-        return self.size - 1
-
-    def state_names(self) -> list[str]:
-        names = ["string_position_m", "string_velocity_mps", "block_integral_m_s"]
-        for i in range(1, self.n + 1):
-            if i > 1:
-                names.append(f"annulus_flow_{i}_m3s")
-            names.append(f"annulus_pressure_{i}_pa")
-        names += ["string_flow_m3s", "string_bottom_pressure_pa"]
-        theta = "friction_parameter_{}_pa_s2_m2" if self.friction_law == "quadratic" \
-            else "friction_factor_{}"
-        names += [theta.format(i) for i in range(2, self.n + 1)]
-        if self.with_disturbance:
-            names.append("bottom_influx_m3s")
-        return names
+        return self.index(BOTTOM_INFLUX)
 
     def state_scale(self) -> np.ndarray:
         """Typical magnitude of each state, for conditioning (bar, 1000 L/min, ...)."""
         s = np.ones(self.size)
-        s[1] = 0.1
+        s[self.velocity] = 0.1
         for i in range(1, self.n + 1):
             s[self.pressure(i)] = 1e5
             if i > 1:
@@ -204,7 +190,7 @@ def path_friction(xp, em: EstimationModel, k: int, flow_m3s, string_velocity_mps
 def annulus_friction(xp, em: EstimationModel, x):
     """Annular friction F_i = theta_i f_i(q_i, v_s) of paths 2..n [Pa]: f_i = |v_e| v_e
     (quadratic, eq. 46) or the nominal HB friction F_nom,i (scaled_rheology)."""
-    return [path_friction(xp, em, k, x[em.flow(i)], x[1], x[em.theta(i)])
+    return [path_friction(xp, em, k, x[em.flow(i)], x[em.velocity], x[em.theta(i)])
             for k, i in enumerate(range(2, em.n + 1))]
 
 
@@ -227,7 +213,7 @@ def friction_flow_gain_bound(em: EstimationModel, x, speed_floor_mps: float) -> 
     out = []
     for k, i in enumerate(range(2, em.n + 1)):
         area = g.main_flow_area_m2[k]
-        v_e = x[em.flow(i)] / area - g.main_clinging[k] * x[1]
+        v_e = x[em.flow(i)] / area - g.main_clinging[k] * x[em.velocity]
         if em.friction_law == "quadratic":
             out.append(2.0 * max(abs(v_e), speed_floor_mps) / area)
         else:
@@ -239,7 +225,7 @@ def drift(xp, em: EstimationModel, x, u, string_friction_law=None):
     """Deterministic right-hand side of the estimation model, as a list of entries
     (``string_friction_law``: see hydraulics.hydraulic_rates)."""
     wm, n = em.wm, em.n
-    z1, z2, z3 = x[0], x[1], x[2]
+    z1, z2, z3 = x[em.position], x[em.velocity], x[em.block_integral]
     u_b = block_command(u[0], z1, z3, wm.geometry.static_stretch_m, em.block_kp, em.block_ki_per_s)
     p = [x[em.pressure(i)] for i in range(1, n + 1)]
     q = [x[em.flow(i)] for i in range(2, n + 1)]

@@ -13,7 +13,8 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from drill_core.config import ConfigError, RigConfig, load_rig, load_yaml, merge
+from drill_core.config import ConfigError, RigConfig, load_rig
+from drill_core.yaml_files import load_yaml, merge
 from drill_core.events import ScenarioEvent
 from drill_core.open_loop import OpenLoopPlan, start_command
 from drill_core.schema import FieldError, build, param

@@ -14,7 +14,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from drill_core.config import ConfigError, RigConfig, load_rig, load_yaml
+from drill_core.config import ConfigError, RigConfig, load_rig
+from drill_core.yaml_files import load_yaml
 
 CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
 

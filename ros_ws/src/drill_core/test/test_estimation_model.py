@@ -98,7 +98,7 @@ def test_quadratic_law_is_eq_46(quadratic):
     v_e = np.array([1000.0 * LPM / a - k * 0.3 for a, k in zip(g.main_flow_area_m2, g.main_clinging)])
     assert _friction(quadratic, 1000.0 * LPM, 0.3, [3.0e6, 4.0e6, 5.0e6]) == pytest.approx(
         np.array([3.0e6, 4.0e6, 5.0e6]) * np.abs(v_e) * v_e)
-    assert quadratic.state_names()[quadratic.theta(2)] == "friction_parameter_2_pa_s2_m2"
+    assert quadratic.names[quadratic.theta(2)] == "friction_parameter_2_pa_s2_m2"
 
 
 def _rest(em):

@@ -20,11 +20,7 @@ channel is left out like a NaN one, and the estimate reports the frozen channels
 age of the stalest channel, so a dropout shows as staleness while the filter rides on its
 model (its covariance grows).
 
-Time-update inputs per plant step (RigUkf.predict): drawworks output u_b (estimator
-block_input block_position; the frame's reference u_r with block_input reference), choke
-flow from the valve law with the choke opening sample and the last accepted measured choke
-dp (a virtual flow meter: the choke flow is not measured), back-pressure pump flow and
-mud-pump pressure samples.
+Time-update inputs come from the actuator frames through drill_estimator.model_inputs.
 
 Run: python -m drill_estimator.estimator_node --ros-args -p config_dir:=<dir> -p mode:=fast
      -p use_sim_time:=true
@@ -39,7 +35,6 @@ import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 
-from drill_core import hydraulics as hy
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
@@ -49,6 +44,7 @@ from drill_core.ros.stamps import to_ns
 from drill_core.ros.status import StatusReporter
 from drill_core.estimation_model import MEASUREMENT_NAMES
 from drill_estimator.channel_watch import ChannelWatch
+from drill_estimator.model_inputs import ModelInputs
 from drill_estimator.ukf import RigUkf, UpdateResult
 
 
@@ -59,7 +55,6 @@ class EstimatorNode(RigNode):
         self.ctx = ctx
         cfg = ctx.config
         self.ukf = RigUkf(cfg)
-        self.wm = self.ukf.em.wm
         self.watch = ChannelWatch(MEASUREMENT_NAMES, cfg.estimator.frozen_after_samples)
         self.frozen: tuple[str, ...] = ()
         self.steps = cfg.plant.steps_per_frame
@@ -73,8 +68,7 @@ class EstimatorNode(RigNode):
         self.latest: dict[str, ActuatorFrame] = {}             # realtime mode
         self.pending: dict[int, RigMeasurement] = {}           # fast mode, by stamp
         self.previous_ns: int | None = None                    # stamp of the last measurement used
-        self.choke_dp_pa = 0.0                                 # last accepted measured choke dp
-        self.held = np.zeros(4)                                # last inputs (opening, not flow)
+        self.inputs = ModelInputs(self.ukf.em, self.ukf.block_input)
         self.frame_ms = 0.0
 
         self.pub = self.create_publisher(StateEstimate, topics.ESTIMATE, topics.RELIABLE)
@@ -156,8 +150,7 @@ class EstimatorNode(RigNode):
                 return
             x0 = ukf.initial_state(y, circulating)
             ukf.initialise(x0)
-            self.choke_dp_pa = float(y[1])
-            self.held = self._steady_inputs(x0)
+            self.inputs.start(x0, float(y[1]))
             self.previous_ns = stamp
             self._publish(msg, None)
             return
@@ -165,14 +158,16 @@ class EstimatorNode(RigNode):
         steps = self.steps
         if self.previous_ns is not None and not self.ctx.fast:
             steps = int(np.clip(round((stamp - self.previous_ns) / self.step_ns), 1, 10 * self.steps))
-        inputs = self._frame_inputs(frames, steps)
+        inputs, problems = self.inputs.frame(frames, steps)
+        for problem in problems:
+            self.status.error(problem)
         try:
             ukf.predict_frame(inputs)
         except ValueError as err:          # non-finite input slipped through: skip the frame
             self.status.error(f"time update skipped: {err}")
         result = ukf.update(y, circulating)
         if result.accepted and np.isfinite(y[1]):
-            self.choke_dp_pa = float(y[1])       # the virtual flow meter's dp
+            self.inputs.accept_choke_dp(float(y[1]))
         if not result.accepted:
             self.status.error(f"measurement at {stamp} ns rejected: {y.tolist()}")
         elif result.dropped:
@@ -181,44 +176,6 @@ class EstimatorNode(RigNode):
         self.previous_ns = stamp
         self.frame_ms = (time.perf_counter() - started) * 1e3
         self._publish(msg, result)
-
-    def _frame_inputs(self, frames, steps: int) -> np.ndarray:
-        """Model inputs [4 x steps] from the actuator frames (held values where missing/bad)."""
-        rows = []
-        for i, name in enumerate(topics.ACTUATORS):
-            frame = frames.get(name)
-            samples = None
-            if frame is not None:
-                if name == "drawworks" and self.ukf.block_input == "reference":
-                    samples = np.full(max(len(frame.output), 1), float(frame.reference))
-                else:
-                    samples = np.asarray(frame.output, dtype=float)
-                if samples.size == 0 or not np.all(np.isfinite(samples)):
-                    self.status.error(f"{name}: bad frame ({samples.size} samples); holding input")
-                    samples = None
-            if samples is None:
-                samples = np.array([self.held[i]])
-            # hold the last sample if the frame is shorter than the interval
-            row = samples[np.minimum(np.arange(steps), samples.size - 1)]
-            self.held[i] = row[-1]
-            rows.append(row)
-        inputs = np.vstack(rows)
-        inputs[1] = hy.choke_flow(self.wm, inputs[1], self.choke_dp_pa)   # virtual flow meter
-        return inputs
-
-    def _steady_inputs(self, x0: np.ndarray) -> np.ndarray:
-        """Inputs that hold the initial steady state: [u_b or u_r, opening, q_bpp, p_in]."""
-        em, g, w = self.ukf.em, self.wm.geometry, self.wm.well
-        block = x0[0] + (g.static_stretch_m if self.ukf.block_input == "block_position" else 0.0)
-        flow = x0[em.string_flow]
-        per_opening = float(hy.choke_flow(self.wm, 1.0, self.choke_dp_pa))
-        opening = min(1.0, flow / per_opening) if flow > 0.0 and per_opening > 0.0 else 0.0
-        rho_g = w.mud.density_kgm3 * w.gravity_mps2
-        pump = 0.0
-        if flow > 0.0:
-            pump = x0[em.string_pressure] - rho_g * (g.bit_depth_m - x0[0]) \
-                + float(hy.string_friction(np, self.wm, flow, 0.0))
-        return np.array([block, opening, 0.0, pump])
 
     # --------------------------------------------------------------- outputs
     def _publish(self, measurement: RigMeasurement, result: UpdateResult | None) -> None:

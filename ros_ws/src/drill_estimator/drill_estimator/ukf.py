@@ -1,63 +1,8 @@
-"""Unscented Kalman filter of the rig (paper eqs. 6-16 and 45-48; docs/design.md §5).
-
-Plain Python (no rclpy). The filter is filterpy's ``UnscentedKalmanFilter`` with
-``MerweScaledSigmaPoints`` (the paper's alpha, beta and kappa = kappa_offset - n_x),
-specialised as follows.
-
-* **Vectorised time update per frame.** The sigma points are drawn once per sensor
-  frame and all 2 n_x + 1 of them go through the shared estimation model
-  (drill_core.estimation_model) over the frame in one call of a CasADi function (RK4
-  steps chained and mapped over the points, optionally JIT-compiled). The model takes
-  ``model_steps_per_frame`` RK4 steps per frame, each fed the mean of the actuators'
-  0.01 s outputs it spans: the model's fastest mode is about 4 rad/s, so a 0.05 s step
-  is accurate (h|lambda| = 0.2) at a fifth of the cost of stepping with the plant. The
-  process noise is configured per 0.01 s plant step and accumulates to N Q over N
-  steps. Sigma points and the cross covariance are vectorised too.
-* **Scaled coordinates.** The filter runs on s = x / em.state_scale() (bar, 10 L/s,
-  1e6 Pa s^2/m^2, ...) with measurements scaled alike; everything returned is SI.
-* **Inputs.** u = [u0, q_c, q_bpp, p_in]. With ``block_input`` "block_position" (default
-  in config/estimator.yaml) u0 is the drawworks output u_b, mapped per sigma point to the
-  reference that makes the model's block controller command exactly that u_b, so the
-  hoisting sees the real drawworks including its 4 s lag; with "reference" u0 is the
-  drawworks reference u_r (the model's controller without the lag: during a trip the
-  model string leads the real one by about v T_dw / (1 + k_p)). q_c comes from a virtual
-  flow meter (valve law with the choke opening and the measured choke dp, see
-  :func:`frame_inputs`): the plant's choke flow is not measured.
-* **Measurement switching.** While circulating y = [z1, p_1 - p_0, p_n, q_d]; with the
-  mud pump off the q_d row is dropped and ``string_flow_observable`` is False. q_d and
-  p_I (and theta while nothing flows) are then unobservable; their covariance cannot
-  explode because every state's standard deviation is capped at ``max_std_factor``
-  times its initial value (rows/columns of P scaled down, which keeps P positive
-  semi-definite), and the model's string dynamics are stable, so the mean stays bounded.
-* **Friction parameters.** theta_i (the shared model's annular friction law,
-  ``annular_friction_law``; tuning per law in ``<law>_friction``, with the flow states'
-  process noise) is a random walk whose per-step std is ``theta_process_std`` at rest
-  plus ``theta_motion_std`` x min(1, |v_s| / motion_reference_speed_mps). Quadratic law:
-  its coefficient belongs to an operating point, and the truth's yield-dominated friction
-  changes the fitted value several-fold the moment the string moves (at rest theta
-  settles; while tripping it tracks, so the BHP estimate keeps following the
-  measurement). scaled_rheology: theta is a factor ~ 1 on the mud report's friction and
-  only corrects it slowly (no motion term). With only the choke dp and the BHP measured,
-  just the sum of the path frictions is observable at steady circulation, so the theta_i
-  random walks (and their initial spread) are correlated with ``theta_correlation``:
-  near 1 they move together, one correction of the one mud's rheology, instead of
-  drifting apart along the unobservable direction. The mean is projected onto
-  [0, theta_max] (a quadratic law cannot hold a gelled, static pressure difference, so
-  with no flow theta would otherwise grow without bound).
-* **Guards.** A channel with a NaN/inf value is left out of the update and counted
-  (``rejected_channels``); the other channels are fused as usual. A sample with no finite
-  channel is rejected (counted in ``rejected``, no update, the prediction is kept). The normalised innovation squared (NIS) is summed over a window
-  of ``nis_window`` accepted updates; when the sum exceeds the chi-square quantile
-  ``nis_alarm_probability`` of its degrees of freedom the filter is judged overconfident
-  and P is multiplied by ``covariance_inflation`` (counted in ``inflations``; the window
-  restarts). Covariance square roots never fail: P is symmetrised, a failed Cholesky is
-  retried with growing diagonal jitter, then with negative eigenvalues clipped (counted
-  in ``repairs``); a non-finite mean or covariance resets to the last finite mean and the
-  initial covariance, and a numerically failed update keeps the prediction (``resets``).
-
-With the paper's alpha = 1 and kappa = 3 - n_x the centre weights are negative
-(w_m0 = (3 - n_x)/3), so a nonlinear propagation can return an indefinite P; the repair
-path above handles it.
+"""Unscented Kalman filter of the rig (paper eqs. 6-16 and 45-48): filterpy's
+``UnscentedKalmanFilter`` with Merwe's scaled sigma points on the shared estimation model
+(drill_core.estimation_model), in scaled coordinates, with a batch time update per sensor
+frame, measurement switching, per-channel rejection of bad samples and covariance guards.
+The design and its reasons: docs/estimator.md. Plain Python (no rclpy).
 """
 from __future__ import annotations
 
@@ -69,15 +14,16 @@ import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter, unscented_transform
 from scipy.stats import chi2
 
-from drill_core import hydraulics as hy
 from drill_core.block_control import reference_for_command
 from drill_core.compiled import compiled
 from drill_core.config import Estimator, RigConfig
 from drill_core.estimation_model import (MEASUREMENT_NAMES, EstimationModel, build_discrete_model,
                                          build_estimation_model, friction_estimate,
                                          measurement_map)
+from drill_estimator.initial_state import initial_state
+from drill_estimator.model_inputs import BLOCK_INPUTS
+from drill_estimator.tuning import build_tuning
 
-BLOCK_INPUTS = ("reference", "block_position")
 _JITTER = (1e-12, 1e-10, 1e-8, 1e-6)     # relative to the largest diagonal entry (scaled P)
 
 
@@ -98,23 +44,6 @@ class UpdateResult:
 def use_bottom_influx(config: RigConfig) -> bool:
     """The disturbance state is estimated when asked for, and always for NMPC2."""
     return bool(config.estimator.estimate_bottom_influx or config.nmpc.configuration == "NMPC2")
-
-
-def frame_inputs(wm: hy.WellModel, block_m, choke_opening, bpp_flow_m3s, pump_pressure_pa,
-                 choke_dp_pa) -> np.ndarray:
-    """Filter inputs U [4 x N] for one sensor frame from the actuator outputs.
-
-    ``block_m`` is the drawworks output u_b (or its reference u_r, per block_input). The
-    choke flow is not measured: it comes from the valve law with the choke opening and a
-    choke differential pressure (a virtual flow meter). Every argument may be a scalar
-    (held over the frame) or N samples.
-    """
-    cols = [np.atleast_1d(np.asarray(v, dtype=float)) for v in
-            (block_m, choke_opening, bpp_flow_m3s, pump_pressure_pa, choke_dp_pa)]
-    steps = max(c.size for c in cols)
-    cols = [np.broadcast_to(c, (steps,)) if c.size == 1 else c for c in cols]
-    ref, opening, bpp, pump, dp = cols
-    return np.vstack([ref, hy.choke_flow(wm, opening, dp), bpp, pump])
 
 
 class _SigmaPoints(MerweScaledSigmaPoints):
@@ -179,53 +108,15 @@ class RigUkf:
         # measurement model: channel -> state index; scaled like the state
         self._y_index, self._y_offset = measurement_map(em)
         self._y_scale = self.scale[self._y_index]
-        noise = est.measurement_noise
-        sigma = np.array([noise.block_position_m, noise.choke_dp_pa, noise.bhp_pa,
-                          noise.string_flow_m3s])
-        self._R = np.diag((sigma / self._y_scale) ** 2)
-
-        # process noise per plant step and initial covariance (SI standard deviations)
-        q_std = np.zeros(self.n_x)
-        p_std = np.zeros(self.n_x)
-        q_std[0:3] = est.rig_process_std
-        p_std[0:3] = est.initial_rig_std
-        for i in range(1, em.n + 1):
-            q_std[em.pressure(i)] = est.pressure_process_std_pa
-            p_std[em.pressure(i)] = est.initial_pressure_std_pa
-            if i > 1:
-                q_std[em.flow(i)] = est.friction_tuning.flow_process_std_m3s
-                p_std[em.flow(i)] = est.initial_flow_std_m3s
-                q_std[em.theta(i)] = est.friction_tuning.theta_process_std
-                p_std[em.theta(i)] = est.friction_tuning.theta_initial_std
-        q_std[em.string_flow] = est.friction_tuning.flow_process_std_m3s
-        p_std[em.string_flow] = est.initial_flow_std_m3s
-        q_std[em.string_pressure] = est.pressure_process_std_pa
-        p_std[em.string_pressure] = est.initial_pressure_std_pa
-        if em.with_disturbance:
-            q_std[em.disturbance] = est.bottom_influx_process_std_m3s
-            p_std[em.disturbance] = est.initial_bottom_influx_std_m3s
-        self._Q = np.diag((q_std / self.scale) ** 2)
-        self._P0 = np.diag((p_std / self.scale) ** 2)
-        self._max_std = est.max_std_factor * p_std / self.scale
-        self._theta_index = np.array([em.theta(i) for i in range(2, em.n + 1)])
-        rho = est.friction_tuning.theta_correlation
-        self._theta_block = np.ix_(self._theta_index, self._theta_index)
-        self._theta_corr = rho + (1.0 - rho) * np.eye(em.n - 1)
-        for M, std in ((self._Q, q_std), (self._P0, p_std)):
-            s = std[self._theta_index] / self.scale[self._theta_index]
-            M[self._theta_block] = np.outer(s, s) * self._theta_corr
-        self._theta_max = est.friction_tuning.theta_max / self.scale[self._theta_index]
+        self.tuning = build_tuning(est, em, self.scale)
 
         points = _SigmaPoints(self.n_x, est.alpha, est.beta, est.kappa_offset - self.n_x,
                               sqrt_method=self._factor)
         self._ukf = _BatchUkf(dim_x=self.n_x, dim_z=4, dt=self.model_step_s, hx=None, fx=None,
                               points=points)
         self._lam_n = est.alpha ** 2 * (self.n_x + points.kappa)   # n_x + lambda
-        self._ukf.Q = self._Q.copy()
-        self._theta_motion_var = (est.friction_tuning.theta_motion_std
-                                  / self.scale[self._theta_index]) ** 2
-        self._theta_base_std = q_std[self._theta_index] / self.scale[self._theta_index]
-        self._ukf.R = self._R.copy()
+        self._ukf.Q = self.tuning.process.copy()
+        self._ukf.R = self.tuning.measurement.copy()
 
         self._window: deque = deque(maxlen=est.nis_window)
         self._repaired: tuple[np.ndarray, bool] | None = None
@@ -250,45 +141,16 @@ class RigUkf:
         if x0.shape != (self.n_x,) or not np.all(np.isfinite(x0)):
             raise ValueError(f"initial state must be {self.n_x} finite values")
         self._ukf.x = x0 / self.scale
-        self._ukf.P = self._P0.copy() if covariance_diagonal is None else \
+        self._ukf.P = self.tuning.initial.copy() if covariance_diagonal is None else \
             np.diag(np.asarray(covariance_diagonal, dtype=float) / self.scale ** 2)
         self._x_good = self._ukf.x.copy()
         self._window.clear()
         self.initialised = True
 
     def initial_state(self, y, circulating: bool) -> np.ndarray:
-        """A steady state of the estimation model consistent with one measurement (SI).
-
-        String at rest at the measured position; annulus pressures from the measured
-        choke dp plus hydrostatics, the measured BHP minus that hydrostatic column spread
-        over the paths as friction (so p_n matches the measurement); all flows equal the
-        measured string flow (0 with the pump off); p_I = BHP + bit loss (circulating) or
-        the string's hydrostatic column (pump off); theta from the configuration.
-        """
-        em, g, w = self.em, self.em.wm.geometry, self.em.wm.well
-        y = np.asarray(y, dtype=float)
-        rho_g = w.mud.density_kgm3 * w.gravity_mps2
-        x = np.zeros(self.n_x)
-        x[0] = y[0]
-        flow = float(y[3]) if circulating and len(y) > 3 and np.isfinite(y[3]) else 0.0
-        flow = max(flow, 0.0)
-        p1 = self.p0 + y[1]
-        static = [p1 + rho_g * (g.node_depth_m[i] - g.node_depth_m[0]) for i in range(em.n)]
-        extra = y[2] - static[-1]                  # friction (and model error) to distribute
-        lengths = np.diff(np.asarray(g.node_depth_m))
-        share = np.concatenate([[0.0], np.cumsum(lengths) / np.sum(lengths)])
-        for i in range(1, em.n + 1):
-            x[em.pressure(i)] = static[i - 1] + extra * share[i - 1]
-            if i > 1:
-                x[em.flow(i)] = flow
-                x[em.theta(i)] = self.est.friction_tuning.theta_initial
-        x[em.string_flow] = flow
-        if flow > 0.0:
-            a = 0.5 * w.mud.density_kgm3 / w.bit_nozzle_coefficient_m2 ** 2
-            x[em.string_pressure] = y[2] + w.bha_loss_coefficient_pa_s_m3 * flow + a * flow ** 2
-        else:
-            x[em.string_pressure] = min(rho_g * (g.bit_depth_m - y[0]), y[2])
-        return x
+        """A steady state of the model consistent with one measurement y (SI):
+        drill_estimator.initial_state."""
+        return initial_state(self.em, self.est.friction_tuning.theta_initial, y, circulating)
 
     # --------------------------------------------------------------- filtering
     def predict_frame(self, inputs) -> None:
@@ -366,7 +228,7 @@ class RigUkf:
         gain = self.scale[idx] / yscale
         prior = ukf.x.copy(), ukf.P.copy()
         channels = np.flatnonzero(good)
-        ukf.update((z - offset) / yscale, R=self._R[np.ix_(channels, channels)],
+        ukf.update((z - offset) / yscale, R=self.tuning.measurement[np.ix_(channels, channels)],
                    hx=lambda s: s[idx] * gain - offset / yscale)
         innovation_scaled = np.asarray(ukf.y, dtype=float)
         nis = float(innovation_scaled @ ukf.SI @ innovation_scaled)
@@ -409,12 +271,12 @@ class RigUkf:
 
     @property
     def state_names(self) -> list[str]:
-        return self.em.state_names()
+        return list(self.em.names)
 
     @property
     def theta(self) -> np.ndarray:
         """Friction parameters theta_2..theta_n (quadratic: Pa s^2/m^2; scaled_rheology: 1)."""
-        return self.mean[self._theta_index]
+        return self.mean[self.tuning.theta_index]
 
     @property
     def friction_pa(self) -> np.ndarray:
@@ -431,7 +293,7 @@ class RigUkf:
 
     @property
     def string_velocity_mps(self) -> float:
-        return float(self.mean[1])
+        return float(self.mean[self.em.velocity])
 
     @property
     def bottom_influx_m3s(self) -> float:
@@ -462,7 +324,8 @@ class RigUkf:
         em = self.em
         u_r = u[0]
         if self.block_input == "block_position":
-            u_r = reference_for_command(u[0], x[0] + 0.5 * self.model_step_s * x[1], x[2],
+            u_r = reference_for_command(u[0], x[em.position] + 0.5 * self.model_step_s * x[em.velocity],
+                                        x[em.block_integral],
                                         em.wm.geometry.static_stretch_m, em.block_kp,
                                         em.block_ki_per_s)
         return ca.vertcat(u_r, u[1], u[2], u[3])
@@ -471,12 +334,13 @@ class RigUkf:
         """theta random walk: base std plus the law's theta_motion_std scaled by
         min(1, |v_s| / motion_reference_speed_mps). The quadratic law's coefficient is a
         property of the operating point; it moves fast only when the string moves."""
-        if not np.any(self._theta_motion_var):
+        tuning = self.tuning
+        if not np.any(tuning.theta_motion_var):
             return
-        speed = abs(float(self._ukf.x[1] * self.scale[1]))
-        w = min(1.0, speed / self.est.motion_reference_speed_mps)
-        std = self._theta_base_std + w * np.sqrt(self._theta_motion_var)
-        self._ukf.Q[self._theta_block] = np.outer(std, std) * self._theta_corr
+        v = self.em.velocity
+        speed = abs(float(self._ukf.x[v] * self.scale[v]))
+        self._ukf.Q[tuning.theta_block] = tuning.theta_process(
+            speed, self.est.motion_reference_speed_mps)
 
     def _transition_for(self, steps: int) -> ca.Function:
         """All sigma points (columns, scaled) through ``steps`` model steps with inputs
@@ -500,7 +364,7 @@ class RigUkf:
         if not (np.all(np.isfinite(ukf.x)) and np.all(np.isfinite(ukf.P))):
             self.resets += 1
             ukf.x = self._x_good.copy()
-            ukf.P = self._P0.copy()
+            ukf.P = self.tuning.initial.copy()
             return
         ukf.P = self._capped(0.5 * (ukf.P + ukf.P.T))
         self._x_good = ukf.x.copy()
@@ -515,10 +379,11 @@ class RigUkf:
         """P with row/column i scaled so that no standard deviation exceeds its cap (D P D,
         D diagonal with entries <= 1, stays positive semi-definite)."""
         std = np.sqrt(np.maximum(np.diag(P), 0.0))
-        over = std > self._max_std
+        cap = self.tuning.max_std
+        over = std > cap
         if np.any(over):
             c = np.ones(self.n_x)
-            c[over] = self._max_std[over] / std[over]
+            c[over] = cap[over] / std[over]
             P = P * np.outer(c, c)
         return P
 
@@ -545,7 +410,7 @@ class RigUkf:
             self._repaired = (root.T @ root, False)
             return root
         except (np.linalg.LinAlgError, ValueError):
-            reset = self._lam_n * self._P0
+            reset = self._lam_n * self.tuning.initial
             self._repaired = (reset, True)
             return np.linalg.cholesky(reset).T      # P0 is positive definite
 
@@ -564,6 +429,7 @@ class RigUkf:
     def _project(self) -> None:
         """Keep 0 <= theta <= the law's theta_max (mean) and the standard deviations capped."""
         x = self._ukf.x
-        x[self._theta_index] = np.clip(x[self._theta_index], 0.0, self._theta_max)
+        theta = self.tuning.theta_index
+        x[theta] = np.clip(x[theta], 0.0, self.tuning.theta_max)
         if np.all(np.isfinite(self._ukf.P)):
             self._ukf.P = self._capped(self._ukf.P)

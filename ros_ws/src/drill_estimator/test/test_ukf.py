@@ -26,7 +26,8 @@ from scipy.stats import chi2
 from drill_core import hydraulics as hy
 from drill_core.block_control import block_command, integral_rate
 from drill_core.config import load_rig, replace
-from drill_estimator.ukf import RigUkf, frame_inputs
+from drill_estimator.model_inputs import frame_inputs
+from drill_estimator.ukf import RigUkf
 from drill_plant.plant_model import (CLOSED_BOTTOM, PlantLayout, build_frame_function,
                                      held_parameters, steady_state, wiener_increments)
 
@@ -200,7 +201,7 @@ def test_circulation_off_run_in_stays_bounded(cfg, plant):
     assert np.all(np.isfinite(a["mean"])) and np.all(np.isfinite(a["var"]))
     assert not any(a["observable"]) and set(a["dof"]) == {3}
     # every standard deviation stays under its cap (max_std_factor x initial std)
-    cap = cfg.estimator.max_std_factor * np.sqrt(np.diag(ukf._P0)) * ukf.scale
+    cap = cfg.estimator.max_std_factor * np.sqrt(np.diag(ukf.tuning.initial)) * ukf.scale
     assert np.all(np.sqrt(a["var"]) <= cap * (1 + 1e-6) + 1e-12)
     # the unobservable string states stay physical: q_d within +-500 L/min of zero,
     # p_I within 50 bar of the string's hydrostatic column

@@ -178,7 +178,7 @@ def closed_loop(config: RigConfig, configuration: str, samples: int, *, out_at: 
         y = outputs(em, x)
         log.time_s.append(t)
         log.block_position_m.append(float(y[0]))
-        log.velocity_mps.append(float(x[1]))
+        log.velocity_mps.append(float(x[em.velocity]))
         log.bhp_pa.append(float(y[2]))
         log.bhp_ref_pa.append(bhp_ref)
         log.choke_dp_pa.append(float(y[1]))

@@ -39,7 +39,7 @@ import numpy as np
 from drill_msgs.msg import ActuatorFrame, NmpcStatus, RigCommand, StateEstimate
 from drill_msgs.srv import SetSetpoints
 
-from drill_core.estimation_model import build_estimation_model
+from drill_core.estimation_model import BOTTOM_INFLUX, build_estimation_model
 from drill_core.ros import topics
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
@@ -108,15 +108,14 @@ class NmpcNode(AdvisorNode):
         mean = list(msg.mean)
         if len(names) != len(mean):
             return None
-        index = {n: i for i, n in enumerate(names)}
-        x = np.zeros(self.em.size)
-        for i, name in enumerate(self.em.state_names()):
-            if name in index:
-                x[i] = mean[index[name]]
-            elif self.em.with_disturbance and i == self.em.disturbance:
-                x[i] = msg.bottom_influx_m3s if math.isfinite(msg.bottom_influx_m3s) else 0.0
-            else:
-                return None
+        values = dict(zip(names, mean))
+        if self.em.with_disturbance and BOTTOM_INFLUX not in values:
+            values[BOTTOM_INFLUX] = msg.bottom_influx_m3s \
+                if math.isfinite(msg.bottom_influx_m3s) else 0.0
+        try:
+            x = self.em.vector(values)
+        except KeyError:
+            return None
         return x if np.all(np.isfinite(x)) else None
 
     def _initial_input(self, x) -> np.ndarray:
@@ -126,7 +125,7 @@ class NmpcNode(AdvisorNode):
         ini = self.ctx.scenario.initial
         op = self.ctx.operating_point
         self.operating_choke_flow_m3s = float(op.choke_flow_m3s)
-        u = np.array([x[0], choke_input(self.ctx.config.nmpc, op.choke_flow_m3s, ini.choke_dp_pa),
+        u = np.array([x[self.em.position], choke_input(self.ctx.config.nmpc, op.choke_flow_m3s, ini.choke_dp_pa),
                       ini.bpp_flow_m3s, op.spp_pa])
         return self.supervisor.safe_input(u)
 
@@ -223,7 +222,7 @@ class NmpcNode(AdvisorNode):
         """Hand-back to manual: hold the string where it is, the other inputs as they were."""
         self.supervisor.reset()
         u = self.u_prev.copy()
-        u[0] = float(np.clip(x[0], self.supervisor.u_min[0], self.supervisor.u_max[0]))
+        u[0] = float(np.clip(x[self.em.position], self.supervisor.u_min[0], self.supervisor.u_max[0]))
         u = np.where(np.isfinite(u), u, self.u_prev)
         return SolveResult(u=u, success=False, fallback="none", status="manual", iterations=0,
                            solve_time_s=0.0, cost=float("nan"),

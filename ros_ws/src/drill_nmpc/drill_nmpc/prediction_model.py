@@ -137,12 +137,12 @@ class PredictionModel:
         inputs = [u[0], self.choke_flow(x, u), x[self.bpp] if self.bpp is not None else u[2],
                   x[self.pump] if self.pump is not None else spp_cmd]
         if self.block is not None:
-            inputs[0] = reference_for_command(x[self.block], x[0], x[2], self._stretch,
-                                              self.em.block_kp, self.em.block_ki_per_s)
+            inputs[0] = reference_for_command(x[self.block], x[em.position], x[em.block_integral],
+                                              self._stretch, em.block_kp, em.block_ki_per_s)
         out = drift(CASADI, em, full, inputs, self.table)[:self.nd_model]
         if self.block is not None:
-            out[2] = integral_rate(u[0], x[0])
-            out.append((self.block_command(u[0], x[0], x[2]) - x[self.block]) / self.lags.drawworks_s)
+            out[em.block_integral] = integral_rate(u[0], x[em.position])
+            out.append((self.block_command(u[0], x[em.position], x[em.block_integral]) - x[self.block]) / self.lags.drawworks_s)
         if self.bpp is not None:
             out.append((u[2] - x[self.bpp]) / self.lags.bpp_s)
         if self.pump is not None:
@@ -160,7 +160,7 @@ class PredictionModel:
         g, w = em.wm.geometry, em.wm.well
         bpp = x[self.bpp] if self.bpp is not None else u[2]
         dp = x[em.pressure(1)] - w.choke_downstream_pressure_pa
-        return (x[em.flow(2)] - g.displacement_area_m2[0] * x[1] + bpp
+        return (x[em.flow(2)] - g.displacement_area_m2[0] * x[em.velocity] + bpp
                 + (dp - u[1]) * g.annulus_volume_m3[0]
                 / (w.mud.bulk_modulus_pa * self.choke_time_constant_s))
 
@@ -255,7 +255,8 @@ class PredictionModel:
         for _ in range(3):
             x = rng.normal(size=self.nd)
             acc = float(f(x, np.zeros(4), np.zeros(self.npar))[1])
-            ref = float(hy.hoisting_acceleration(self.em.wm, x[0], x[1], x[self.block]))
+            ref = float(hy.hoisting_acceleration(self.em.wm, x[self.em.position], x[self.em.velocity],
+                                                  x[self.block]))
             worst = max(worst, abs(acc - ref) / max(1.0, abs(ref)))
         return worst
 
@@ -283,7 +284,7 @@ def string_pressure_margin(em: EstimationModel, x):
     """p_I - (p_n - rho g z1) - K_b q_d: string pressure above annulus-at-bit + BHA loss [Pa]."""
     w = em.wm.well
     rho_g = w.mud.density_kgm3 * w.gravity_mps2
-    return (x[em.string_pressure] - (x[em.pressure(em.n)] - rho_g * x[0])
+    return (x[em.string_pressure] - (x[em.pressure(em.n)] - rho_g * x[em.position])
             - w.bha_loss_coefficient_pa_s_m3 * x[em.string_flow])
 
 

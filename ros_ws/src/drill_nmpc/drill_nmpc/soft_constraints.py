@@ -41,7 +41,7 @@ class SoftConstraint:
 
 
 SOFT_CONSTRAINTS = (
-    SoftConstraint("velocity", lambda s: s.x[1], True, 0.01, "slack_weight_velocity",
+    SoftConstraint("velocity", lambda s: s.x[s.em.velocity], True, 0.01, "slack_weight_velocity",
                    False, False),
     SoftConstraint("bhp_band", lambda s: s.y[2], True, 1.0e4, "slack_weight_bhp", False, True),
     SoftConstraint("choke_dp_band", lambda s: s.y[1], True, 1.0e5, "slack_weight_choke_dp",

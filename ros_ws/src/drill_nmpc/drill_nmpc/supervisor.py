@@ -196,7 +196,7 @@ class Supervisor:
         A new target starts a new corridor at the string's position. Where the
         acceleration limit cannot stop the reference in time, the hardest braking step
         stays allowed (no infeasible bounds)."""
-        target, position = float(target), float(x[0])
+        target, position = float(target), float(x[self.em.position])
         if self._trip is None or self._trip[0] != target:
             self._trip = (target, position)
         direction = np.sign(target - self._trip[1])
@@ -297,7 +297,7 @@ class Supervisor:
                           for j in range(pb.N + 1)])
         vlim, bhp_band, dp_band = self.levels(setpoints, y_sp)
         if self.cfg.block_reference == "profile":
-            y_ref[:, 0] = self.block_profile(float(x[0]), float(y_sp[0]), vlim)
+            y_ref[:, 0] = self.block_profile(float(x[self.em.position]), float(y_sp[0]), vlim)
         if pb.ne:
             # NMPC1: integrate the estimated error *outside the band* (the part the model
             # failed to prevent): riding the band edge on purpose does not wind it up, a

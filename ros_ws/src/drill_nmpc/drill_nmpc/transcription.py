@@ -1,27 +1,9 @@
-"""The NMPC's optimal control problem (paper eqs. 49-59) transcribed for CasADi.
-
-Plain module (no rclpy). docs/nmpc.md (sections 1-4) has the derivation and the
-measurements behind each choice.
-
-* **Multiple shooting**, one interval per sample t_s, inputs held over it, M classical
-  RK4 steps per interval (``PredictionModel.function``; compiled to C with ``jit``).
-* **Stage-wise layout** (FATROP / HPIPM): stage k holds its state s_k then its controls
-  v_k; per stage the gap s_{k+1} - Phi(s_k, v_k) comes first, then that stage's path
-  rows. Stage 0 has no state (x_0 = x_hat is a parameter); the terminal stage has no
-  controls (cost only).
-* **Control horizon** N_c: the stage state carries the previous input u_{k-1} (Delta u is
-  stage-local) and u_r,k-2 (block-reference acceleration); stages k >= N_c apply u_{k-1}.
-* **Scaling**: x = x_hat + S_x x~ (S_x = em.state_scale(): bar, 10 L/s, ...), u = u_{-1} +
-  S_u u~ with S_u the slew limit per sample (|Delta u~| <= 1), slacks in their table units.
-* **Cost (49)/(55)**: w~_i ((y_i - y_ref,i)/y_span,i)^2 over stages 1..N_p, r~_i
-  (Delta u_i/u_span,i)^2 and r~r_i ((u_i - u_ref,i)/u_span,i)^2 over the control horizon,
-  T (xi^2 + xi) per slack (the linear term makes the penalty exact).
-* **Soft constraints (52)-(53)**: the table in ``drill_nmpc.soft_constraints``. Hard:
-  input bounds (the block reference also within the trip corridor), slew limits and the
-  protection's block-reference acceleration limit.
-* **NMPC1**: integrated tracking error of the pressure outputs (eq. 56). **NMPC2**: the
-  estimated bottom influx d (eqs. 57-58) held constant over the horizon.
-* **Parameters** (``PARAMETERS``): one layout slices the symbols and packs the numbers.
+"""The NMPC's optimal control problem (paper eqs. 49-59) transcribed for CasADi: multiple
+shooting in a stage-wise layout, scaled variables, the cost, the soft constraints of
+``drill_nmpc.soft_constraints`` and the hard input, slew and acceleration limits; built
+once per configuration, then solved per sample (one real-time-iteration step by default)
+with warm starts and an assessment of each answer. Plain module (no rclpy); the
+derivation and the measurements behind each choice: docs/nmpc.md sections 1-4.
 """
 from __future__ import annotations
 
@@ -35,6 +17,7 @@ from drill_core.compiled import compiled
 from drill_core.config import Nmpc
 from drill_core.estimation_model import EstimationModel
 from drill_nmpc.inputs import choke_time_constant, input_arrays
+from drill_nmpc.parameter_layout import ParameterLayout
 from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
                                          outputs)
 from drill_nmpc.soft_constraints import BY_NAME, SLACK_NAMES, SOFT_CONSTRAINTS, StageValues
@@ -57,33 +40,6 @@ def _succeeded(stats: dict) -> bool:
     if stats.get("success"):
         return True
     return str(stats.get("return_status", "")) in _SUCCESS_STATUSES
-
-
-@dataclass(frozen=True)
-class ParameterLayout:
-    """Named parts of the NLP's parameter vector, in order: the one definition the symbols
-    (``split``) and the numbers (``pack``) both follow."""
-    sizes: tuple[tuple[str, int], ...]
-
-    @property
-    def size(self) -> int:
-        return sum(n for _, n in self.sizes)
-
-    def split(self, p) -> dict:
-        out, offset = {}, 0
-        for name, n in self.sizes:
-            out[name] = p[offset:offset + n]
-            offset += n
-        return out
-
-    def pack(self, **values) -> np.ndarray:
-        parts = []
-        for name, n in self.sizes:
-            v = np.asarray(values[name], dtype=float).ravel()
-            if v.size != n:
-                raise ValueError(f"parameter {name}: {v.size} values, expected {n}")
-            parts.append(v)
-        return np.concatenate(parts)
 
 
 @dataclass

@@ -159,16 +159,16 @@ def test_lockstep_commands_status_and_setpoint_service(nmpc_process, monkeypatch
             "nmpc node did not connect"
         outputs = {"drawworks": x[0] + em.wm.geometry.static_stretch_m,   # hanging still
                    "bpp": u0[2], "mud_pump": u0[3]}
-        est.estimate(0, em.state_names(), x)                   # t_0: no frame before it
-        est.estimate(SAMPLE_NS // 2, em.state_names(), x)      # not a sample time
-        est.estimate(SAMPLE_NS, em.state_names(), x)           # waits for the frame at 0.9 s
+        est.estimate(0, list(em.names), x)                   # t_0: no frame before it
+        est.estimate(SAMPLE_NS // 2, list(em.names), x)      # not a sample time
+        est.estimate(SAMPLE_NS, list(em.names), x)           # waits for the frame at 0.9 s
         assert est.spin_until(lambda: len(est.commands) >= 1, TIMEOUT_S, nmpc_process)
         est.spin_until(lambda: False, 1.0, nmpc_process)
         assert len(est.commands) == 1, "answered t_1 before the actuator frames of t_1 - t_m"
         for s in (SAMPLE_NS, 2 * SAMPLE_NS, 3 * SAMPLE_NS):
             est.frames(s - SAMPLE_NS // 10, outputs)
             if s > SAMPLE_NS:
-                est.estimate(s, em.state_names(), x)
+                est.estimate(s, list(em.names), x)
             time.sleep(0.01)
         assert est.spin_until(lambda: len(est.commands) >= 4 and len(est.statuses) >= 4, TIMEOUT_S,
                               nmpc_process), f"commands {len(est.commands)}"
@@ -227,7 +227,7 @@ def test_lockstep_commands_status_and_setpoint_service(nmpc_process, monkeypatch
 
         # the next sample uses the new setpoints: the plan moves the block toward 10 m
         est.frames(4 * SAMPLE_NS - SAMPLE_NS // 10, outputs)
-        est.estimate(4 * SAMPLE_NS, em.state_names(), x)
+        est.estimate(4 * SAMPLE_NS, list(em.names), x)
         assert est.spin_until(lambda: len(est.statuses) >= 5, TIMEOUT_S, nmpc_process)
         assert est.statuses[-1].block_position_ref_m == 10.0
         assert est.statuses[-1].predicted_block_position_m[-1] > 0.1     # heading for 10 m

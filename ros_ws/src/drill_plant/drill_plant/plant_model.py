@@ -13,6 +13,7 @@ seeded numpy generator so runs reproduce exactly.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import casadi as ca
@@ -23,6 +24,7 @@ from drill_core.backend import CASADI
 from drill_core.config import RigConfig, Well
 from drill_core.integrators import srk_step
 from drill_core.operating_point import OperatingPoint, operating_point
+from drill_core.state_layout import POSITION, VELOCITY, WellboreLayout, hydraulic_state_names
 
 INPUT_NAMES = ("block_position_m", "choke_opening", "bpp_flow_m3s", "pump_pressure_pa")
 # Plant parameters a scenario event may change (pore/fracture steps, a plugging choke).
@@ -42,50 +44,39 @@ def nominal_parameters(well: Well) -> np.ndarray:
     return np.array([well.formation.pore_pressure_pa, well.formation.fracture_pressure_pa, 1.0])
 
 
+PIT_GAIN = "pit_gain_m3"
+INFLUX_VOLUME = "influx_volume_m3"
+LOSS_VOLUME = "loss_volume_m3"
+
+
 @dataclass(frozen=True)
-class PlantLayout:
-    """Indices of the plant state vector for n annulus segments, by name of the state."""
+class PlantLayout(WellboreLayout):
+    """The truth plant's states by name for n annulus segments: the string motion, the
+    hydraulics, then the volumes the surface and formation flows accumulate."""
     n: int
 
-    position = 0
-    velocity = 1
-
-    @property
-    def size(self) -> int:
-        return 2 * self.n + 6
+    @functools.cached_property
+    def names(self) -> tuple[str, ...]:
+        return (POSITION, VELOCITY, *hydraulic_state_names(self.n),
+                PIT_GAIN, INFLUX_VOLUME, LOSS_VOLUME)
 
     @property
     def hydraulic_size(self) -> int:
-        """The stochastic states (hoisting and hydraulics): 2n + 3, the ones noise drives."""
-        return 2 * self.n + 3
-
-    def pressure(self, i: int) -> int:
-        """Index of p_i, i = 1..n."""
-        return 2 * i
-
-    def flow(self, i: int) -> int:
-        """Index of q_i, i = 2..n."""
-        return 2 * i - 1
-
-    @property
-    def string_flow(self) -> int:
-        return 2 * self.n + 1
-
-    @property
-    def string_pressure(self) -> int:
-        return 2 * self.n + 2
+        """The stochastic states (hoisting and hydraulics): the first 2n + 3, the ones
+        noise drives."""
+        return self.pit_gain
 
     @property
     def pit_gain(self) -> int:
-        return 2 * self.n + 3
+        return self.index(PIT_GAIN)
 
     @property
     def influx_volume(self) -> int:
-        return 2 * self.n + 4
+        return self.index(INFLUX_VOLUME)
 
     @property
     def loss_volume(self) -> int:
-        return 2 * self.n + 5
+        return self.index(LOSS_VOLUME)
 
 
 def drift(xp, wm: hy.WellModel, x, u, theta=None):

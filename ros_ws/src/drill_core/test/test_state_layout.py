@@ -1,0 +1,56 @@
+"""The named layouts hold the paper's state order (Paper I eqs. 45-48 for the estimation
+model; the truth plant without the block integral, plus its three volumes)."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drill_core.config import load_rig
+from drill_core.estimation_model import build_estimation_model
+from drill_plant.plant_model import PlantLayout
+
+CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+
+
+@pytest.mark.parametrize("n", [1, 3, 6])
+def test_plant_layout_is_the_papers_order(n):
+    lay = PlantLayout(n)
+    assert (lay.position, lay.velocity) == (0, 1)
+    assert [lay.pressure(i) for i in range(1, n + 1)] == [2 * i for i in range(1, n + 1)]
+    assert [lay.flow(i) for i in range(2, n + 1)] == [2 * i - 1 for i in range(2, n + 1)]
+    assert (lay.string_flow, lay.string_pressure) == (2 * n + 1, 2 * n + 2)
+    assert (lay.hydraulic_size, lay.pit_gain, lay.loss_volume, lay.size) == \
+        (2 * n + 3, 2 * n + 3, 2 * n + 5, 2 * n + 6)
+
+
+@pytest.mark.parametrize("disturbance", [False, True])
+def test_estimation_layout_is_the_papers_order(disturbance):
+    em = build_estimation_model(load_rig(CONFIG_DIR), with_disturbance=disturbance)
+    n = em.n
+    # x = [z1, z2, z3, p_1, q_2, p_2, ..., q_n, p_n, q_d, p_I, theta_2..theta_n (, d)]
+    assert (em.position, em.velocity, em.block_integral) == (0, 1, 2)
+    assert [em.pressure(i) for i in range(1, n + 1)] == [1 + 2 * i for i in range(1, n + 1)]
+    assert [em.flow(i) for i in range(2, n + 1)] == [2 * i for i in range(2, n + 1)]
+    assert (em.string_flow, em.string_pressure) == (2 * n + 2, 2 * n + 3)
+    assert [em.theta(i) for i in range(2, n + 1)] == [2 * n + 2 + i for i in range(2, n + 1)]
+    assert em.size == 3 * n + 3 + int(disturbance)
+    if disturbance:
+        assert em.disturbance == em.size - 1
+
+
+def test_vector_moves_states_by_name_between_layouts():
+    em = build_estimation_model(load_rig(CONFIG_DIR))
+    lay = PlantLayout(em.n)
+    x = np.arange(lay.size, dtype=float)
+    values = {**dict(zip(lay.names, x)), "block_integral_m_s": -1.0,
+              **{em.theta_name(i): 100.0 + i for i in range(2, em.n + 1)}}
+    x_hat = em.vector(values)
+    assert x_hat[em.pressure(em.n)] == x[lay.pressure(em.n)]
+    assert x_hat[em.string_flow] == x[lay.string_flow]
+    assert x_hat[em.block_integral] == -1.0
+    assert x_hat[em.theta(em.n)] == 100.0 + em.n
+    del values["block_integral_m_s"]
+    with pytest.raises(KeyError, match="block_integral_m_s"):
+        em.vector(values)
+    with pytest.raises(KeyError, match="no state 'pit_gain_m3'"):
+        em.index("pit_gain_m3")

@@ -1,0 +1,91 @@
+"""The UKF's time-update inputs u = [u_b (or u_r) m, q_c m^3/s, q_bpp m^3/s, p_in Pa] per
+plant step, from the actuators' frames.
+
+The choke flow is not measured: a virtual flow meter takes it from the valve law with the
+choke opening and the last accepted measured choke differential pressure. A missing or
+bad frame holds its actuator's last good value, and says so.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from drill_core import hydraulics as hy
+from drill_core.estimation_model import EstimationModel
+from drill_core.events import ACTUATORS
+
+BLOCK_INPUTS = ("reference", "block_position")
+
+
+def frame_inputs(wm: hy.WellModel, block_m, choke_opening, bpp_flow_m3s, pump_pressure_pa,
+                 choke_dp_pa) -> np.ndarray:
+    """Filter inputs U [4 x N] for one sensor frame from the actuator outputs.
+
+    ``block_m`` is the drawworks output u_b (or its reference u_r, per block_input). Every
+    argument may be a scalar (held over the frame) or N samples.
+    """
+    cols = [np.atleast_1d(np.asarray(v, dtype=float)) for v in
+            (block_m, choke_opening, bpp_flow_m3s, pump_pressure_pa, choke_dp_pa)]
+    steps = max(c.size for c in cols)
+    cols = [np.broadcast_to(c, (steps,)) if c.size == 1 else c for c in cols]
+    ref, opening, bpp, pump, dp = cols
+    return np.vstack([ref, hy.choke_flow(wm, opening, dp), bpp, pump])
+
+
+class ModelInputs:
+    """Turns each frame's actuator samples into the model's inputs, holding the last good
+    sample of each actuator (drawworks, choke opening, back-pressure pump flow, mud-pump
+    pressure: topics.ACTUATORS order) and the last accepted choke dp."""
+
+    def __init__(self, em: EstimationModel, block_input: str):
+        if block_input not in BLOCK_INPUTS:
+            raise ValueError(f"block_input must be one of {BLOCK_INPUTS}, got {block_input!r}")
+        self.em, self.block_input = em, block_input
+        self.held = np.zeros(len(ACTUATORS))
+        self.choke_dp_pa = 0.0
+
+    def start(self, x0: np.ndarray, choke_dp_pa: float) -> None:
+        """Hold the inputs that keep the estimation model's steady state ``x0``."""
+        em, wm = self.em, self.em.wm
+        g, w = wm.geometry, wm.well
+        self.choke_dp_pa = float(choke_dp_pa)
+        block = x0[em.position] + (g.static_stretch_m if self.block_input == "block_position"
+                                   else 0.0)
+        flow = x0[em.string_flow]
+        per_opening = float(hy.choke_flow(wm, 1.0, self.choke_dp_pa))
+        opening = min(1.0, flow / per_opening) if flow > 0.0 and per_opening > 0.0 else 0.0
+        rho_g = w.mud.density_kgm3 * w.gravity_mps2
+        pump = 0.0
+        if flow > 0.0:
+            pump = x0[em.string_pressure] - rho_g * (g.bit_depth_m - x0[em.position]) \
+                + float(hy.string_friction(np, wm, flow, 0.0))
+        self.held = np.array([block, opening, 0.0, pump])
+
+    def accept_choke_dp(self, choke_dp_pa: float) -> None:
+        """A measured choke dp the update accepted: the virtual flow meter's from now on."""
+        self.choke_dp_pa = float(choke_dp_pa)
+
+    def frame(self, frames: Mapping[str, object], steps: int) -> tuple[np.ndarray, list[str]]:
+        """Inputs [4 x steps] from ``frames`` (actuator name -> its frame, with ``output``
+        samples and the ``reference``; absent when it did not come) and the problems met."""
+        rows, problems = [], []
+        for i, name in enumerate(ACTUATORS):
+            frame = frames.get(name)
+            samples = None
+            if frame is not None:
+                if name == "drawworks" and self.block_input == "reference":
+                    samples = np.full(max(len(frame.output), 1), float(frame.reference))
+                else:
+                    samples = np.asarray(frame.output, dtype=float)
+                if samples.size == 0 or not np.all(np.isfinite(samples)):
+                    problems.append(f"{name}: bad frame ({samples.size} samples); holding input")
+                    samples = None
+            if samples is None:
+                samples = np.array([self.held[i]])
+            row = samples[np.minimum(np.arange(steps), samples.size - 1)]   # hold the last
+            self.held[i] = row[-1]
+            rows.append(row)
+        inputs = np.vstack(rows)
+        inputs[1] = hy.choke_flow(self.em.wm, inputs[1], self.choke_dp_pa)
+        return inputs, problems

@@ -1,0 +1,68 @@
+"""The UKF's model inputs from actuator frames (drill_estimator.model_inputs)."""
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from drill_core import hydraulics as hy
+from drill_core.backend import NUMPY
+from drill_core.config import load_rig
+from drill_core.estimation_model import build_estimation_model, drift
+from drill_estimator.initial_state import initial_state
+from drill_estimator.model_inputs import ModelInputs
+
+CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CIRCULATION = 1000.0 / 60000.0      # 1000 L/min
+
+
+@pytest.fixture(scope="module")
+def em():
+    return build_estimation_model(load_rig(CONFIG_DIR))
+
+
+def _frame(samples, reference=0.0):
+    return SimpleNamespace(output=list(samples), reference=reference)
+
+
+def _started(em, block_input="block_position"):
+    y = [0.0, 20.0e5, 6.6e7, CIRCULATION]
+    x0 = initial_state(em, 1.0e6, y, True)
+    inputs = ModelInputs(em, block_input)
+    inputs.start(x0, y[1])
+    return inputs, x0
+
+
+def test_steady_inputs_hold_the_initial_state(em):
+    """With the held inputs the model's string flow and pressure do not move (the pump
+    pressure balances the string column and friction; the choke opening passes the flow)."""
+    inputs, x0 = _started(em)
+    u, problems = inputs.frame({}, 10)
+    assert problems == [] and u.shape == (4, 10)
+    assert u[1, 0] == pytest.approx(CIRCULATION, rel=1e-9)        # valve law at the held opening
+    rate = drift(NUMPY, em, x0, [u[0, 0] - em.wm.geometry.static_stretch_m, *u[1:, 0]])
+    assert abs(rate[em.string_flow]) < 1e-9
+    assert abs(rate[em.string_pressure]) < 1.0                      # Pa/s, of 1e7 Pa
+
+
+def test_bad_frame_holds_its_actuator_only_and_says_so(em):
+    inputs, _ = _started(em)
+    good = {"drawworks": _frame([1.0, 2.0]), "choke": _frame([0.3] * 3),
+            "bpp": _frame([0.004] * 3), "mud_pump": _frame([2.0e7] * 3)}
+    u, problems = inputs.frame(good, 3)
+    assert problems == []
+    assert list(u[0]) == [1.0, 2.0, 2.0]                  # a short frame holds its last sample
+    bad = dict(good, choke=_frame([0.5, float("nan"), 0.5]))
+    u, problems = inputs.frame(bad, 3)
+    assert problems == ["choke: bad frame (3 samples); holding input"]
+    expected = hy.choke_flow(em.wm, 0.3, inputs.choke_dp_pa)
+    assert np.allclose(u[1], expected) and np.all(np.isfinite(u))
+    assert list(u[2]) == [0.004] * 3 and list(u[3]) == [2.0e7] * 3
+
+
+def test_reference_mode_takes_the_drawworks_reference(em):
+    inputs, _ = _started(em, "reference")
+    u, _ = inputs.frame({"drawworks": _frame([5.0, 5.0], reference=7.5)}, 4)
+    assert list(u[0]) == [7.5] * 4
+    with pytest.raises(ValueError, match="block_input"):
+        ModelInputs(em, "hook_load")
