@@ -1,8 +1,9 @@
 """Integration over DDS: the whole graph as separate processes in fast mode.
 
 A short trip must complete with BHP inside its window; the same seed must give the
-same recorded data; a node killed mid-run must make the launch fail loudly and
-leave a readable recording.
+same recorded data, one process per node and with the nodes composed into two
+containers (plant and actuators; estimator, NMPC and protection); a node killed mid-run
+must make the launch fail loudly and leave a readable recording.
 """
 import math
 import signal
@@ -24,9 +25,10 @@ COMPARED = (topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.COMMAND, t
 @pytest.fixture(scope="module")
 def two_runs(tmp_path_factory):
     runs = []
-    for i, domain in enumerate((91, 92)):
+    for i, (domain, layout) in enumerate(((91, "separate"), (92, "two"))):
         code, run_dir = cli.run_scenario(SCENARIO, runs_dir=tmp_path_factory.mktemp(f"run{i}"),
-                                         domain_id=domain, timeout_s=240, quiet=True)
+                                         domain_id=domain, timeout_s=240, quiet=True,
+                                         layout=layout)
         assert code == 0, (run_dir / "launch.json").read_text()
         runs.append(run_dir)
     return runs
@@ -108,7 +110,7 @@ def test_recording_complete_and_read_by_independent_reader(two_runs):
     assert all(math.isfinite(m.bhp_pa) and m.bhp_pa > 6.0e7 for m in decoded)
 
 
-def test_same_seed_reproduces_recorded_data(two_runs):
+def test_same_seed_reproduces_recorded_data_across_process_layouts(two_runs):
     a = list(mcap_io.decoded_messages(_mcap(two_runs[0]), COMPARED))
     b = list(mcap_io.decoded_messages(_mcap(two_runs[1]), COMPARED))
     key = lambda pair: (pair[0].topic, pair[0].publish_time_ns)

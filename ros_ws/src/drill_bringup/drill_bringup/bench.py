@@ -1,5 +1,6 @@
-"""Benchmarks (scripts/bench): plant step cost, estimator and NMPC timings, and the
-real-time factor of the graph in fast mode. Results go to docs/benchmarks.md; all
+"""Benchmarks (scripts/bench): plant step cost, estimator and NMPC timings, the real-time
+factor of the graph in fast mode per process layout with its time budget, and the realtime
+plant's frame lateness. Results go to docs/benchmarks.md; all
 ratios in one file come from one run on one machine."""
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import json
 import os
 import platform
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -15,9 +17,9 @@ from datetime import datetime
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from drill_bringup import launcher, runs
+from drill_bringup import launcher, report, runs
+from drill_core.ros import budget
 from drill_core.ros import graph as graph_decl
 from drill_core.ros import topics
 from drill_core import hydraulics as hy
@@ -46,47 +48,44 @@ def plant_frame_cost(repetitions: int = 2000) -> dict:
             "plant_core_rtf": frame_s / config.plant.sensor_period_s}
 
 
-def graph_rtf(scenario: str, domain_id: int, friction_law: str | None = None) -> dict:
-    """Wall time of a whole scenario through the process graph in fast mode: from starting
-    the processes to the recorder closing its file (the report afterwards is timed apart).
-    ``friction_law`` runs the scenario with that annular friction law instead of the
-    configured one (a copy of the scenario file with the estimator override)."""
+GRAPH_LAYOUTS = ("separate", "actuators", "plant", "two")
+
+
+def graph_rtf(scenario: str, domain_id: int, layout: str = "separate") -> dict:
+    """Wall time of a whole scenario through the graph in fast mode in a process layout:
+    from starting the processes to the recorder closing its file (the report afterwards is
+    timed apart), and where the processes' time went (drill_core.ros.budget)."""
     path = runs.scenario_path(scenario)
     with tempfile.TemporaryDirectory() as tmp:
-        if friction_law is not None:
-            data = yaml.safe_load(path.read_text())
-            data.setdefault("overrides", {}).setdefault("estimator", {})["annular_friction_law"] = friction_law
-            path = Path(tmp) / path.name
-            path.write_text(yaml.safe_dump(data))
-        scenario_obj, config = load_scenario_config(path, runs.ROOT / "config")
+        scenario_obj, _ = load_scenario_config(path, runs.ROOT / "config")
         start = time.monotonic()
-        code, run_dir = runs.run_scenario(path, runs_dir=Path(tmp), domain_id=domain_id, quiet=True)
+        code, run_dir = runs.run_scenario(path, runs_dir=Path(tmp), domain_id=domain_id,
+                                          quiet=True, layout=layout)
         total = time.monotonic() - start
         launch = json.loads((run_dir / "launch.json").read_text())
         if code != 0:
-            raise RuntimeError(f"{scenario} failed: {launch}")
+            raise RuntimeError(f"{scenario} ({layout}) failed: {launch}")
+        rows = budget.summarise(run_dir / "budget")
     wall = launch["wall_time_s"]
-    return {"scenario": scenario, "friction_law": config.estimator.annular_friction_law,
-            "simulated_s": scenario_obj.duration_s, "wall_s": wall,
-            "rtf": wall / scenario_obj.duration_s, "report_s": total - wall}
+    return {"scenario": scenario, "layout": layout, "simulated_s": scenario_obj.duration_s,
+            "wall_s": wall, "rtf": wall / scenario_obj.duration_s, "report_s": total - wall,
+            "budget": rows}
 
 
-def plant_actuators_rtf(domain_id: int) -> dict:
-    """Plant + the four actuator processes alone (no estimator/controller) over Case 2's 600 s."""
+def plant_actuators_rtf(domain_id: int, layout: str = "separate") -> dict:
+    """Plant + the four actuators alone (no estimator/controller) over Case 2's 600 s."""
     path = runs.scenario_path("case2")
     with tempfile.TemporaryDirectory() as tmp:
         common = {"config_dir": str(runs.ROOT / "config"), "scenario": str(path), "mode": "fast"}
         declared = [graph_decl.BY_NAME[n] for n in (*topics.ACTUATORS, "plant")]
-        nodes = [launcher.NodeSpec(n, "drill_plant.actuator_node",
-                                   {"actuator": n, "command_period_s": 0.0})
+        nodes = [launcher.NodeSpec.of(n, {"actuator": n, "command_period_s": 0.0})
                  for n in topics.ACTUATORS]
         wait = graph_decl.lockstep_endpoints(declared, fast=True)
-        nodes.append(launcher.NodeSpec("plant", "drill_plant.plant_node", {"wait_for": wait},
-                                       finishes=True))
+        nodes.append(launcher.NodeSpec.of("plant", {"wait_for": wait}, finishes=True))
         for node in nodes:
             node.params.update(common)
             node.params["use_sim_time"] = launcher.uses_sim_time(node.name, fast=True)
-        launch = launcher.Launch(nodes, Path(tmp), domain_id)
+        launch = launcher.Launch(nodes, Path(tmp), domain_id, layout)
         start = time.monotonic()
         launch.start()
         ok, message = launch.watch(600)
@@ -94,7 +93,32 @@ def plant_actuators_rtf(domain_id: int) -> dict:
         launch.stop()
         if not ok:
             raise RuntimeError(message)
-    return {"wall_s": wall, "rtf": wall / 600.0}
+    return {"layout": layout, "wall_s": wall, "rtf": wall / 600.0}
+
+
+def realtime_margins(domain_id: int, busy_domain_id: int | None = None) -> dict:
+    """How late the realtime plant's frames are on the short trip, alone or (with
+    ``busy_domain_id``) while a fast-mode Case 2 run shares the machine."""
+    busy = None
+    with tempfile.TemporaryDirectory() as tmp:
+        if busy_domain_id is not None:
+            busy = subprocess.Popen(
+                [sys.executable, "-c", "import sys; from drill_bringup import runs; "
+                 "from pathlib import Path; sys.exit(runs.run_scenario(runs.scenario_path("
+                 f"'case2'), runs_dir=Path({tmp!r}) / 'busy', domain_id={busy_domain_id}, "
+                 "quiet=True)[0])"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            code, run_dir = runs.run_scenario(runs.scenario_path("short_trip"), realtime=True,
+                                              runs_dir=Path(tmp), domain_id=domain_id,
+                                              quiet=True)
+            if code != 0:
+                raise RuntimeError(f"realtime short trip failed: {run_dir}")
+            summary = json.loads((run_dir / "summary.json").read_text())
+        finally:
+            if busy is not None:
+                busy.wait()
+    return {"shared": busy_domain_id is not None,
+            **{key: summary[key] for key in report.REALTIME_MARGINS}}
 
 
 def write_doc(results: dict, path: Path) -> None:
@@ -113,9 +137,9 @@ def write_doc(results: dict, path: Path) -> None:
         f"{results['plant']['plant_frame_median_s'] * 1e3:.3f} ms |",
         f"| one 0.01 s plant step | {results['plant']['plant_step_median_s'] * 1e6:.1f} us |",
         f"| plant core alone, real-time factor | {results['plant']['plant_core_rtf']:.4f} |",
-        f"| plant + 4 actuator processes over DDS, 600 s Case 2 (fast mode) | "
-        f"{results['plant_actuators']['wall_s']:.1f} s wall, RTF {results['plant_actuators']['rtf']:.3f} "
-        "(target: < 10 s) |",
+        *(f"| plant + 4 actuators over DDS, 600 s Case 2 (fast mode), layout {r['layout']} | "
+          f"{r['wall_s']:.1f} s wall, RTF {r['rtf']:.3f} (target: <= 6 s) |"
+          for r in results["plant_actuators"]),
         "",
     ]
     for key, title in (("estimator", "Estimator"), ("nmpc", "NMPC")):
@@ -125,14 +149,29 @@ def write_doc(results: dict, path: Path) -> None:
                       for k, v in results[key].items()]
             lines.append("")
     if "graph" in results:
-        lines += ["## Whole graph", "",
-                  "Case 2 (600 s) through all processes over DDS in fast mode, from process start "
-                  "to the recording closed (target: <= 60 s wall, RTF <= 0.1), with each annular "
-                  "friction law of the shared estimation model (docs/nmpc.md):", "",
-                  "| friction law | wall | real-time factor | report afterwards |",
-                  "| --- | --- | --- | --- |"]
-        lines += [f"| {g['friction_law']} | {g['wall_s']:.1f} s | {g['rtf']:.3f} | {g['report_s']:.1f} s |"
+        first = results["graph"][0]
+        lines += ["## Whole graph by process layout", "",
+                  "Case 2 (600 s) through the graph over DDS in fast mode, from process start to "
+                  "the recording closed (target: <= 30 s wall, RTF <= 0.05), in each process "
+                  "layout (`scripts/rig run --layout`; drill_core.ros.graph.LAYOUTS):", "",
+                  "| layout | wall | real-time factor | vs separate | report afterwards |",
+                  "| --- | --- | --- | --- | --- |"]
+        lines += [f"| {g['layout']} | {g['wall_s']:.1f} s | {g['rtf']:.3f} | "
+                  f"{g['wall_s'] / first['wall_s']:.2f} | {g['report_s']:.1f} s |"
                   for g in results["graph"]]
+        lines.append("")
+        for g in results["graph"]:
+            lines += [f"### Time budget, layout {g['layout']}", "", budget.markdown(g["budget"]), ""]
+        lines += [budget.__doc__.split("\n\n")[1].replace("\n", " "), ""]
+    if "realtime" in results:
+        lines += ["## Realtime margins", "",
+                  "The short trip in realtime mode: how late the plant's 0.1 s frames started "
+                  "against the wall clock (target: < 50 ms), alone and while a fast-mode Case 2 "
+                  "run shares the machine:", "",
+                  "| machine | p99 | max |", "| --- | --- | --- |"]
+        lines += [f"| {'shared with a fast-mode run' if r['shared'] else 'alone'} | "
+                  f"{r['frame_late_p99_s'] * 1e3:.1f} ms | {r['frame_late_max_s'] * 1e3:.1f} ms |"
+                  for r in results["realtime"]]
         lines.append("")
     path.write_text("\n".join(lines))
 
@@ -140,13 +179,16 @@ def write_doc(results: dict, path: Path) -> None:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="bench", description=__doc__)
     parser.add_argument("--output", type=Path, default=runs.ROOT / "docs" / "benchmarks.md")
-    parser.add_argument("--skip-graph", action="store_true", help="skip the 10-minute Case 2 run")
+    parser.add_argument("--skip-graph", action="store_true",
+                        help="skip the Case 2 runs through the graph and the realtime runs")
     args = parser.parse_args(argv)
     domain = launcher.default_domain_id()
     results = {"plant": plant_frame_cost()}
     print(f"[bench] plant frame {results['plant']['plant_frame_median_s'] * 1e3:.3f} ms", flush=True)
-    results["plant_actuators"] = plant_actuators_rtf(domain)
-    print(f"[bench] plant + actuators: {results['plant_actuators']['wall_s']:.1f} s", flush=True)
+    results["plant_actuators"] = [plant_actuators_rtf(domain, layout)
+                                  for layout in ("separate", "plant")]
+    for r in results["plant_actuators"]:
+        print(f"[bench] plant + actuators ({r['layout']}): {r['wall_s']:.1f} s", flush=True)
     from drill_estimator import bench as estimator_bench
     results["estimator"] = estimator_bench.run_benchmark()
     print("[bench] estimator done", flush=True)
@@ -154,9 +196,15 @@ def main(argv=None) -> int:
     results["nmpc"] = nmpc_bench.run_benchmark()
     print("[bench] nmpc done", flush=True)
     if not args.skip_graph:
-        results["graph"] = [graph_rtf("case2", domain), graph_rtf("case2", domain, "quadratic")]
+        results["graph"] = [graph_rtf("case2", domain, layout) for layout in GRAPH_LAYOUTS]
         for g in results["graph"]:
-            print(f"[bench] case2 graph ({g['friction_law']}): {g['wall_s']:.1f} s", flush=True)
+            print(f"[bench] case2 graph ({g['layout']}): {g['wall_s']:.1f} s", flush=True)
+        busy_domain = launcher.default_domain_id()
+        results["realtime"] = [realtime_margins(domain), realtime_margins(domain, busy_domain)]
+        for r in results["realtime"]:
+            print(f"[bench] realtime frame lateness (shared {r['shared']}): p99 "
+                  f"{r['frame_late_p99_s'] * 1e3:.1f} ms, max {r['frame_late_max_s'] * 1e3:.1f} ms",
+                  flush=True)
     write_doc(results, args.output)
     print(f"[bench] wrote {args.output}")
     return 0

@@ -1,9 +1,11 @@
 """``scripts/rig``: run scenarios, replay recordings, report on runs.
 
   rig demo                         Case 2 trip in fast mode, with summary and plots
-  rig run SCENARIO [--realtime] [--seed N] [--controller NAME]
+  rig run SCENARIO [--realtime] [--seed N] [--controller NAME] [--layout LAYOUT]
                                    any scenario (name under config/scenarios or a path),
-                                   optionally under another controller than its own
+                                   optionally under another controller than its own, with
+                                   nodes grouped into processes (separate, actuators, plant,
+                                   two)
   rig report RUN_DIR               re-make the summary and plots of a run
   rig replay FILE [options]        republish a recording (see rig replay --help)
   rig reestimate RUN_DIR [--config-dir DIR] [--rate R]
@@ -22,7 +24,7 @@ from pathlib import Path
 from drill_bringup import launcher, report
 from drill_bringup.runs import ROOT, run_scenario, scenario_path
 from drill_core.config import ConfigError
-from drill_core.ros.graph import CONTROLLERS
+from drill_core.ros.graph import CONTROLLERS, LAYOUTS
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="rig", description=__doc__,
@@ -35,6 +37,9 @@ def main(argv=None) -> int:
     run.add_argument("--seed", type=int)
     run.add_argument("--controller", choices=CONTROLLERS,
                      help="run the scenario under this controller instead of its own")
+    run.add_argument("--layout", choices=tuple(LAYOUTS), default="separate",
+                     help="process layout: one process per node (separate), or groups of "
+                          "nodes in one process each (see docs/architecture.md)")
     rep = sub.add_parser("report", help="summary and plots of a run directory")
     rep.add_argument("run_dir", type=Path)
     sub.add_parser("replay", help="republish a recording", add_help=False)
@@ -56,7 +61,7 @@ def main(argv=None) -> int:
             return run_scenario(scenario_path("case2"))[0]
         if args.command == "run":
             return run_scenario(scenario_path(args.scenario), args.realtime, seed=args.seed,
-                                controller=args.controller)[0]
+                                controller=args.controller, layout=args.layout)[0]
         if args.command == "report":
             mcap = next(args.run_dir.glob("*.mcap"))
             _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name)

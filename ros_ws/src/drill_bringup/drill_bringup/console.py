@@ -236,8 +236,8 @@ class OperatorLink:
 
 
 class ConsoleNode(RigNode):
-    def __init__(self):
-        super().__init__("console")
+    def __init__(self, **node_options):
+        super().__init__("console", **node_options)
         root = Path(os.environ.get("RIG_ROOT", Path.cwd()))
         config_dir = self.declare_parameter("config_dir", str(root / "config")).value
         scenario = self.declare_parameter("scenario", "").value

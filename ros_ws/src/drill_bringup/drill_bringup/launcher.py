@@ -1,8 +1,10 @@
-"""Launch the rig graph as separate processes (there is no ros2 launch in our stack).
+"""Launch the rig graph as processes (there is no ros2 launch in our stack).
 
-Every node runs as ``python -m <module> --ros-args -p ...`` on an isolated
-ROS_DOMAIN_ID with localhost discovery; each node's output goes to
-``<run>/logs/<node>.log``. The recorder starts first and stops last. In fast mode
+In the default layout every node runs as ``python -m <module> --ros-args -p ...``; a
+process layout (drill_core.ros.graph.LAYOUTS) puts groups of nodes into one container
+process each (drill_core.ros.container). Every process runs on an isolated ROS_DOMAIN_ID
+with localhost discovery; its output goes to ``<run>/logs/<process>.log`` and its time
+budget to ``<run>/budget/<process>.json``. The recorder starts first and stops last. In fast mode
 the plant starts the lockstep once every subscription the graph needs is
 connected, and exits when the scenario ends (so does the estimator, once it has
 estimated the last sample); the launcher then stops the rest.
@@ -11,6 +13,7 @@ A node that dies makes the launch fail with its name, exit code and last log lin
 from __future__ import annotations
 
 import fcntl
+import json
 import os
 import signal
 import subprocess
@@ -23,6 +26,7 @@ from pathlib import Path
 
 from drill_core.ros import graph as graph_decl
 from drill_core.ros import topics
+from drill_core.ros.budget import BUDGET_DIR_ENV
 
 LOG_TAIL_LINES = 15
 CONSOLE_PORT = 8080
@@ -42,8 +46,36 @@ def uses_sim_time(name: str, fast: bool) -> bool:
 class NodeSpec:
     name: str
     module: str
+    node_class: str
     params: dict = field(default_factory=dict)
     finishes: bool = False        # exits (code 0) by itself at the scenario's end
+
+    @classmethod
+    def of(cls, name: str, params: dict | None = None, finishes: bool = False) -> NodeSpec:
+        """The declared node ``name`` (drill_core.ros.graph) with these parameters."""
+        node = graph_decl.BY_NAME[name]
+        return cls(name, node.module, node.node_class, dict(params or {}), finishes)
+
+
+@dataclass
+class ProcessSpec:
+    """One process of a run: a node alone, or a container of several."""
+    name: str
+    nodes: list[NodeSpec]
+
+    @property
+    def finishes(self) -> bool:
+        return any(node.finishes for node in self.nodes)
+
+    def command_line(self, marker: Path) -> list[str]:
+        """Its command; a container creates ``marker`` when its finishing nodes are done."""
+        if len(self.nodes) == 1:
+            node = self.nodes[0]
+            return [sys.executable, "-m", node.module, *ros_args(node)]
+        specs = [{"module": n.module, "node_class": n.node_class, "ros_args": ros_args(n),
+                  "finishes": n.finishes} for n in self.nodes]
+        return [sys.executable, "-m", "drill_core.ros.container", self.name, json.dumps(specs),
+                str(marker)]
 
 
 def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -> list[NodeSpec]:
@@ -61,7 +93,7 @@ def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -
         matches = graph_decl.first_publish_matches(node, declared) if fast else []
         if matches:
             params["match_before_first_publish"] = matches
-        nodes.append(NodeSpec(node.name, node.module, params, finishes))
+        nodes.append(NodeSpec.of(node.name, params, finishes))
     for node in nodes:
         node.params.update(common)
         node.params["use_sim_time"] = uses_sim_time(node.name, fast)
@@ -78,11 +110,19 @@ def _param_arg(key: str, value) -> str:
     return f"{key}:={text}"
 
 
-def command_line(spec: NodeSpec) -> list[str]:
-    args = [sys.executable, "-m", spec.module, "--ros-args", "-r", f"__node:={spec.name}"]
+def ros_args(spec: NodeSpec) -> list[str]:
+    """The node's own arguments: its name and parameters."""
+    args = ["--ros-args", "-r", f"__node:={spec.name}"]
     for key, value in spec.params.items():
         args += ["-p", _param_arg(key, value)]
     return args
+
+
+def processes(nodes: list[NodeSpec], layout: str = "separate") -> list[ProcessSpec]:
+    """The processes of ``nodes`` in ``layout`` (drill_core.ros.graph.LAYOUTS)."""
+    by_name = {n.name: n for n in nodes}
+    groups = graph_decl.process_groups(layout, [graph_decl.BY_NAME[n.name] for n in nodes])
+    return [ProcessSpec(name, [by_name[m.name] for m in members]) for name, members in groups]
 
 
 def isolated_env(domain_id: int) -> dict:
@@ -125,25 +165,32 @@ def tail(path: Path, lines: int = LOG_TAIL_LINES) -> str:
 class Launch:
     """A running graph: start, watch, stop."""
 
-    def __init__(self, nodes: list[NodeSpec], run_dir: Path, domain_id: int):
+    def __init__(self, nodes: list[NodeSpec], run_dir: Path, domain_id: int,
+                 layout: str = "separate"):
         names = [n.name for n in nodes]
         repeated = sorted({n for n in names if names.count(n) > 1})
         if repeated:      # processes are tracked by name: a repeat could never be stopped
             raise ValueError(f"node names must be unique; given more than once: {', '.join(repeated)}")
         self.nodes = nodes
+        self.processes = processes(nodes, layout)
         self.run_dir = run_dir
         self.logs = run_dir / "logs"
         self.env = isolated_env(domain_id)
+        self.env[BUDGET_DIR_ENV] = str(run_dir / "budget")
         self.procs: dict[str, subprocess.Popen] = {}
 
     def start(self) -> None:
         self.logs.mkdir(parents=True, exist_ok=True)
-        for spec in self.nodes:
+        for spec in self.processes:
             log = open(self.logs / f"{spec.name}.log", "w", encoding="utf-8")
             self.procs[spec.name] = subprocess.Popen(
-                command_line(spec), stdout=log, stderr=subprocess.STDOUT, env=self.env,
-                start_new_session=True)
+                spec.command_line(self.finished_marker(spec.name)), stdout=log,
+                stderr=subprocess.STDOUT, env=self.env, start_new_session=True)
             log.close()
+
+    def finished_marker(self, name: str) -> Path:
+        """The file a container creates once its finishing nodes have finished."""
+        return self.logs / f"{name}.finished"
 
     def failure(self, name: str, code: int) -> str:
         return (f"node '{name}' exited with code {code}; last lines of "
@@ -152,13 +199,15 @@ class Launch:
     def watch(self, timeout_s: float, on_poll=None) -> tuple[bool, str]:
         """Wait for every finishing node (the plant; in fast mode the estimator too) to end
         the scenario; fail if any node dies first or time runs out."""
-        finishing = {spec.name for spec in self.nodes if spec.finishes}
+        finishing = {spec.name for spec in self.processes if spec.finishes}
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             finished = set()
             for name, proc in self.procs.items():
                 code = proc.poll()
                 if code is None:
+                    if name in finishing and self.finished_marker(name).exists():
+                        finished.add(name)
                     continue
                 if code == 0 and name in finishing:
                     finished.add(name)

@@ -13,6 +13,7 @@ from collections.abc import Iterable, Sequence
 import rclpy
 from ament_index_python.packages import PackageNotFoundError
 from drill_core.ros import topics
+from drill_core.ros.budget import ProcessClock
 from drill_core.ros.node import RigNode
 from drill_msgs.msg import NodeStatus
 from rclpy.clock import Clock, ClockType
@@ -182,13 +183,16 @@ def main(args: list[str] | None = None) -> int:
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
+    clock = ProcessClock()
     node = Recorder()
     executor = SingleThreadedExecutor()
     executor.add_node(node)
+    clock.spinning()
     try:
         spin_until(executor, stop, node)
     finally:
         node.close()
+        clock.write(node.get_name(), {node.get_name(): node.budget})
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()

@@ -39,10 +39,9 @@ def reestimate(run_dir: Path, config_dir: Path, rate: float, domain_id: int) -> 
     new_mcap = out_dir / "reestimate.mcap"
     common = {"config_dir": str(config_dir), "scenario": scenario, "mode": "fast",
               "use_sim_time": True}
-    nodes = [launcher.NodeSpec("recorder", "drill_bringup.recorder",
-                               {"output": str(new_mcap), "topics": [topics.ESTIMATE], **common}),
-             launcher.NodeSpec("estimator", "drill_estimator.estimator_node", dict(common),
-                               finishes=True)]
+    nodes = [launcher.NodeSpec.of("recorder",
+                                  {"output": str(new_mcap), "topics": [topics.ESTIMATE], **common}),
+             launcher.NodeSpec.of("estimator", common, finishes=True)]
     launch = launcher.Launch(nodes, out_dir, domain_id)
     expected = mcap_io.topics(original)[topics.MEASUREMENT].message_count
     first_ns, last_ns = mcap_io.time_range_ns(original)

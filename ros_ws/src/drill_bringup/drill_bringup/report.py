@@ -28,6 +28,10 @@ TRUTH_FORMATION_FIELDS = (("pit_gain", "pit_gain_m3"), ("influx_volume", "influx
                           ("fracture", "fracture_pressure_pa"))
 
 
+# a realtime run's frame lateness against the wall clock (drill_plant.frame_lateness)
+REALTIME_MARGINS = ("frame_late_p99_s", "frame_late_max_s")
+
+
 @dataclass
 class Series:
     """Time series pulled from one recording (SI)."""
@@ -35,6 +39,7 @@ class Series:
     v: dict = field(default_factory=dict)
     advisor: str = ""       # source of the advisor commands (nmpc, baseline, sequencer)
     events: list = field(default_factory=list)    # (t s, source, kind, text): rig, protection
+    plant_status: dict = field(default_factory=dict)   # the plant's last NodeStatus values
 
     def add(self, key: str, t_s: float, value) -> None:
         self.t.setdefault(key, []).append(t_s)
@@ -51,7 +56,8 @@ def _stamp_s(msg) -> float:
 def load_series(mcap_path: Path) -> Series:
     s = Series()
     wanted = [topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.NMPC_STATUS,
-              topics.COMMAND, topics.MACHINE_COMMAND, topics.SETPOINTS, *EVENT_SOURCES]
+              topics.COMMAND, topics.MACHINE_COMMAND, topics.SETPOINTS, topics.status("plant"),
+              *EVENT_SOURCES]
     for rec, msg in mcap_io.decoded_messages(mcap_path, wanted):
         t = _stamp_s(msg)
         if rec.topic == topics.TRUTH:
@@ -90,6 +96,8 @@ def load_series(mcap_path: Path) -> Series:
             s.add("cmd_choke_opening", t, msg.choke_opening_ref if manual else math.nan)
             s.add("cmd_bpp", t, msg.bpp_flow_m3s)
             s.add("cmd_spp", t, msg.spp_pa)
+        elif rec.topic == topics.status("plant"):
+            s.plant_status = dict(zip(msg.keys, msg.values))
         elif rec.topic == topics.SETPOINTS:
             s.add("bhp_ref", t, msg.bhp_ref_pa)
             s.add("bhp_band", t, msg.bhp_band_pa)
@@ -222,6 +230,8 @@ def summarise(s: Series) -> dict:
         out.update(_tracking(s, t, bhp, pos))
     out.update(well_control.summarise(s, t, bhp))
     out.update(_estimation(s, t, bhp))
+    out.update({key: float(s.plant_status[key]) for key in REALTIME_MARGINS
+                if key in s.plant_status})
     if len(solve):
         out.update({
             "solve_time_median_s": float(np.median(solve)),
@@ -284,6 +294,10 @@ def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
         if summary["string_flow_unobservable_s"] > 0.0:
             rows.append(f"  string flow unobservable      {summary['string_flow_unobservable_s']:.1f} s "
                         "(circulation off)")
+    if "frame_late_max_s" in summary:
+        rows.append(f"  realtime frame lateness       p99 {summary['frame_late_p99_s'] * 1e3:.1f} ms, "
+                    f"max {summary['frame_late_max_s'] * 1e3:.1f} ms (plant frames against the "
+                    "wall clock)")
     if "solves" in summary:
         rows.append(f"  NMPC solve time               median {summary['solve_time_median_s'] * 1e3:.1f} ms, "
                     f"p95 {summary['solve_time_p95_s'] * 1e3:.1f} ms, p99 {summary['solve_time_p99_s'] * 1e3:.1f} ms, "

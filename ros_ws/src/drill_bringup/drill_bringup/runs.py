@@ -41,10 +41,11 @@ def console_url(log_path: Path, timeout_s: float = 10.0) -> str:
 def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = None,
                  seed: int | None = None, domain_id: int | None = None,
                  timeout_s: float | None = None, quiet: bool = False,
-                 controller: str | None = None) -> tuple[int, Path]:
+                 controller: str | None = None, layout: str = "separate") -> tuple[int, Path]:
     """Launch a scenario, record it and report; returns (exit code, run directory).
     ``seed`` replaces the scenario's plant seed and ``controller`` its controller (the same
-    trip under another controller: ``rig compare``)."""
+    trip under another controller: ``rig compare``); ``layout`` groups nodes into processes
+    (drill_core.ros.graph.LAYOUTS)."""
     scenario, _ = load_scenario(path)
     controller = controller or scenario.controller
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
@@ -59,7 +60,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     nodes = launcher.graph(controller, common, mcap_path, fast=not realtime)
     if seed is not None:
         nodes[-1].params["seed"] = seed
-    launch = launcher.Launch(nodes, run_dir, domain_id or launcher.default_domain_id())
+    launch = launcher.Launch(nodes, run_dir, domain_id or launcher.default_domain_id(), layout)
     say = (lambda *_: None) if quiet else (lambda text: print(text, flush=True))
     say(f"[rig] {scenario.name}: {scenario.description} ({mode} mode, logs in {run_dir / 'logs'})")
     started = time.monotonic()
@@ -77,7 +78,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     wall = time.monotonic() - started
     (run_dir / "launch.json").write_text(json.dumps(
         {"ok": ok, "message": message, "wall_time_s": wall, "exit_codes": codes,
-         "scenario": str(path), "mode": mode, "controller": controller, "seed": seed},
+         "scenario": str(path), "mode": mode, "controller": controller, "seed": seed,
+         "layout": layout},
         indent=2))
     if not ok:
         print(f"[rig] FAILED: {message}", file=sys.stderr, flush=True)

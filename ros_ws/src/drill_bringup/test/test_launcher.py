@@ -1,4 +1,5 @@
 """Launcher: the node set of a run, who runs on /clock, and unique node names."""
+import json
 from pathlib import Path
 
 import pytest
@@ -38,7 +39,7 @@ def test_realtime_graph_runs_on_wall_time_with_a_console():
 
 def test_repeated_node_names_are_refused(tmp_path):
     nodes = launcher.graph("nmpc", COMMON, tmp_path / "x.mcap", fast=False)
-    nodes.append(launcher.NodeSpec("console", "drill_bringup.console", {"port": 0}))
+    nodes.append(launcher.NodeSpec.of("console", {"port": 0}))
     with pytest.raises(ValueError, match="console"):
         launcher.Launch(nodes, tmp_path, 1)
 
@@ -54,3 +55,30 @@ def test_default_domains_are_exclusive_while_held(monkeypatch, tmp_path):
         handle.close()
     launcher._held_domains.clear()
     assert launcher.default_domain_id() in launcher.RUN_DOMAINS
+
+
+def test_layouts_put_groups_in_one_process_and_the_recorder_alone():
+    nodes = launcher.graph("nmpc", COMMON, Path("/r/x.mcap"), fast=True)
+    separate = launcher.processes(nodes)
+    assert [p.name for p in separate] == [n.name for n in nodes]
+    two = {p.name: p for p in launcher.processes(nodes, "two")}
+    assert sorted(two) == ["control", "plant", "recorder"]
+    assert [n.name for n in two["plant"].nodes] == [*topics.ACTUATORS, "plant"]
+    assert [n.name for n in two["control"].nodes] == ["estimator", "nmpc", "protection"]
+    assert two["plant"].finishes and two["control"].finishes and not two["recorder"].finishes
+    command = two["plant"].command_line(Path("/r/logs/plant.finished"))
+    assert command[1:3] == ["-m", "drill_core.ros.container"]
+    assert command[5] == "/r/logs/plant.finished"
+    specs = json.loads(command[4])
+    assert [s["node_class"] for s in specs] == ["ActuatorNode"] * 4 + ["PlantNode"]
+    assert specs[1]["ros_args"][:3] == ["--ros-args", "-r", "__node:=choke"]
+    assert "actuator:=choke" in specs[1]["ros_args"]
+
+
+def test_a_group_with_one_node_of_the_run_is_that_nodes_process():
+    nodes = [n for n in launcher.graph("nmpc", COMMON, Path("/r/x.mcap"), fast=True)
+             if n.name in ("recorder", "drawworks", "plant")]
+    assert [p.name for p in launcher.processes(nodes, "actuators")] == \
+        ["recorder", "drawworks", "plant"]
+    with pytest.raises(ValueError, match="layout 'three'"):
+        launcher.processes(nodes, "three")

@@ -31,7 +31,6 @@ import time
 
 import numpy as np
 from drill_msgs.msg import ActuatorFrame, RigMeasurement, StateEstimate
-import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 
@@ -49,8 +48,8 @@ from drill_estimator.ukf import RigUkf, UpdateResult
 
 
 class EstimatorNode(RigNode):
-    def __init__(self):
-        super().__init__("estimator")
+    def __init__(self, **node_options):
+        super().__init__("estimator", **node_options)
         ctx = load_context(self)
         self.ctx = ctx
         cfg = ctx.config
@@ -131,7 +130,7 @@ class EstimatorNode(RigNode):
         (nothing waits for it in open-loop and baseline runs)."""
         self.pub.wait_for_all_acked(Duration(seconds=5.0))
         self.get_logger().info(f"last sample estimated (t = {self.end_ns * 1e-9:.1f} s); exiting")
-        rclpy.try_shutdown()
+        self.finish()
 
     # -------------------------------------------------------------- filtering
     def _process(self, msg: RigMeasurement, frames) -> None:

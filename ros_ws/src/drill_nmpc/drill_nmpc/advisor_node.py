@@ -19,8 +19,8 @@ from drill_nmpc.setpoint_validation import Envelope
 
 
 class AdvisorNode(RigNode):
-    def __init__(self, name: str, status_topic: str | None = None):
-        super().__init__(name)
+    def __init__(self, name: str, status_topic: str | None = None, **node_options):
+        super().__init__(name, **node_options)
         self.ctx = load_context(self)
         self.exit_code = 0
         cfg, scenario = self.ctx.config, self.ctx.scenario

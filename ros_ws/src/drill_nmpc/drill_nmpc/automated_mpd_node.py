@@ -32,8 +32,8 @@ from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 
 
 class AutomatedMpdNode(AdvisorNode):
-    def __init__(self):
-        super().__init__("automated_mpd")
+    def __init__(self, **node_options):
+        super().__init__("automated_mpd", **node_options)
         cfg, ini, op = self.ctx.config, self.ctx.scenario.initial, self.ctx.operating_point
         self.em = build_estimation_model(cfg)
         self.controller = AutomatedMpd(cfg, self.em, float(ini.bpp_flow_m3s), op.spp_pa)

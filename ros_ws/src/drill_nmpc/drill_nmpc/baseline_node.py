@@ -53,8 +53,8 @@ class BaselinePi:
 
 
 class BaselineNode(AdvisorNode):
-    def __init__(self):
-        super().__init__("baseline")
+    def __init__(self, **node_options):
+        super().__init__("baseline", **node_options)
         cfg, ini, op = self.ctx.config, self.ctx.scenario.initial, self.ctx.operating_point
         self.spp_pa = op.spp_pa
         self.bpp_m3s = float(ini.bpp_flow_m3s)

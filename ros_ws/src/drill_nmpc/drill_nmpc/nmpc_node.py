@@ -53,8 +53,8 @@ CLAMPED_BLOCK_TOLERANCE_M = 1.0e-3   # applied block reference this far from our
 
 
 class NmpcNode(AdvisorNode):
-    def __init__(self):
-        super().__init__("nmpc", status_topic=topics.NMPC_NODE_STATUS)
+    def __init__(self, **node_options):
+        super().__init__("nmpc", status_topic=topics.NMPC_NODE_STATUS, **node_options)
         ctx = self.ctx
         cfg = ctx.config
         self.em = build_estimation_model(cfg, with_disturbance=cfg.nmpc.configuration == "NMPC2")

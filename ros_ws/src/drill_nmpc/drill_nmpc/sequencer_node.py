@@ -29,8 +29,8 @@ from drill_core.ros.status import StatusReporter
 
 
 class SequencerNode(RigNode):
-    def __init__(self):
-        super().__init__("sequencer")
+    def __init__(self, **node_options):
+        super().__init__("sequencer", **node_options)
         ctx = load_context(self)
         self.ctx = ctx
         self.exit_code = 0

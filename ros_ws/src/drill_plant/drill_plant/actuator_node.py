@@ -34,8 +34,8 @@ UNITS = {"drawworks": "m", "choke": "1", "bpp": "m^3/s", "mud_pump": "Pa"}
 
 
 class ActuatorNode(RigNode):
-    def __init__(self):
-        super().__init__("actuator")
+    def __init__(self, **node_options):
+        super().__init__("actuator", **node_options)
         ctx = load_context(self)
         self.ctx = ctx
         self.exit_code = 0

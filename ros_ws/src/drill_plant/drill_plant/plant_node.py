@@ -17,7 +17,6 @@ import sys
 import time
 
 import numpy as np
-import rclpy
 from drill_msgs.msg import ActuatorFrame, OperatorEvent, PlantTruth, RigMeasurement
 from rosgraph_msgs.msg import Clock
 
@@ -29,14 +28,15 @@ from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns
 from drill_core.ros.status import StatusReporter
+from drill_plant.frame_lateness import FrameLateness
 from drill_plant.plant_model import EVENT_PARAMETERS, PlantLayout, plant_steady_state
 from drill_plant.sensor_faults import SensorFaults
 from drill_plant.simulator import PlantDiverged, PlantSimulator
 
 
 class PlantNode(RigNode):
-    def __init__(self):
-        super().__init__("plant")
+    def __init__(self, **node_options):
+        super().__init__("plant", **node_options)
         ctx = load_context(self)
         self.ctx = ctx
         self.exit_code = 0
@@ -68,6 +68,7 @@ class PlantNode(RigNode):
             self._ready_since = None
             self._start_timer = self.create_timer(0.05, self._wait_for_graph)
         else:
+            self.lateness = FrameLateness(ctx.config.plant.sensor_period_s)
             self.create_timer(ctx.config.plant.sensor_period_s, self._realtime_tick)
             self._publish_sample()
 
@@ -110,7 +111,7 @@ class PlantNode(RigNode):
                               fatal=True)
             self.get_logger().error(self.status.last_error)
             self.exit_code = 3
-            rclpy.try_shutdown()
+            self.finish()
 
     def _on_frame(self, name: str, msg: ActuatorFrame) -> None:
         self.frames.put(name, msg)
@@ -130,10 +131,11 @@ class PlantNode(RigNode):
     def _finish(self, stamp_ns: int) -> None:
         self.status.publish(stamp_ns)
         self.get_logger().info(f"scenario finished after {self.k} frames")
-        rclpy.try_shutdown()
+        self.finish()
 
     # -------------------------------------------------------------- realtime mode
     def _realtime_tick(self) -> None:
+        self.lateness.tick(time.monotonic())
         frames = {name: self.frames.latest(name) for name in topics.ACTUATORS}
         if any(f is None for f in frames.values()):
             held = {name: np.full(self.sim.steps_per_frame, self.sim.inputs[i])
@@ -162,7 +164,7 @@ class PlantNode(RigNode):
             self.status.error(str(err), fatal=True)
             self.status.publish(self.k * self.frame_ns)
             self.exit_code = 2
-            rclpy.try_shutdown()
+            self.finish()
             return
         self.k += 1
         self._publish_sample()
@@ -183,7 +185,8 @@ class PlantNode(RigNode):
         msg.header.stamp = stamp
         self.pub_measurement.publish(msg)
         self.pub_truth.publish(self._truth_msg(stamp))
-        self.status.values = {"sim_time_s": stamp_ns * 1e-9, "frame": float(self.k)}
+        self.status.values = {"sim_time_s": stamp_ns * 1e-9, "frame": float(self.k),
+                              **({} if self.ctx.fast else self.lateness.values())}
         self.status.tick(stamp_ns)
         if self.ctx.fast:
             self._try_advance()

@@ -38,8 +38,8 @@ VELOCITY_WINDOW_S = 1.0
 
 
 class ProtectionNode(RigNode):
-    def __init__(self):
-        super().__init__("protection")
+    def __init__(self, **node_options):
+        super().__init__("protection", **node_options)
         ctx = load_context(self)
         self.ctx = ctx
         self.exit_code = 0

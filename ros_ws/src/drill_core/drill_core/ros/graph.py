@@ -55,6 +55,7 @@ BY_TOPIC = {t.name: t for t in TOPICS}
 class Node:
     name: str
     module: str
+    node_class: str                  # the rclpy node class in ``module`` (composition)
     publishes: tuple[str, ...]
     subscribes: tuple[str, ...]
     controller: str | None = None    # the scenario controller this advisor is
@@ -70,40 +71,40 @@ class Node:
 
 
 def _actuator(name: str) -> Node:
-    return Node(name, "drill_plant.actuator_node", (topics.actuator_frame(name),),
+    return Node(name, "drill_plant.actuator_node", "ActuatorNode", (topics.actuator_frame(name),),
                 (topics.MEASUREMENT, topics.MACHINE_COMMAND))
 
 
 NODES = (
-    Node("recorder", "drill_bringup.recorder", (), (EVERY_TOPIC,), reads_clock=True),
+    Node("recorder", "drill_bringup.recorder", "Recorder", (), (EVERY_TOPIC,), reads_clock=True),
     *(_actuator(name) for name in topics.ACTUATORS),
-    Node("estimator", "drill_estimator.estimator_node", (topics.ESTIMATE,),
+    Node("estimator", "drill_estimator.estimator_node", "EstimatorNode", (topics.ESTIMATE,),
          (topics.MEASUREMENT, *FRAMES)),
-    Node("nmpc", "drill_nmpc.nmpc_node",
+    Node("nmpc", "drill_nmpc.nmpc_node", "NmpcNode",
          (topics.COMMAND, topics.NMPC_STATUS, topics.SETPOINTS, topics.OPERATOR_EVENTS),
          (topics.ESTIMATE, *(topics.actuator_frame(n) for n in ("drawworks", "bpp", "mud_pump"))),
          controller="nmpc"),
-    Node("automated_mpd", "drill_nmpc.automated_mpd_node",
+    Node("automated_mpd", "drill_nmpc.automated_mpd_node", "AutomatedMpdNode",
          (topics.COMMAND, topics.SETPOINTS, topics.OPERATOR_EVENTS), (topics.ESTIMATE,),
          controller="automated_mpd"),
-    Node("baseline", "drill_nmpc.baseline_node",
+    Node("baseline", "drill_nmpc.baseline_node", "BaselineNode",
          (topics.COMMAND, topics.SETPOINTS, topics.OPERATOR_EVENTS), (topics.MEASUREMENT,),
          controller="baseline"),
-    Node("sequencer", "drill_nmpc.sequencer_node", (topics.COMMAND,), (topics.MEASUREMENT,),
+    Node("sequencer", "drill_nmpc.sequencer_node", "SequencerNode", (topics.COMMAND,), (topics.MEASUREMENT,),
          controller="open_loop"),
-    Node("protection", "drill_protection.protection_node",
+    Node("protection", "drill_protection.protection_node", "ProtectionNode",
          (topics.MACHINE_COMMAND, topics.PROTECTION_EVENTS, topics.LEVEL_IN_FORCE,
           topics.ESTOP_IN_FORCE),
          (topics.COMMAND, topics.MEASUREMENT, topics.SETPOINTS, topics.EMERGENCY_STOP,
           topics.AUTOMATION_LEVEL)),
-    Node("console", "drill_bringup.console",
+    Node("console", "drill_bringup.console", "ConsoleNode",
          (topics.OPERATOR_EVENTS, topics.AUTOMATION_LEVEL, topics.EMERGENCY_STOP),
          (topics.MEASUREMENT, topics.TRUTH, topics.ESTIMATE, topics.NMPC_STATUS, topics.SETPOINTS,
           topics.OPERATOR_EVENTS, topics.PROTECTION_EVENTS, topics.AUTOMATION_LEVEL,
           topics.EMERGENCY_STOP, topics.LEVEL_IN_FORCE, topics.ESTOP_IN_FORCE, topics.RIG_EVENTS,
           *FRAMES),
          realtime_only=True),
-    Node("plant", "drill_plant.plant_node",
+    Node("plant", "drill_plant.plant_node", "PlantNode",
          (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, CLOCK), FRAMES),
 )
 BY_NAME = {n.name: n for n in NODES}
@@ -112,6 +113,39 @@ CONTROLLERS = tuple(n.controller for n in NODES if n.controller)
 # the scenario events the recorder must not miss.
 LOCKSTEP_TOPICS = (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, topics.ESTIMATE, CLOCK,
                    topics.COMMAND, topics.MACHINE_COMMAND, *FRAMES)
+
+
+# Process layouts: the groups of nodes that share one process (a container, one executor;
+# drill_core.ros.container); every node not in a group runs in a process of its own. The
+# recorder always runs alone, so a dying node cannot take the recording with it.
+LAYOUTS = {
+    "separate": {},
+    "actuators": {"actuators": topics.ACTUATORS},
+    "plant": {"plant": ("plant", *topics.ACTUATORS)},
+    "two": {"plant": ("plant", *topics.ACTUATORS),
+            "control": ("estimator", *(n.name for n in NODES if n.controller), "protection")},
+}
+
+
+def process_groups(layout: str, nodes: list[Node]) -> list[tuple[str, list[Node]]]:
+    """The processes of a run in ``layout``: (process name, its nodes) in the order of
+    ``nodes``, a group where its first member stands; a group with one node of this run
+    is that node's own process."""
+    if layout not in LAYOUTS:
+        raise ValueError(f"layout {layout!r} is not one of {', '.join(LAYOUTS)}")
+    group_of = {member: group for group, members in LAYOUTS[layout].items()
+                for member in members}
+    present = {group: [n for n in nodes if group_of.get(n.name) == group]
+               for group in LAYOUTS[layout]}
+    out, placed = [], set()
+    for node in nodes:
+        group = group_of.get(node.name)
+        if group is None or len(present[group]) < 2:
+            out.append((node.name, [node]))
+        elif group not in placed:
+            placed.add(group)
+            out.append((group, present[group]))
+    return out
 
 
 def run_nodes(controller: str, fast: bool) -> list[Node]:

@@ -10,6 +10,11 @@ entity the rig does not use are therefore left out:
   warning on incompatible QoS or type; the launcher's graph check in the plant node
   already refuses to start until every expected endpoint has matched).
 
+A node that ends the run (the plant at the scenario's end, the estimator after the last
+sample) calls ``finish``: on its own it shuts its process down; in a container
+(drill_core.ros.container) it only marks itself finished, and the container ends once
+every finishing node it holds has finished and the work they left is done.
+
 In fast mode the launcher also gives each node ``match_before_first_publish`` (``topic:N``,
 drill_core.ros.graph.first_publish_matches): the first message on such a topic waits until
 its publisher has matched N subscriptions, so no reader misses the lockstep's first sample.
@@ -18,10 +23,14 @@ from __future__ import annotations
 
 import time
 
+import rclpy
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 
+from drill_core.ros.budget import NodeBudget
+
 MATCH_TIMEOUT_S = 30.0      # a first publish waits at most this long for its readers
+CONTAINED = {"active": False}     # set by drill_core.ros.container
 
 
 class RigNode(Node):
@@ -30,39 +39,69 @@ class RigNode(Node):
     def __init__(self, node_name: str, **kwargs):
         kwargs.setdefault("start_parameter_services", False)
         self._matches: dict[str, int] | None = None     # rclpy's own publishers come first
+        self.budget = NodeBudget()
         super().__init__(node_name, **kwargs)
         specs = self.declare_parameter("match_before_first_publish", [""]).value
         self._matches = {topic: int(count) for topic, _, count in
                          (spec.rpartition(":") for spec in specs if spec)}
+        self.finished = False
+
+    def finish(self) -> None:
+        """This node's part of the run is over: shut the process down, or, in a container,
+        leave that to the container."""
+        self.finished = True
+        if not CONTAINED["active"]:
+            rclpy.try_shutdown()
 
     def create_publisher(self, *args, **kwargs):
         kwargs.setdefault("event_callbacks", PublisherEventCallbacks(use_default_callbacks=False))
         publisher = super().create_publisher(*args, **kwargs)
         topic = kwargs.get("topic", args[1] if len(args) > 1 else "")
-        expected = (self._matches or {}).get(topic)
-        if expected:
-            self._gate_first_publish(publisher, expected)
+        self._time_publish(publisher, (self._matches or {}).get(topic))
         return publisher
 
-    def _gate_first_publish(self, publisher, expected: int) -> None:
-        """Hold the first message until ``expected`` subscriptions have matched (DDS
-        matches in its own threads, so waiting here does not stop it)."""
+    def _time_publish(self, publisher, expected: int | None) -> None:
+        """Count the time ``publisher`` spends publishing in the budget; with ``expected``,
+        hold the first message until that many subscriptions have matched (DDS matches in
+        its own threads, so waiting here does not stop it)."""
         original = publisher.publish
+        budget = self.budget
+        gate = [expected] if expected else []
 
         def publish(msg):
-            deadline = time.monotonic() + MATCH_TIMEOUT_S
-            while publisher.get_subscription_count() < expected and time.monotonic() < deadline:
-                time.sleep(0.005)
-            if publisher.get_subscription_count() < expected:
-                self.get_logger().warning(
-                    f"{publisher.topic_name}: {publisher.get_subscription_count()} of {expected} "
-                    f"subscriptions matched after {MATCH_TIMEOUT_S:.0f} s; publishing anyway")
-            del publisher.publish          # the class's publish from now on
+            if gate:
+                self._wait_for_matches(publisher, gate.pop())
+            started = time.thread_time()
             original(msg)
+            budget.publish_cpu_s += time.thread_time() - started
 
         publisher.publish = publish
 
-    def create_subscription(self, *args, **kwargs):
+    def _wait_for_matches(self, publisher, expected: int) -> None:
+        deadline = time.monotonic() + MATCH_TIMEOUT_S
+        while publisher.get_subscription_count() < expected and time.monotonic() < deadline:
+            time.sleep(0.005)
+        if publisher.get_subscription_count() < expected:
+            self.get_logger().warning(
+                f"{publisher.topic_name}: {publisher.get_subscription_count()} of {expected} "
+                f"subscriptions matched after {MATCH_TIMEOUT_S:.0f} s; publishing anyway")
+
+    def create_subscription(self, msg_type, topic, callback, *args, **kwargs):
         kwargs.setdefault("event_callbacks",
                           SubscriptionEventCallbacks(use_default_callbacks=False))
-        return super().create_subscription(*args, **kwargs)
+        return super().create_subscription(msg_type, topic, self._timed(callback), *args,
+                                           **kwargs)
+
+    def _timed(self, callback):
+        """``callback`` with its calls and time counted in the budget."""
+        budget = self.budget
+
+        def timed(msg):
+            wall, cpu = time.perf_counter(), time.thread_time()
+            try:
+                return callback(msg)
+            finally:
+                budget.callbacks += 1
+                budget.callback_s += time.perf_counter() - wall
+                budget.callback_cpu_s += time.thread_time() - cpu
+        return timed

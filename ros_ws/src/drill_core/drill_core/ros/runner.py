@@ -1,4 +1,5 @@
-"""Run a node until shutdown; SIGINT/SIGTERM give a clean exit."""
+"""Run a node alone in its process until shutdown; SIGINT/SIGTERM give a clean exit. The
+process's time budget is written at the end (drill_core.ros.budget)."""
 from __future__ import annotations
 
 import sys
@@ -6,14 +7,18 @@ import sys
 import rclpy
 from rclpy.executors import ExternalShutdownException
 
+from drill_core.ros.budget import ProcessClock
+
 
 def run(node_factory, args=None) -> int:
     """Create the node with ``node_factory`` and spin it; returns the process exit code."""
     rclpy.init(args=args)   # rclpy's own handlers turn SIGINT and SIGTERM into a shutdown
     node = None
     code = 0
+    clock = ProcessClock()
     try:
         node = node_factory()
+        clock.spinning()
         rclpy.spin(node)
         code = getattr(node, "exit_code", 0)
     except (KeyboardInterrupt, ExternalShutdownException):
@@ -23,6 +28,7 @@ def run(node_factory, args=None) -> int:
         code = 1
     finally:
         if node is not None:
+            clock.write(node.get_name(), {node.get_name(): node.budget})
             node.destroy_node()
         rclpy.try_shutdown()
     return code

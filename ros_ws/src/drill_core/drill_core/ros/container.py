@@ -1,0 +1,84 @@
+"""Several of the rig's nodes in one process under one executor, as a ROS 2 component
+container holds components (rclpy has no container of its own).
+
+Run: python -m drill_core.ros.container <process name> <JSON list of nodes> <marker>,
+each node {"module", "node_class", "ros_args" (the node's own --ros-args: name remap and
+parameters), "finishes"}. The nodes are the same classes that run alone; they take their
+arguments per node (no global arguments), so two nodes of one class (the actuators)
+keep their own names and parameters.
+
+When every node here that finishes a run has finished (RigNode.finish) the container
+creates the file <marker> and goes on spinning, so the other nodes here still act on
+what is in flight (the NMPC's last command after the estimator's last estimate), until
+the launcher stops it (SIGINT/SIGTERM), as it stops a process of one node. A node that
+finishes with a non-zero exit code (a stalled lockstep, a diverged plant) ends the
+process at once with that code.
+"""
+from __future__ import annotations
+
+import importlib
+import json
+import sys
+from pathlib import Path
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+
+from drill_core.ros.budget import ProcessClock
+from drill_core.ros.node import CONTAINED
+
+SPIN_TIMEOUT_S = 0.25     # the loop's check for finished nodes at least this often
+
+
+def create_nodes(specs: list[dict]) -> list:
+    """The nodes of ``specs``, each with its own arguments."""
+    nodes = []
+    for spec in specs:
+        cls = getattr(importlib.import_module(spec["module"]), spec["node_class"])
+        nodes.append(cls(cli_args=list(spec["ros_args"]), use_global_arguments=False))
+    return nodes
+
+
+def spin(executor, nodes, finishing, marker: Path) -> None:
+    """Spin until stopped or a node fails; mark the finish of the finishing nodes."""
+    marked = False
+    while rclpy.ok():
+        executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+        if any(getattr(node, "exit_code", 0) for node in nodes):
+            return
+        if not marked and finishing and all(node.finished for node in finishing):
+            marker.touch()
+            marked = True
+
+
+def main(argv: list[str]) -> int:
+    process, specs, marker = argv[1], json.loads(argv[2]), Path(argv[3])
+    CONTAINED["active"] = True
+    rclpy.init(args=argv)
+    nodes, code = [], 0
+    executor = SingleThreadedExecutor()
+    clock = ProcessClock()
+    try:
+        nodes = create_nodes(specs)
+        for node in nodes:
+            executor.add_node(node)
+        finishing = [node for node, spec in zip(nodes, specs) if spec["finishes"]]
+        clock.spinning()
+        spin(executor, nodes, finishing, marker)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception as err:  # a node that fails says why, then the process exits non-zero
+        print(f"[fatal] {type(err).__name__}: {err}", file=sys.stderr, flush=True)
+        code = 1
+    finally:
+        clock.write(process, {node.get_name(): node.budget for node in nodes})
+        code = code or next((c for c in (getattr(n, "exit_code", 0) for n in nodes) if c), 0)
+        executor.shutdown()
+        for node in nodes:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
