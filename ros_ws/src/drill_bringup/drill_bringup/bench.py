@@ -80,7 +80,8 @@ def plant_actuators_rtf(domain_id: int, layout: str = "separate") -> dict:
         declared = [graph_decl.BY_NAME[n] for n in (*topics.ACTUATORS, "plant")]
         nodes = [launcher.NodeSpec.of(n, {"actuator": n, "command_period_s": 0.0})
                  for n in topics.ACTUATORS]
-        wait = graph_decl.lockstep_endpoints(declared, fast=True)
+        wait = graph_decl.lockstep_endpoints(declared, fast=True,
+                                             local=graph_decl.local_subscriptions(layout, declared))
         nodes.append(launcher.NodeSpec.of("plant", {"wait_for": wait}, finishes=True))
         for node in nodes:
             node.params.update(common)

@@ -62,6 +62,7 @@ class ProcessSpec:
     """One process of a run: a node alone, or a container of several."""
     name: str
     nodes: list[NodeSpec]
+    run_nodes: list = field(default_factory=list)    # the run's declared nodes (graph)
 
     @property
     def finishes(self) -> bool:
@@ -74,23 +75,28 @@ class ProcessSpec:
             return [sys.executable, "-m", node.module, *ros_args(node)]
         specs = [{"module": n.module, "node_class": n.node_class, "ros_args": ros_args(n),
                   "finishes": n.finishes} for n in self.nodes]
+        declared = [graph_decl.BY_NAME[n.name] for n in self.nodes]
+        local = sorted(graph_decl.local_topics(declared, self.run_nodes))
         return [sys.executable, "-m", "drill_core.ros.container", self.name, json.dumps(specs),
-                str(marker)]
+                str(marker), json.dumps(local)]
 
 
-def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool) -> list[NodeSpec]:
+def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool,
+          layout: str = "separate") -> list[NodeSpec]:
     """The node set of a run (drill_core.ros.graph), recorder first and plant last; the
-    plant waits for the lockstep's endpoints of exactly this set."""
+    plant waits for the lockstep's endpoints of exactly this set in this process layout
+    (a container takes some topics on its local bus, not in the middleware)."""
     declared = graph_decl.run_nodes(scenario_controller, fast)
+    local = graph_decl.local_subscriptions(layout, declared)
     own = {"recorder": {"output": str(mcap_path)}, "console": {"port": CONSOLE_PORT},
-           "plant": {"wait_for": graph_decl.lockstep_endpoints(declared, fast)},
+           "plant": {"wait_for": graph_decl.lockstep_endpoints(declared, fast, local)},
            **{name: {"actuator": name} for name in topics.ACTUATORS}}
     nodes = []
     for node in declared:
         # the plant ends the run; in fast mode so does the estimator, after the last sample
         finishes = node.name == "plant" or (fast and node.name == "estimator")
         params = dict(own.get(node.name, {}))
-        matches = graph_decl.first_publish_matches(node, declared) if fast else []
+        matches = graph_decl.first_publish_matches(node, declared, local) if fast else []
         if matches:
             params["match_before_first_publish"] = matches
         nodes.append(NodeSpec.of(node.name, params, finishes))
@@ -121,8 +127,10 @@ def ros_args(spec: NodeSpec) -> list[str]:
 def processes(nodes: list[NodeSpec], layout: str = "separate") -> list[ProcessSpec]:
     """The processes of ``nodes`` in ``layout`` (drill_core.ros.graph.LAYOUTS)."""
     by_name = {n.name: n for n in nodes}
-    groups = graph_decl.process_groups(layout, [graph_decl.BY_NAME[n.name] for n in nodes])
-    return [ProcessSpec(name, [by_name[m.name] for m in members]) for name, members in groups]
+    declared = [graph_decl.BY_NAME[n.name] for n in nodes]
+    groups = graph_decl.process_groups(layout, declared)
+    return [ProcessSpec(name, [by_name[m.name] for m in members], declared)
+            for name, members in groups]
 
 
 def isolated_env(domain_id: int) -> dict:

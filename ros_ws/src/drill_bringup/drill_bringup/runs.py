@@ -57,7 +57,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     mcap_path = run_dir / f"{scenario.name}.mcap"
     mode = "realtime" if realtime else "fast"
     common = {"config_dir": str(ROOT / "config"), "scenario": str(path), "mode": mode}
-    nodes = launcher.graph(controller, common, mcap_path, fast=not realtime)
+    nodes = launcher.graph(controller, common, mcap_path, fast=not realtime, layout=layout)
     if seed is not None:
         nodes[-1].params["seed"] = seed
     launch = launcher.Launch(nodes, run_dir, domain_id or launcher.default_domain_id(), layout)

@@ -82,3 +82,20 @@ def test_a_group_with_one_node_of_the_run_is_that_nodes_process():
         ["recorder", "drawworks", "plant"]
     with pytest.raises(ValueError, match="layout 'three'"):
         launcher.processes(nodes, "three")
+
+
+def test_a_container_takes_what_only_it_publishes_on_its_local_bus():
+    two = launcher.graph("nmpc", COMMON, Path("/r/x.mcap"), fast=True, layout="two")
+    separate = launcher.graph("nmpc", COMMON, Path("/r/x.mcap"), fast=True)
+    wait_two = _by_name(two)["plant"].params["wait_for"]
+    wait_separate = _by_name(separate)["plant"].params["wait_for"]
+    # the measurement reaches the estimator, protection and recorder through DDS, not the
+    # actuators (they share the plant's process); the frames reach the plant locally
+    assert f"sub@{topics.MEASUREMENT}:7" in wait_separate
+    assert f"sub@{topics.MEASUREMENT}:3" in wait_two
+    frame = topics.actuator_frame("drawworks")     # recorder, estimator, nmpc (and plant)
+    assert f"sub@{frame}:4" in wait_separate and f"sub@{frame}:3" in wait_two
+    assert f"sub@{topics.ESTIMATE}:1" in wait_two            # the recorder; nmpc is local
+    processes = {p.name: p for p in launcher.processes(two, "two")}
+    local = json.loads(processes["control"].command_line(Path("/m"))[6])
+    assert local == sorted([topics.ESTIMATE, topics.COMMAND])  # setpoints are latched: DDS

@@ -1,11 +1,13 @@
 """Several of the rig's nodes in one process under one executor, as a ROS 2 component
 container holds components (rclpy has no container of its own).
 
-Run: python -m drill_core.ros.container <process name> <JSON list of nodes> <marker>,
-each node {"module", "node_class", "ros_args" (the node's own --ros-args: name remap and
+Run: python -m drill_core.ros.container <process name> <JSON list of nodes> <marker>
+<JSON list of local topics>, each node {"module", "node_class", "ros_args" (the node's own --ros-args: name remap and
 parameters), "finishes"}. The nodes are the same classes that run alone; they take their
 arguments per node (no global arguments), so two nodes of one class (the actuators)
-keep their own names and parameters.
+keep their own names and parameters. The local topics (drill_core.ros.graph.local_topics)
+go between the nodes here on the local bus (drill_core.ros.local_bus), not through the
+middleware; the loop delivers its queue between spins of the executor.
 
 When every node here that finishes a run has finished (RigNode.finish) the container
 creates the file <marker> and goes on spinning, so the other nodes here still act on
@@ -25,6 +27,7 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
 from drill_core.ros.budget import ProcessClock
+from drill_core.ros.local_bus import LocalBus
 from drill_core.ros.node import CONTAINED
 
 SPIN_TIMEOUT_S = 0.25     # the loop's check for finished nodes at least this often
@@ -39,11 +42,12 @@ def create_nodes(specs: list[dict]) -> list:
     return nodes
 
 
-def spin(executor, nodes, finishing, marker: Path) -> None:
+def spin(executor, bus: LocalBus, nodes, finishing, marker: Path) -> None:
     """Spin until stopped or a node fails; mark the finish of the finishing nodes."""
     marked = False
     while rclpy.ok():
-        executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+        bus.deliver()
+        executor.spin_once(timeout_sec=0.0 if bus.pending else SPIN_TIMEOUT_S)
         if any(getattr(node, "exit_code", 0) for node in nodes):
             return
         if not marked and finishing and all(node.finished for node in finishing):
@@ -53,7 +57,8 @@ def spin(executor, nodes, finishing, marker: Path) -> None:
 
 def main(argv: list[str]) -> int:
     process, specs, marker = argv[1], json.loads(argv[2]), Path(argv[3])
-    CONTAINED["active"] = True
+    bus = LocalBus(json.loads(argv[4]))
+    CONTAINED.update(active=True, bus=bus)
     rclpy.init(args=argv)
     nodes, code = [], 0
     executor = SingleThreadedExecutor()
@@ -64,7 +69,7 @@ def main(argv: list[str]) -> int:
             executor.add_node(node)
         finishing = [node for node, spec in zip(nodes, specs) if spec["finishes"]]
         clock.spinning()
-        spin(executor, nodes, finishing, marker)
+        spin(executor, bus, nodes, finishing, marker)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception as err:  # a node that fails says why, then the process exits non-zero

@@ -148,6 +148,35 @@ def process_groups(layout: str, nodes: list[Node]) -> list[tuple[str, list[Node]
     return out
 
 
+def local_topics(members: list[Node], nodes: list[Node]) -> frozenset[str]:
+    """The topics a process holding ``members`` takes on its local bus
+    (drill_core.ros.local_bus): reliable topics a member subscribes to that no node of
+    ``nodes`` outside the process publishes."""
+    names = {m.name for m in members}
+    out = set()
+    for topic in TOPICS:
+        publishers = [n.name for n in nodes if topic.name in n.publishes]
+        if (topic.qos == "reliable" and publishers and set(publishers) <= names
+                and any(topic.name in m.subscribes for m in members)):
+            out.add(topic.name)
+    return frozenset(out)
+
+
+def local_subscriptions(layout: str, nodes: list[Node]) -> dict[str, frozenset[str]]:
+    """Node name -> the topics it takes on its process's local bus, in ``layout``."""
+    out = {}
+    for _, members in process_groups(layout, nodes):
+        if len(members) > 1:
+            local = local_topics(members, nodes)
+            out.update({m.name: local & set(m.subscribes) for m in members})
+    return out
+
+
+def _middleware_readers(topic: str, nodes: list[Node], local: dict) -> int:
+    """Subscriptions to ``topic`` made in the middleware (local ones are not)."""
+    return sum(n.subscribes_to(topic) and topic not in local.get(n.name, ()) for n in nodes)
+
+
 def run_nodes(controller: str, fast: bool) -> list[Node]:
     """The nodes of a run under ``controller``, recorder first and plant last: the
     actuators, the estimator, the controller's advisor with the process protection, the
@@ -167,9 +196,10 @@ def run_nodes(controller: str, fast: bool) -> list[Node]:
     return out
 
 
-def lockstep_endpoints(nodes: list[Node], fast: bool) -> list[str]:
-    """``sub@topic:N`` / ``pub@topic:N`` the plant waits for: every subscriber and every
-    publisher other than the plant itself of each lockstep topic in this node set."""
+def lockstep_endpoints(nodes: list[Node], fast: bool, local: dict | None = None) -> list[str]:
+    """``sub@topic:N`` / ``pub@topic:N`` the plant waits for: every subscriber (but the
+    ``local`` ones, local_subscriptions) and every publisher other than the plant itself of
+    each lockstep topic in this node set."""
     out = []
     for topic in LOCKSTEP_TOPICS:
         if topic == CLOCK:
@@ -180,7 +210,7 @@ def lockstep_endpoints(nodes: list[Node], fast: bool) -> list[str]:
         publishers = [n for n in nodes if topic in n.publishes]
         if not publishers:
             continue
-        subscribers = sum(n.subscribes_to(topic) for n in nodes)
+        subscribers = _middleware_readers(topic, nodes, local or {})
         if subscribers:
             out.append(f"sub@{topic}:{subscribers}")
         others = sum(n.name != "plant" for n in publishers)
@@ -189,9 +219,10 @@ def lockstep_endpoints(nodes: list[Node], fast: bool) -> list[str]:
     return out
 
 
-def first_publish_matches(node: Node, nodes: list[Node]) -> list[str]:
+def first_publish_matches(node: Node, nodes: list[Node], local: dict | None = None) -> list[str]:
     """``topic:N`` for each lockstep topic ``node`` publishes in this node set: the
-    subscriptions its publisher must have matched before its first message. DDS matches a
+    subscriptions (in the middleware: not the ``local`` ones) its publisher must have
+    matched before its first message. DDS matches a
     publisher with a subscription some time after the graph shows both (the plant's
     ``wait_for``); a first sample published before that is lost to that reader, and the
     lockstep waits for it forever."""
@@ -200,7 +231,7 @@ def first_publish_matches(node: Node, nodes: list[Node]) -> list[str]:
         if topic not in node.publishes:
             continue
         readers = sum(n.reads_clock for n in nodes) if topic == CLOCK else \
-            sum(n.subscribes_to(topic) for n in nodes)
+            _middleware_readers(topic, nodes, local or {})
         if readers:
             out.append(f"{topic}:{readers}")
     return out

@@ -10,6 +10,9 @@ entity the rig does not use are therefore left out:
   warning on incompatible QoS or type; the launcher's graph check in the plant node
   already refuses to start until every expected endpoint has matched).
 
+In a container, a subscription whose topic only this process publishes takes its messages
+from the process's local bus (drill_core.ros.local_bus) instead of the middleware.
+
 A node that ends the run (the plant at the scenario's end, the estimator after the last
 sample) calls ``finish``: on its own it shuts its process down; in a container
 (drill_core.ros.container) it only marks itself finished, and the container ends once
@@ -30,7 +33,8 @@ from rclpy.node import Node
 from drill_core.ros.budget import NodeBudget
 
 MATCH_TIMEOUT_S = 30.0      # a first publish waits at most this long for its readers
-CONTAINED = {"active": False}     # set by drill_core.ros.container
+# set by drill_core.ros.container: whether nodes share a process, and its local bus
+CONTAINED = {"active": False, "bus": None}
 
 
 class RigNode(Node):
@@ -68,11 +72,16 @@ class RigNode(Node):
         budget = self.budget
         gate = [expected] if expected else []
 
+        bus = CONTAINED["bus"]
+        topic = publisher.topic_name
+
         def publish(msg):
             if gate:
                 self._wait_for_matches(publisher, gate.pop())
             started = time.thread_time()
             original(msg)
+            if bus is not None:
+                bus.publish(topic, msg)
             budget.publish_cpu_s += time.thread_time() - started
 
         publisher.publish = publish
@@ -89,6 +98,9 @@ class RigNode(Node):
     def create_subscription(self, msg_type, topic, callback, *args, **kwargs):
         kwargs.setdefault("event_callbacks",
                           SubscriptionEventCallbacks(use_default_callbacks=False))
+        bus = CONTAINED["bus"]
+        if bus is not None and bus.subscribe(topic, self._timed(callback)):
+            return None        # every publisher of the topic is in this process
         return super().create_subscription(msg_type, topic, self._timed(callback), *args,
                                            **kwargs)
 

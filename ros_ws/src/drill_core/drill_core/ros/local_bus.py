@@ -1,0 +1,51 @@
+"""In-process delivery between the nodes of one container (rclpy has no intra-process
+communication of its own).
+
+A subscription is local when every publisher of its topic in the run lives in the same
+process and the topic is reliable (not latched: a latched value must also reach a reader
+that comes late). A local subscription is not created in the middleware at all; the
+publishers of its topic still publish to DDS for the other processes (the recorder, the
+estimator) and hand a copy of each message to this bus, which queues it. The container
+delivers the queue between executor spins, so a callback never runs inside another's
+publish, and every message is taken in the order it was published.
+"""
+from __future__ import annotations
+
+import copy
+from collections import defaultdict, deque
+
+
+class LocalBus:
+    """Local subscriptions by topic and the queue of messages for them."""
+
+    def __init__(self, local_topics):
+        self.local_topics = frozenset(local_topics)
+        self._subscribers: dict[str, list] = defaultdict(list)
+        self._queue: deque = deque()
+
+    def subscribe(self, topic: str, callback) -> bool:
+        """Take ``topic`` locally if it is local here; False: subscribe in the middleware."""
+        if topic not in self.local_topics:
+            return False
+        self._subscribers[topic].append(callback)
+        return True
+
+    def publish(self, topic: str, msg) -> None:
+        """Queue a copy of ``msg`` for each local subscriber of ``topic`` (the publisher may
+        reuse its message object)."""
+        for callback in self._subscribers.get(topic, ()):
+            self._queue.append((callback, copy.deepcopy(msg)))
+
+    @property
+    def pending(self) -> bool:
+        return bool(self._queue)
+
+    def deliver(self) -> int:
+        """Run the callbacks of the queued messages (and of those they publish); returns
+        how many ran."""
+        count = 0
+        while self._queue:
+            callback, msg = self._queue.popleft()
+            callback(msg)
+            count += 1
+        return count
