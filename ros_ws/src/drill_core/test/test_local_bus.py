@@ -4,7 +4,7 @@ from std_msgs.msg import Float64
 from drill_core.ros.local_bus import LocalBus
 
 
-def test_local_topics_are_queued_in_order_and_copied():
+def test_local_topics_are_queued_in_order_and_copied_field_by_field():
     bus = LocalBus(["/a"])
     got = []
     assert bus.subscribe("/a", lambda m: got.append(("first", m.data)))

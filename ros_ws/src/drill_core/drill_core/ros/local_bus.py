@@ -5,7 +5,10 @@ A subscription is local when every publisher of its topic in the run lives in th
 process and the topic is reliable (not latched: a latched value must also reach a reader
 that comes late). A local subscription is not created in the middleware at all; the
 publishers of its topic still publish to DDS for the other processes (the recorder, the
-estimator) and hand a copy of each message to this bus, which queues it. The container
+estimator) and hand each message to this bus, which queues a shallow copy of it (its
+fields, not their contents: a publisher may assign new values to a message it publishes
+again, but must not change a published array or nested message in place, the rule of a
+shared message under rclcpp's intra-process delivery too). The container
 delivers the queue between executor spins, so a callback never runs inside another's
 publish, and every message is taken in the order it was published.
 """
@@ -13,6 +16,18 @@ from __future__ import annotations
 
 import copy
 from collections import defaultdict, deque
+
+
+def _shallow_copy(msg):
+    """A new message holding the same field values (ROS messages keep their fields in
+    __slots__)."""
+    slots = getattr(type(msg), "__slots__", None)
+    if slots is None:
+        return copy.copy(msg)
+    new = type(msg).__new__(type(msg))
+    for slot in slots:
+        setattr(new, slot, getattr(msg, slot))
+    return new
 
 
 class LocalBus:
@@ -31,10 +46,9 @@ class LocalBus:
         return True
 
     def publish(self, topic: str, msg) -> None:
-        """Queue a copy of ``msg`` for each local subscriber of ``topic`` (the publisher may
-        reuse its message object)."""
+        """Queue a shallow copy of ``msg`` for each local subscriber of ``topic``."""
         for callback in self._subscribers.get(topic, ()):
-            self._queue.append((callback, copy.deepcopy(msg)))
+            self._queue.append((callback, _shallow_copy(msg)))
 
     @property
     def pending(self) -> bool:
