@@ -14,10 +14,11 @@ import rclpy
 from ament_index_python.packages import PackageNotFoundError
 from drill_core.ros import topics
 from drill_core.ros.budget import ProcessClock
+from drill_core.ros.executors import create_executor
 from drill_core.ros.node import RigNode
 from drill_msgs.msg import NodeStatus
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -185,7 +186,7 @@ def main(args: list[str] | None = None) -> int:
         signal.signal(signum, lambda *_: stop.set())
     clock = ProcessClock()
     node = Recorder()
-    executor = SingleThreadedExecutor()
+    executor = create_executor()
     executor.add_node(node)
     clock.spinning()
     try:

@@ -24,13 +24,13 @@ import sys
 from pathlib import Path
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException
 
 from drill_core.ros.budget import ProcessClock
+from drill_core.ros.executors import SPIN_TIMEOUT_S, create_executor
 from drill_core.ros.local_bus import LocalBus
 from drill_core.ros.node import CONTAINED
 
-SPIN_TIMEOUT_S = 0.25     # the loop's check for finished nodes at least this often
 
 
 def create_nodes(specs: list[dict]) -> list:
@@ -61,7 +61,7 @@ def main(argv: list[str]) -> int:
     CONTAINED.update(active=True, bus=bus)
     rclpy.init(args=argv)
     nodes, code = [], 0
-    executor = SingleThreadedExecutor()
+    executor = create_executor()
     clock = ProcessClock()
     try:
         nodes = create_nodes(specs)

@@ -8,18 +8,22 @@ import rclpy
 from rclpy.executors import ExternalShutdownException
 
 from drill_core.ros.budget import ProcessClock
+from drill_core.ros.executors import SPIN_TIMEOUT_S, create_executor
 
 
 def run(node_factory, args=None) -> int:
     """Create the node with ``node_factory`` and spin it; returns the process exit code."""
     rclpy.init(args=args)   # rclpy's own handlers turn SIGINT and SIGTERM into a shutdown
-    node = None
+    node, executor = None, None
     code = 0
     clock = ProcessClock()
     try:
         node = node_factory()
         clock.spinning()
-        rclpy.spin(node)
+        executor = create_executor()
+        executor.add_node(node)
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
         code = getattr(node, "exit_code", 0)
     except (KeyboardInterrupt, ExternalShutdownException):
         code = getattr(node, "exit_code", 0) if node is not None else 0
@@ -27,6 +31,8 @@ def run(node_factory, args=None) -> int:
         print(f"[fatal] {type(err).__name__}: {err}", file=sys.stderr, flush=True)
         code = 1
     finally:
+        if executor is not None:
+            executor.shutdown()
         if node is not None:
             clock.write(node.get_name(), {node.get_name(): node.budget})
             node.destroy_node()
