@@ -72,9 +72,11 @@ def stability_map_figure(bands, max_rpm: float = 400.0, points=(), title: str = 
     fig = Figure(figsize=(7, 4.5))
     ax = fig.add_subplot()
     mus = np.array([b[0] for b in bands])
-    width = np.gradient(np.log10(mus)) if mus.size > 1 else np.array([0.1])
-    for (mu, spans), w in zip(bands, width):
-        left, right = mu * 10 ** (-w / 2), mu * 10 ** (w / 2)
+    logs = np.log10(mus)
+    mids = 0.5 * (logs[1:] + logs[:-1])
+    step = (logs[-1] - logs[0]) / max(1, logs.size - 1) or 0.1
+    edges = 10 ** np.concatenate([[logs[0] - step / 2], mids, [logs[-1] + step / 2]])
+    for (mu, spans), left, right in zip(bands, edges[:-1], edges[1:]):
         for lo, hi in spans:
             hi = min(hi, max_rpm) if math.isfinite(hi) else max_rpm
             ax.fill_between([left, right], lo, hi, color="tab:blue", alpha=0.35, lw=0)
