@@ -18,7 +18,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import eigh
+from scipy.linalg import eigh, eigvalsh_tridiagonal
 
 from .parameters import (LumpedParameters, Steel, WellSection, axial_drag_bracket,
                          block_properties, torsional_drag_factor)
@@ -48,7 +48,15 @@ class SecondOrderSystem:
 
     def eigenfrequencies_rad_s(self) -> np.ndarray:
         """Undamped natural frequencies, ascending."""
-        return np.sqrt(eigh(self.stiffness, self.mass, eigvals_only=True))
+        m, k = self.mass, self.stiffness
+        if np.count_nonzero(m - np.diag(np.diag(m))) == 0 \
+                and np.count_nonzero(np.triu(k, 2)) == 0:
+            # lumped chain: M^-1/2 K M^-1/2 is symmetric tridiagonal
+            r = 1.0 / np.sqrt(np.diag(m))
+            lam = eigvalsh_tridiagonal(np.diag(k) * r * r, np.diag(k, 1) * r[:-1] * r[1:])
+        else:
+            lam = eigh(k, m, eigvals_only=True)
+        return np.sqrt(lam)
 
 
 def axial_system(sec: WellSection, n: int, with_bha: bool = False,

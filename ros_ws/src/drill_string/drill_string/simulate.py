@@ -147,7 +147,8 @@ class DrillStringSimulator:
 
     ``advance(duration_s, top_drive_rpm=..., block_speed_m_s=...)`` runs on and returns the
     samples of that stretch; the surface speeds may change between calls (they enter as the
-    perturbations U and Phi of eqs. (24) and (26))."""
+    perturbations U and Phi of eqs. (24) and (26)). Off bottom the bit turns freely, also
+    backwards; on bottom it never turns backwards (Paper IV section 5.1.3)."""
 
     def __init__(self, config: DrillingConfig, step_s: float | None = None):
         if config.scheme not in ("newmark", "generalized_alpha"):
@@ -203,6 +204,7 @@ class DrillStringSimulator:
         self.tau = 0.0
         self.U = 0.0
         self.Phi = 0.0
+        self._du = self._dphi = 0.0      # surface speed commands minus the nominal ones
         # bit forces at tau = 0 (history nominal: depth d0)
         eng = 1.0 if self.v0 + v_ax[-1] > 0.0 else 0.0
         w = self.law.wob(self.d0, eng)
@@ -265,7 +267,7 @@ class DrillStringSimulator:
         torque = self._rock_torque(depth, eng, off)
         w_free = self.omega0 + thv - self._gv_t * self.t0
         stick_t = False
-        if w_free + self._gv_t * torque < 0.0:
+        if not off and w_free + self._gv_t * torque < 0.0:
             stick_t = True
             torque = w_free / -self._gv_t
             force, depth, eng, stick_a, off = self._axial(delta_free, v_free, False)
@@ -274,13 +276,17 @@ class DrillStringSimulator:
     # ---- stepping ------------------------------------------------------------------------
     def advance(self, duration_s: float, top_drive_rpm: float | None = None,
                 block_speed_m_s: float | None = None) -> Trajectory:
-        """Run ``duration_s`` further (rounded to whole steps) and return its samples."""
+        """Run ``duration_s`` further (rounded to whole steps) and return its samples.
+
+        A speed given here holds until another is given; ``None`` keeps the last command
+        (initially the configuration's speeds)."""
         p, n, h = self.p, self.n, self.h
         steps = max(1, int(round(duration_s / self.step_s)))
-        du = 0.0 if block_speed_m_s is None else \
-            p.scaled_rate(block_speed_m_s) - self.v0
-        dphi = 0.0 if top_drive_rpm is None else \
-            p.scaled_speed(rpm_to_rad_s(top_drive_rpm)) - self.omega0
+        if block_speed_m_s is not None:
+            self._du = p.scaled_rate(block_speed_m_s) - self.v0
+        if top_drive_rpm is not None:
+            self._dphi = p.scaled_speed(rpm_to_rad_s(top_drive_rpm)) - self.omega0
+        du, dphi = self._du, self._dphi
         out = np.empty((steps, 9))
         flags = np.zeros((steps, 3), bool)
         T, gbit, x, hist = self._T, self._g_bit, self._x, self.hist

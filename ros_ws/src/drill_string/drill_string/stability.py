@@ -97,7 +97,9 @@ class StabilityResult:
     @property
     def lowest_stable_speed_rpm(self) -> float:
         """The slowest stable speed: the long-delay end of the last stable window (the
-        'lowermost stability switch' of Paper IV section 4.2)."""
+        'lowermost stability switch' of Paper IV section 4.2). If that window is still open
+        at ``horizon`` (the delay up to which the m_r switches per frequency are complete),
+        this is the speed at the horizon, a bound rather than a switch."""
         return rad_s_to_rpm(self.delay_to_rad_s(self.stable_delay_intervals[-1][1]))
 
     def stable_speed_bands_rpm(self) -> list[tuple[float, float]]:
@@ -213,7 +215,7 @@ def analyse(p: LumpedParameters, m_r: int = 10) -> StabilityResult:
     ws = crossing_frequencies(om, wt, d_hat, nba)
     dirs = np.array([crossing_direction(w, om, wt, d_hat, nba) for w in ws], dtype=int)
     phases = np.array([crossing_phase(w, om, wt, d_hat, nba) for w in ws])
-    switches = sorted((Switch((th + 2.0 * math.pi * r) / w, float(w), int(d), r)
+    switches = sorted((Switch(float((th + 2.0 * math.pi * r) / w), float(w), int(d), r)
                        for w, d, th in zip(ws, dirs, phases) for r in range(m_r + 1)),
                       key=lambda s: s.delay)
     # all switches are known only up to the smallest tau_{k, m_r}: count up to there
