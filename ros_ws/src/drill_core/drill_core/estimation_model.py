@@ -149,6 +149,13 @@ class EstimationModel(WellboreLayout):
             raise AttributeError("model has no disturbance state")
         return self.index(BOTTOM_INFLUX)
 
+    @functools.cached_property
+    def friction_function(self) -> ca.Function:
+        """x -> annular friction of paths 2..n [Pa] (annulus_friction as one function)."""
+        x = ca.MX.sym("x", self.size)
+        return ca.Function("annulus_friction", [x],
+                           [ca.vertcat(*annulus_friction(CASADI, self, ca.vertsplit(x)))])
+
     def state_scale(self) -> np.ndarray:
         """Typical magnitude of each state, for conditioning (bar, 1000 L/min, ...)."""
         s = np.ones(self.size)
@@ -280,5 +287,7 @@ def build_discrete_model(em: EstimationModel, step_s: float, substeps: int = 1,
 
 
 def friction_estimate(em: EstimationModel, x) -> np.ndarray:
-    """Estimated annular friction [Pa] of paths 2..n at state ``x`` (numpy)."""
-    return np.array([float(v) for v in annulus_friction(np, em, np.asarray(x, dtype=float))])
+    """Estimated annular friction [Pa] of paths 2..n at state ``x`` (numpy), through one
+    call of a CasADi function of the state built once per model (a call per path and
+    section costs a millisecond per estimate)."""
+    return np.asarray(em.friction_function(np.asarray(x, dtype=float)), dtype=float).ravel()

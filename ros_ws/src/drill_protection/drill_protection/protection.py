@@ -53,8 +53,8 @@ def surge_swab_pa(wm: hy.WellModel, speeds_mps: np.ndarray, circulation_m3s: flo
     speeds = np.asarray(speeds_mps, dtype=float)
     flows = [circulation_m3s - area * speeds] * (wm.n - 1)
     moving = np.sum(hy.annulus_friction(np, wm, flows, speeds), axis=0)
-    still = np.sum(hy.annulus_friction(np, wm, [np.full_like(speeds, circulation_m3s)] * (wm.n - 1),
-                                       np.zeros_like(speeds)), axis=0)
+    still = np.sum(hy.annulus_friction(np, wm, [np.array([circulation_m3s])] * (wm.n - 1),
+                                       np.zeros(1)), axis=0)
     return moving - still
 
 
@@ -95,16 +95,18 @@ class ProcessProtection:
         cap, cap_reason = (operator_limit_mps, "operator trip-speed limit") \
             if operator_limit_mps < machine else (machine, "drawworks machine limit")
         grid = np.linspace(0.0, cap, _SPEED_GRID_POINTS)
-        current = surge_swab_pa(self.wm, np.array([string_velocity_mps]), circulation_m3s)[0]
-        static_bhp = bhp_pa - current
+        # one model evaluation: the measured speed, then the grid running in and pulling out
+        change = surge_swab_pa(self.wm, np.concatenate([[string_velocity_mps], -grid, grid]),
+                               circulation_m3s)
+        static_bhp = bhp_pa - change[0]
         low, high = self.config.pressure_window_pa
 
         def outside(bhp):
             return np.maximum(low - bhp, 0.0) + np.maximum(bhp - high, 0.0)
 
         limits = []
-        for sign, word in ((-1.0, "surge"), (1.0, "swab")):
-            bhp = static_bhp + surge_swab_pa(self.wm, sign * grid, circulation_m3s)
+        for part, word in ((change[1:1 + grid.size], "surge"), (change[1 + grid.size:], "swab")):
+            bhp = static_bhp + part
             # a speed is acceptable if it keeps BHP in the window or moves it toward the window
             ok = outside(bhp) <= outside(np.array([static_bhp]))[0]
             if ok.all():
