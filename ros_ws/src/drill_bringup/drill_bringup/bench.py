@@ -5,6 +5,7 @@ ratios in one file come from one run on one machine."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import platform
@@ -20,6 +21,7 @@ import numpy as np
 
 from drill_bringup import launcher, report, runs
 from drill_core.ros import budget
+from drill_core.ros.executors import DEFAULT_EXECUTOR, EXECUTOR_ENV
 from drill_core.ros import graph as graph_decl
 from drill_core.ros import topics
 from drill_core import hydraulics as hy
@@ -48,15 +50,35 @@ def plant_frame_cost(repetitions: int = 2000) -> dict:
             "plant_core_rtf": frame_s / config.plant.sensor_period_s}
 
 
-GRAPH_LAYOUTS = ("separate", "actuators", "plant", "two")
+@contextlib.contextmanager
+def _executor(kind: str):
+    """The graph's processes spin with executor ``kind`` (drill_core.ros.executors)."""
+    previous = os.environ.get(EXECUTOR_ENV)
+    os.environ[EXECUTOR_ENV] = kind
+    try:
+        yield
+    finally:
+        if previous is None:
+            os.environ.pop(EXECUTOR_ENV)
+        else:
+            os.environ[EXECUTOR_ENV] = previous
 
 
-def graph_rtf(scenario: str, domain_id: int, layout: str = "separate") -> dict:
-    """Wall time of a whole scenario through the graph in fast mode in a process layout:
-    from starting the processes to the recorder closing its file (the report afterwards is
-    timed apart), and where the processes' time went (drill_core.ros.budget)."""
+# (process layout, executor): the one-process-per-node graph on the single-threaded
+# executor first (the path before composition), then each layout on the default executor
+GRAPH_CONFIGURATIONS = (("separate", "single_threaded"), ("separate", DEFAULT_EXECUTOR),
+                        ("actuators", DEFAULT_EXECUTOR), ("plant", DEFAULT_EXECUTOR),
+                        ("two", DEFAULT_EXECUTOR))
+
+
+def graph_rtf(scenario: str, domain_id: int, layout: str = "separate",
+              executor: str = DEFAULT_EXECUTOR) -> dict:
+    """Wall time of a whole scenario through the graph in fast mode in a process layout
+    with an executor: from starting the processes to the recorder closing its file (the
+    report afterwards is timed apart), and where the processes' time went
+    (drill_core.ros.budget)."""
     path = runs.scenario_path(scenario)
-    with tempfile.TemporaryDirectory() as tmp:
+    with _executor(executor), tempfile.TemporaryDirectory() as tmp:
         scenario_obj, _ = load_scenario_config(path, runs.ROOT / "config")
         start = time.monotonic()
         code, run_dir = runs.run_scenario(path, runs_dir=Path(tmp), domain_id=domain_id,
@@ -64,18 +86,19 @@ def graph_rtf(scenario: str, domain_id: int, layout: str = "separate") -> dict:
         total = time.monotonic() - start
         launch = json.loads((run_dir / "launch.json").read_text())
         if code != 0:
-            raise RuntimeError(f"{scenario} ({layout}) failed: {launch}")
+            raise RuntimeError(f"{scenario} ({layout}, {executor}) failed: {launch}")
         rows = budget.summarise(run_dir / "budget")
     wall = launch["wall_time_s"]
-    return {"scenario": scenario, "layout": layout, "simulated_s": scenario_obj.duration_s,
-            "wall_s": wall, "rtf": wall / scenario_obj.duration_s, "report_s": total - wall,
-            "budget": rows}
+    return {"scenario": scenario, "layout": layout, "executor": executor,
+            "simulated_s": scenario_obj.duration_s, "wall_s": wall,
+            "rtf": wall / scenario_obj.duration_s, "report_s": total - wall, "budget": rows}
 
 
-def plant_actuators_rtf(domain_id: int, layout: str = "separate") -> dict:
+def plant_actuators_rtf(domain_id: int, layout: str = "separate",
+                        executor: str = DEFAULT_EXECUTOR) -> dict:
     """Plant + the four actuators alone (no estimator/controller) over Case 2's 600 s."""
     path = runs.scenario_path("case2")
-    with tempfile.TemporaryDirectory() as tmp:
+    with _executor(executor), tempfile.TemporaryDirectory() as tmp:
         common = {"config_dir": str(runs.ROOT / "config"), "scenario": str(path), "mode": "fast"}
         declared = [graph_decl.BY_NAME[n] for n in (*topics.ACTUATORS, "plant")]
         nodes = [launcher.NodeSpec.of(n, {"actuator": n, "command_period_s": 0.0})
@@ -94,7 +117,7 @@ def plant_actuators_rtf(domain_id: int, layout: str = "separate") -> dict:
         launch.stop()
         if not ok:
             raise RuntimeError(message)
-    return {"layout": layout, "wall_s": wall, "rtf": wall / 600.0}
+    return {"layout": layout, "executor": executor, "wall_s": wall, "rtf": wall / 600.0}
 
 
 def realtime_margins(domain_id: int, busy_domain_id: int | None = None) -> dict:
@@ -138,7 +161,8 @@ def write_doc(results: dict, path: Path) -> None:
         f"{results['plant']['plant_frame_median_s'] * 1e3:.3f} ms |",
         f"| one 0.01 s plant step | {results['plant']['plant_step_median_s'] * 1e6:.1f} us |",
         f"| plant core alone, real-time factor | {results['plant']['plant_core_rtf']:.4f} |",
-        *(f"| plant + 4 actuators over DDS, 600 s Case 2 (fast mode), layout {r['layout']} | "
+        *(f"| plant + 4 actuators, 600 s Case 2 (fast mode), layout {r['layout']}, "
+          f"{r['executor']} executor | "
           f"{r['wall_s']:.1f} s wall, RTF {r['rtf']:.3f} (target: <= 6 s) |"
           for r in results["plant_actuators"]),
         "",
@@ -155,14 +179,15 @@ def write_doc(results: dict, path: Path) -> None:
                   "Case 2 (600 s) through the graph over DDS in fast mode, from process start to "
                   "the recording closed (target: <= 30 s wall, RTF <= 0.05), in each process "
                   "layout (`scripts/rig run --layout`; drill_core.ros.graph.LAYOUTS):", "",
-                  "| layout | wall | real-time factor | vs separate | report afterwards |",
-                  "| --- | --- | --- | --- | --- |"]
-        lines += [f"| {g['layout']} | {g['wall_s']:.1f} s | {g['rtf']:.3f} | "
+                  "| layout | executor | wall | real-time factor | vs the first row | report afterwards |",
+                  "| --- | --- | --- | --- | --- | --- |"]
+        lines += [f"| {g['layout']} | {g['executor']} | {g['wall_s']:.1f} s | {g['rtf']:.3f} | "
                   f"{g['wall_s'] / first['wall_s']:.2f} | {g['report_s']:.1f} s |"
                   for g in results["graph"]]
         lines.append("")
         for g in results["graph"]:
-            lines += [f"### Time budget, layout {g['layout']}", "", budget.markdown(g["budget"]), ""]
+            lines += [f"### Time budget, layout {g['layout']}, {g['executor']} executor", "",
+                      budget.markdown(g["budget"]), ""]
         lines += [budget.__doc__.split("\n\n")[1].replace("\n", " "), ""]
     if "realtime" in results:
         lines += ["## Realtime margins", "",
@@ -186,10 +211,13 @@ def main(argv=None) -> int:
     domain = launcher.default_domain_id()
     results = {"plant": plant_frame_cost()}
     print(f"[bench] plant frame {results['plant']['plant_frame_median_s'] * 1e3:.3f} ms", flush=True)
-    results["plant_actuators"] = [plant_actuators_rtf(domain, layout)
-                                  for layout in ("separate", "plant")]
+    results["plant_actuators"] = [plant_actuators_rtf(domain, layout, executor) for
+                                  layout, executor in (("separate", "single_threaded"),
+                                                       ("separate", DEFAULT_EXECUTOR),
+                                                       ("plant", DEFAULT_EXECUTOR))]
     for r in results["plant_actuators"]:
-        print(f"[bench] plant + actuators ({r['layout']}): {r['wall_s']:.1f} s", flush=True)
+        print(f"[bench] plant + actuators ({r['layout']}, {r['executor']}): {r['wall_s']:.1f} s",
+              flush=True)
     from drill_estimator import bench as estimator_bench
     results["estimator"] = estimator_bench.run_benchmark()
     print("[bench] estimator done", flush=True)
@@ -197,9 +225,11 @@ def main(argv=None) -> int:
     results["nmpc"] = nmpc_bench.run_benchmark()
     print("[bench] nmpc done", flush=True)
     if not args.skip_graph:
-        results["graph"] = [graph_rtf("case2", domain, layout) for layout in GRAPH_LAYOUTS]
-        for g in results["graph"]:
-            print(f"[bench] case2 graph ({g['layout']}): {g['wall_s']:.1f} s", flush=True)
+        results["graph"] = []
+        for layout, executor in GRAPH_CONFIGURATIONS:
+            results["graph"].append(graph_rtf("case2", domain, layout, executor))
+            print(f"[bench] case2 graph ({layout}, {executor}): "
+                  f"{results['graph'][-1]['wall_s']:.1f} s", flush=True)
         busy_domain = launcher.default_domain_id()
         results["realtime"] = [realtime_margins(domain), realtime_margins(domain, busy_domain)]
         for r in results["realtime"]:
