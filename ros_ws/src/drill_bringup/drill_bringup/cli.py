@@ -10,6 +10,11 @@
   rig replay FILE [options]        republish a recording (see rig replay --help)
   rig reestimate RUN_DIR [--config-dir DIR] [--rate R]
                                    re-run the estimator with other tuning on a recorded run
+  rig stability SECTION --elements N [--bha] [--mud-viscosity PA_S] [--output DIR]
+                                   decoupled axial stability of a drilling-mode string
+                                   (Paper IV): crossing frequencies, critical delays, delay
+                                   margin, critical speed; with --output the figures like
+                                   the paper's Figs. 3, 4 and 7
   rig compare [SCENARIO ...] [--seeds N] [--output FILE]
                                    Cases 1-3 and the fault scenarios under the NMPC, automated
                                    MPD and the PI baseline, Case 4 under its NMPC, N seeds
@@ -25,6 +30,26 @@ from drill_bringup import launcher, report
 from drill_bringup.runs import ROOT, run_scenario, scenario_path
 from drill_core.config import ConfigError
 from drill_core.ros.graph import CONTROLLERS, LAYOUTS
+
+def _stability(args) -> int:
+    from drill_string.parameters import SECTIONS
+    from drill_string.stability_command import run
+    if args.section not in SECTIONS:
+        print(f"[rig] unknown section {args.section!r}; one of {', '.join(SECTIONS)}",
+              file=sys.stderr)
+        return 2
+    if args.elements < 1:
+        print("[rig] --elements must be at least 1", file=sys.stderr)
+        return 2
+    if args.mud_viscosity is not None and not args.mud_viscosity > 0.0:
+        print("[rig] --mud-viscosity must be positive (Pa s)", file=sys.stderr)
+        return 2
+    text, paths = run(args.section, args.elements, args.bha, args.mud_viscosity, args.output)
+    print(text)
+    for path in paths:
+        print(f"[rig] plot: {path}")
+    return 0
+
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="rig", description=__doc__,
@@ -48,6 +73,13 @@ def main(argv=None) -> int:
     rest_.add_argument("--config-dir", type=Path, default=ROOT / "config",
                        help="configuration with the new estimator tuning")
     rest_.add_argument("--rate", type=float, default=5.0, help="replay rate factor")
+    stab = sub.add_parser("stability", help="decoupled axial stability of a drilling string")
+    stab.add_argument("section", help="Paper IV Table 1 section: 36in, 26in, 17.5in, 12.25in, "
+                                      "8.5in or 6in")
+    stab.add_argument("--elements", type=int, required=True, help="number of lumped blocks n")
+    stab.add_argument("--bha", action="store_true", help="the lowest block(s) are collars")
+    stab.add_argument("--mud-viscosity", type=float, help="Pa s (default: the section's)")
+    stab.add_argument("--output", type=Path, help="write the Fig. 3, 4 and 7 like plots here")
     comp = sub.add_parser("compare", help="run Cases 1-4 under every controller; tabulate")
     comp.add_argument("scenarios", nargs="*", help="default: case1..case4 and the fault "
                                                    "scenarios (kick, losses, pump_trip, "
@@ -67,6 +99,8 @@ def main(argv=None) -> int:
             _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name)
             print(table)
             return 0
+        if args.command == "stability":
+            return _stability(args)
         if args.command == "compare":
             from drill_bringup import compare
             return compare.main(args.scenarios, args.output, args.seeds)
