@@ -12,8 +12,7 @@ setup(
     ],
     install_requires=["setuptools"],
     zip_safe=True,
-    description="On-bottom drill-string dynamics for drilling mode, without ROS: lumped axial and "
-                "torsional string, bit-rock law with the blade delay, time integration and the "
-                "decoupled axial stability analysis.",
+    description="Drilling mode: on-bottom drill-string dynamics (plain-Python core) and the "
+                "drilling graph's nodes (drill_string.ros).",
     license="Apache-2.0",
 )

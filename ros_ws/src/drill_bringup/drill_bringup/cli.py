@@ -5,7 +5,8 @@
                                    any scenario (name under config/scenarios or a path),
                                    optionally under another controller than its own, with
                                    nodes grouped into processes (separate, actuators, plant,
-                                   two)
+                                   two); a drilling scenario (drilling_*) runs the drilling
+                                   graph, fast mode only
   rig report RUN_DIR               re-make the summary and plots of a run
   rig replay FILE [options]        republish a recording (see rig replay --help)
   rig reestimate RUN_DIR [--config-dir DIR] [--rate R]

@@ -82,20 +82,23 @@ class ProcessSpec:
 
 
 def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool,
-          layout: str = "separate") -> list[NodeSpec]:
-    """The node set of a run (drill_core.ros.graph), recorder first and plant last; the
-    plant waits for the lockstep's endpoints of exactly this set in this process layout
-    (a container takes some topics on its local bus, not in the middleware)."""
-    declared = graph_decl.run_nodes(scenario_controller, fast)
+          layout: str = "separate", kind: str = "tripping") -> list[NodeSpec]:
+    """The node set of a run of a ``kind`` scenario (drill_core.ros.graph), recorder first
+    and plant last; the plant waits for the lockstep's endpoints of exactly this set in
+    this process layout (a container takes some topics on its local bus, not in the
+    middleware)."""
+    declared = graph_decl.run_nodes(scenario_controller, fast, kind)
     local = graph_decl.local_subscriptions(layout, declared)
     own = {"recorder": {"output": str(mcap_path)}, "console": {"port": CONSOLE_PORT},
-           "plant": {"wait_for": graph_decl.lockstep_endpoints(declared, fast, local)},
-           **{name: {"actuator": name} for name in topics.ACTUATORS}}
+           **{name: {"actuator": name}
+              for name in (*topics.ACTUATORS, *topics.DRILLING_ACTUATORS)}}
     nodes = []
     for node in declared:
         # the plant ends the run; in fast mode so does the estimator, after the last sample
-        finishes = node.name == "plant" or (fast and node.name == "estimator")
+        finishes = node.plant or (fast and node.name == "estimator")
         params = dict(own.get(node.name, {}))
+        if node.plant:
+            params["wait_for"] = graph_decl.lockstep_endpoints(declared, fast, local)
         matches = graph_decl.first_publish_matches(node, declared, local) if fast else []
         if matches:
             params["match_before_first_publish"] = matches

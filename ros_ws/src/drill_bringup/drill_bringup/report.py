@@ -2,7 +2,8 @@
 peak surge/swab, estimator errors against the truth (the estimation study's result,
 paper sec. 4.3), solve-time statistics and PNG plots (bar and L/min on the plots and in
 the printed table only; summary.json stays SI). An open-loop run (the sequencer's
-commands, no setpoints) has no tracking figures: they are reported as n/a."""
+commands, no setpoints) has no tracking figures: they are reported as n/a. A drilling
+run's recording gets the drilling summary instead (drill_bringup.drilling_report)."""
 from __future__ import annotations
 
 import json
@@ -12,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drill_bringup import mcap_io
+from drill_bringup import drilling_report, mcap_io
 from drill_bringup import well_control_report as well_control
 from drill_core.ros import topics
 from drill_core.units import LPM_PER_M3S, PA_PER_BAR
@@ -415,11 +416,16 @@ def plot(s: Series, out_dir: Path) -> list[Path]:
 
 
 def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | None = None):
-    """Summary JSON, plots and the printed table for one recording."""
-    series = load_series(mcap_path)
-    summary = summarise(series)
+    """Summary JSON, plots and the printed table for one recording: a tripping run's, or a
+    drilling run's when the recording holds the drilling truth."""
+    if drilling_report.holds_drilling(mcap_path):
+        summary, plots, table = drilling_report.report(mcap_path, out_dir / "plots", name)
+    else:
+        series = load_series(mcap_path)
+        summary = summarise(series)
+        plots = plot(series, out_dir / "plots")
+        table = format_table(name, summary, baseline)
     (out_dir / "summary.json").write_text(json.dumps(
         {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
          for k, v in summary.items()}, indent=2))
-    plots = plot(series, out_dir / "plots")
-    return summary, plots, format_table(name, summary, baseline)
+    return summary, plots, table

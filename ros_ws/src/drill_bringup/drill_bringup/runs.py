@@ -10,7 +10,7 @@ from datetime import datetime
 from pathlib import Path
 
 from drill_bringup import launcher, report
-from drill_core.scenario import load_scenario
+from drill_core.scenario import load_scenario, scenario_kind
 
 ROOT = Path(os.environ.get("RIG_ROOT", Path.cwd()))
 
@@ -38,6 +38,18 @@ def console_url(log_path: Path, timeout_s: float = 10.0) -> str:
     return f"not reported yet (see {log_path})"
 
 
+def _drilling_scenario(path: Path, realtime: bool, controller: str | None):
+    """A drilling scenario (drill_string.scenario), checked with the rig's configuration
+    before launch; it runs in fast mode, on its own node set."""
+    from drill_string.scenario import load_drilling_scenario
+    if realtime:
+        raise SystemExit(f"{path.name}: a drilling scenario runs in fast mode only")
+    if controller:
+        raise SystemExit(f"{path.name}: a drilling scenario has no --controller (its driller "
+                         "follows the scenario's schedule)")
+    return load_drilling_scenario(path, ROOT / "config")[0]
+
+
 def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = None,
                  seed: int | None = None, domain_id: int | None = None,
                  timeout_s: float | None = None, quiet: bool = False,
@@ -46,18 +58,24 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     ``seed`` replaces the scenario's plant seed and ``controller`` its controller (the same
     trip under another controller: ``rig compare``); ``layout`` groups nodes into processes
     (drill_core.ros.graph.LAYOUTS)."""
-    scenario, _ = load_scenario(path)
-    controller = controller or scenario.controller
+    kind = scenario_kind(path)
+    if kind == "drilling":
+        scenario, own_controller = _drilling_scenario(path, realtime, controller), "none"
+    else:
+        scenario, _ = load_scenario(path)
+        own_controller = scenario.controller
+    controller = controller or own_controller
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
     tags = "".join(f"-{tag}" for tag in (
-        controller if controller != scenario.controller else None,
+        controller if controller != own_controller else None,
         f"seed{seed}" if seed is not None else None) if tag)
     run_dir = (runs_dir or ROOT / "runs") / f"{scenario.name}{tags}-{stamp}-{os.getpid()}"
     run_dir.mkdir(parents=True, exist_ok=True)
     mcap_path = run_dir / f"{scenario.name}.mcap"
     mode = "realtime" if realtime else "fast"
     common = {"config_dir": str(ROOT / "config"), "scenario": str(path), "mode": mode}
-    nodes = launcher.graph(controller, common, mcap_path, fast=not realtime, layout=layout)
+    nodes = launcher.graph(controller, common, mcap_path, fast=not realtime, layout=layout,
+                           kind=kind)
     if seed is not None:
         nodes[-1].params["seed"] = seed
     launch = launcher.Launch(nodes, run_dir, domain_id or launcher.default_domain_id(), layout)

@@ -20,6 +20,7 @@ from drill_core.open_loop import OpenLoopPlan, start_command
 from drill_core.schema import FieldError, build, param
 
 _NAN = float("nan")
+SCENARIO_KINDS = ("tripping", "drilling")    # a scenario file's ``kind`` (absent: tripping)
 
 
 @dataclass(frozen=True)
@@ -149,12 +150,26 @@ def setpoints_at(scenario: Scenario, time_s: float, start: ActiveSetpoints) -> A
     return current
 
 
+def scenario_kind(path: str | Path) -> str:
+    """The ``kind`` of a scenario file: ``tripping`` (absent: this module's scenarios, the
+    well-control graph) or ``drilling`` (drill_string.scenario: the drilling graph)."""
+    data = load_yaml(path)
+    kind = data.get("kind", "tripping") if isinstance(data, dict) else "tripping"
+    if kind not in SCENARIO_KINDS:
+        raise ConfigError(f"{path}: kind: value {kind!r} is not one of {', '.join(SCENARIO_KINDS)}")
+    return kind
+
+
 def load_scenario(path: str | Path) -> tuple[Scenario, dict]:
-    """Read a scenario file: the typed scenario and its config ``overrides`` mapping."""
+    """Read a tripping scenario file: the typed scenario and its config ``overrides`` mapping."""
     data = load_yaml(path)
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: <top>: expected a mapping")
     data = dict(data)
+    kind = data.pop("kind", "tripping")
+    if kind != "tripping":
+        raise ConfigError(f"{path}: kind: value {kind!r}: not a tripping scenario (a drilling "
+                          "scenario loads with drill_string.scenario)")
     overrides = data.pop("overrides", {}) or {}
     if not isinstance(overrides, dict):
         raise ConfigError(f"{path}: overrides: expected a mapping of config file stems")

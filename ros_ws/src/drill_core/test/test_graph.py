@@ -37,6 +37,34 @@ def test_the_nmpc_lockstep_waits_for_every_endpoint_of_the_protocol():
     assert set(graph.lockstep_endpoints(nodes, fast=True)) == expected
 
 
+def test_a_drilling_run_is_its_own_node_set():
+    nodes = graph.run_nodes("none", fast=True, kind="drilling")
+    assert [n.name for n in nodes] == ["recorder", "driller", *topics.DRILLING_ACTUATORS,
+                                       "drilling_plant"]
+    assert [n.name for n in nodes if n.plant] == ["drilling_plant"]
+    with pytest.raises(ValueError, match="milling"):
+        graph.run_nodes("none", fast=True, kind="milling")
+
+
+def test_the_drilling_lockstep_waits_for_every_endpoint_of_its_protocol():
+    # drilling plant publishes surface, downhole, truth and /clock at t_k; the driller
+    # answers on the command period, the two drives on every frame
+    drives = [topics.actuator_frame(n) for n in topics.DRILLING_ACTUATORS]
+    expected = {
+        "sub@/drilling/surface:4",           # driller, top drive, block feed, recorder
+        "sub@/drilling/downhole:1", "sub@/drilling/truth:1", "sub@/clock:1",   # recorder
+        "sub@/drilling/command:3", "pub@/drilling/command:1",   # the drives, recorder
+        *(f"sub@{f}:2" for f in drives),     # drilling plant, recorder
+        *(f"pub@{f}:1" for f in drives),
+    }
+    nodes = graph.run_nodes("none", fast=True, kind="drilling")
+    assert set(graph.lockstep_endpoints(nodes, fast=True)) == expected
+    local = graph.local_subscriptions("two", nodes)      # drives and plant in one container
+    assert set(graph.lockstep_endpoints(nodes, True, local)) == expected - {
+        "sub@/drilling/surface:4", *(f"sub@{f}:2" for f in drives)} | {
+        "sub@/drilling/surface:2", *(f"sub@{f}:1" for f in drives)}
+
+
 def test_no_estimator_or_controller_reads_the_truth():
     for node in graph.NODES:
         if node.name == "estimator" or node.controller:

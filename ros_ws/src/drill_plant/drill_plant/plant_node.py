@@ -24,6 +24,7 @@ from drill_core.events import EVENT_KINDS
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
+from drill_core.ros.lockstep import LockstepStart
 from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns
@@ -65,53 +66,24 @@ class PlantNode(RigNode):
             self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
                                      lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
         if ctx.fast:
-            self._ready_since = None
-            self._start_timer = self.create_timer(0.05, self._wait_for_graph)
+            self.lockstep = LockstepStart(self, self.wait_for, self._publish_sample,
+                                          lambda: self.k, self.stall_timeout_s, self._stalled)
         else:
             self.lateness = FrameLateness(ctx.config.plant.sensor_period_s)
             self.create_timer(ctx.config.plant.sensor_period_s, self._realtime_tick)
             self._publish_sample()
 
     # ------------------------------------------------------------------ fast mode
-    def _graph_ready(self) -> bool:
-        for spec in self.wait_for:
-            if not spec:
-                continue
-            topic, _, count = spec.rpartition(":")
-            kind, topic = topic.split("@", 1) if "@" in topic else ("sub", topic)
-            counter = self.count_subscribers if kind == "sub" else self.count_publishers
-            if counter(topic) < int(count):
-                return False
-        return True
-
-    def _wait_for_graph(self) -> None:
-        if not self._graph_ready():
-            self._ready_since = None
-            return
-        now = time.monotonic()
-        if self._ready_since is None:
-            self._ready_since = now
-        if now - self._ready_since >= topics.MATCH_SETTLE_S:
-            self._start_timer.cancel()
-            self.get_logger().info("graph connected; starting lockstep")
-            self._progress = (self.k, now)
-            self.create_timer(1.0, self._check_stall)
-            self._publish_sample()
-
-    def _check_stall(self) -> None:
-        """Fail loudly if the lockstep stops advancing (a lost or missing input)."""
-        now = time.monotonic()
-        if self.k != self._progress[0]:
-            self._progress = (self.k, now)
-        elif now - self._progress[1] > self.stall_timeout_s:
-            stamp = self.k * self.frame_ns
-            missing = [n for n in topics.ACTUATORS if not self.frames.has(n, stamp)]
-            self.status.error(f"lockstep stalled at t = {stamp * 1e-9:.1f} s for "
-                              f"{self.stall_timeout_s:.0f} s; no frame from {', '.join(missing)}",
-                              fatal=True)
-            self.get_logger().error(self.status.last_error)
-            self.exit_code = 3
-            self.finish()
+    def _stalled(self) -> None:
+        """Fail loudly: the lockstep stopped advancing (a lost or missing input)."""
+        stamp = self.k * self.frame_ns
+        missing = [n for n in topics.ACTUATORS if not self.frames.has(n, stamp)]
+        self.status.error(f"lockstep stalled at t = {stamp * 1e-9:.1f} s for "
+                          f"{self.stall_timeout_s:.0f} s; no frame from {', '.join(missing)}",
+                          fatal=True)
+        self.get_logger().error(self.status.last_error)
+        self.exit_code = 3
+        self.finish()
 
     def _on_frame(self, name: str, msg: ActuatorFrame) -> None:
         self.frames.put(name, msg)

@@ -1,4 +1,7 @@
-"""Drilling mode without ROS: on-bottom drill-string dynamics after Tengesdal (2021), Paper IV.
+"""Drilling mode: on-bottom drill-string dynamics after Tengesdal (2021), Paper IV. The
+modules here import no ROS; ``drill_string.ros`` holds the drilling graph's nodes over them
+(``scenario``: drilling scenarios and config/drilling.yaml, ``plant``: the string frame by
+frame, ``drives``: the top drive and block feed; docs/drilling.md §6).
 
 Entry points:
 

@@ -90,6 +90,13 @@ def buoyancy_factor(sec: WellSection, steel: Steel = Steel()) -> float:
     return 1.0 - sec.mud_density_kg_m3 / steel.density_kg_m3
 
 
+def buoyed_weight_n(p: LumpedParameters) -> float:
+    """Weight in mud of the lumped string, sum rho A_i h g F_b: the hook load off bottom."""
+    mass_kg = p.steel.density_kg_m3 * float(np.sum(p.a)) * p.a_hat_m2 \
+        * p.section.string_length_m / p.n
+    return mass_kg * GRAVITY_M_S2 * buoyancy_factor(p.section, p.steel)
+
+
 def continuum_fixed_free_rad_s(wave_speed_m_s: float, length_m: float, modes: int) -> np.ndarray:
     """Natural frequencies of a uniform rod fixed at the top, free at the bottom:
     omega_k = (2k - 1) pi c / (2 L) (thesis eq. (2.42))."""

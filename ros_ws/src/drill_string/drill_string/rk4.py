@@ -18,7 +18,7 @@ from .parameters import rpm_to_rad_s
 
 
 def simulate_rk4(config, duration_s: float, step_s: float | None = None):
-    from .simulate import DEFAULT_SCALED_STEP, Trajectory
+    from .simulate import DEFAULT_SCALED_STEP, ROW_COLUMNS, trajectory_from_rows
     p = config.parameters()
     h = (step_s / p.t_star_s) if step_s else DEFAULT_SCALED_STEP
     n = p.n
@@ -79,7 +79,7 @@ def simulate_rk4(config, duration_s: float, step_s: float | None = None):
         return dx
 
     steps = max(1, int(round(duration_s / (h * p.t_star_s))))
-    out = np.empty((steps, 9))
+    out = np.empty((steps, ROW_COLUMNS))
     flags = np.zeros((steps, 3), bool)
     stick_t = stick_a = False
     tau = 0.0
@@ -113,19 +113,12 @@ def simulate_rk4(config, duration_s: float, step_s: float | None = None):
         force, torque, depth, delay = bit_loads(tau, x, stick_t, stick_a)
         bit_pos = v0 * tau + x[iz]
         hist.append(tau, om0 * tau + x[ith], bit_pos)
-        surface = n * n * p.l[0] * (0.0 - x[2 * n])
-        out[k] = (tau, om0 + x[ithv], v0 + x[izv], bit_pos, force, torque, depth, delay, surface)
+        out[k] = (tau, om0 + x[ithv], v0 + x[izv], bit_pos, force, torque, depth, delay,
+                  n * n * p.l[0] * (0.0 - x[2 * n]), p.stiffness_factor * p.a[0] * (0.0 - x[0]),
+                  v0 * tau, om0)
         flags[k] = (stick_t, stick_a, depth <= 0.0)
     ts = p.t_star_s
-    nominal_surface = t0 + p.c_hat * float(np.sum(p.l)) * om0
-    return Trajectory(
-        time_s=out[:, 0] * ts, bit_speed_rad_s=out[:, 1] / ts,
-        bit_axial_speed_m_s=out[:, 2] / ts, bit_depth_m=out[:, 3],
-        wob_n=out[:, 4] * p.force_scale_n, tob_nm=out[:, 5] * p.torque_scale_nm,
-        depth_of_cut_m=out[:, 6], delay_s=out[:, 7] * ts,
-        surface_torque_nm=(out[:, 8] + nominal_surface) * p.torque_scale_nm,
-        torsional_stick=flags[:, 0].copy(), axial_stick=flags[:, 1].copy(),
-        off_bottom=flags[:, 2].copy(),
-        meta=dict(section=p.section.name, n=n, with_bha=p.with_bha, scheme="rk4",
-                  step_s=h * ts, scaled_step=h, t_star_s=ts, omega0=om0, v0=v0,
-                  top_drive_rad_s=om0 / ts))
+    return trajectory_from_rows(
+        p, out, flags, (v0, om0, w0, t0),
+        dict(section=p.section.name, n=n, with_bha=p.with_bha, scheme="rk4", step_s=h * ts,
+             scaled_step=h, t_star_s=ts, omega0=om0, v0=v0, top_drive_rad_s=om0 / ts))

@@ -23,12 +23,12 @@ Outputs are SI (``Trajectory``); ``stick_slip_severity``, ``stick_time_fraction`
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
 from .bit_rock import BladeHistory, ScaledBitRock
-from .lumped_model import scaled_axial_matrices, scaled_torsional_matrices
+from .lumped_model import buoyed_weight_n, scaled_axial_matrices, scaled_torsional_matrices
 from .parameters import LumpedParameters, WellSection, derive, rad_s_to_rpm, rpm_to_rad_s
 from .time_stepping import AlphaCoefficients, affine_step, block_diagonal
 
@@ -73,7 +73,10 @@ def paper_fig9_config(top_drive_rpm: float, **overrides) -> DrillingConfig:
 
 @dataclass
 class Trajectory:
-    """Sampled run, SI. ``bit_depth_m`` is the bit's axial advance since t = 0."""
+    """Sampled run, SI. ``bit_depth_m`` is the bit's axial advance since t = 0 and
+    ``block_position_m`` the travelling block's (both positive down); ``hook_load_n`` is the
+    top spring's tension (the buoyed string weight less what the string pushes on the
+    bit and loses to mud drag); ``top_drive_speed_rad_s`` the speed imposed at the top."""
     time_s: np.ndarray
     bit_speed_rad_s: np.ndarray
     bit_axial_speed_m_s: np.ndarray
@@ -83,6 +86,9 @@ class Trajectory:
     depth_of_cut_m: np.ndarray
     delay_s: np.ndarray
     surface_torque_nm: np.ndarray
+    hook_load_n: np.ndarray
+    block_position_m: np.ndarray
+    top_drive_speed_rad_s: np.ndarray
     torsional_stick: np.ndarray
     axial_stick: np.ndarray
     off_bottom: np.ndarray
@@ -102,6 +108,49 @@ class Trajectory:
     def rop_m_s(self) -> np.ndarray:
         return self.bit_axial_speed_m_s
 
+    @classmethod
+    def concatenate(cls, parts: list["Trajectory"]) -> "Trajectory":
+        """One trajectory of consecutive ``parts`` (the first part's ``meta``)."""
+        return cls(**{name: np.concatenate([getattr(p, name) for p in parts])
+                      for name in TRAJECTORY_FIELDS}, meta=dict(parts[0].meta))
+
+
+# the sampled arrays of a Trajectory (drill_msgs/DrillingTruth carries them by these names)
+TRAJECTORY_FIELDS = tuple(f.name for f in fields(Trajectory) if f.name != "meta")
+
+
+ROW_COLUMNS = 12     # one sample in scaled units (trajectory_from_rows)
+
+
+def trajectory_from_rows(p: LumpedParameters, rows: np.ndarray, flags: np.ndarray,
+                         nominal: tuple[float, float, float, float], meta: dict) -> Trajectory:
+    """The SI trajectory of sampled rows in scaled units: time, bit speed, bit axial speed,
+    bit position, bit force, bit torque, depth of cut, delay, top-spring torque and force
+    perturbations, block position, top-drive speed (lengths in metres); ``flags`` torsional
+    stick, axial stick, off bottom; ``nominal`` the configuration's (v0, omega0, W0, T0)."""
+    v0, om0, w0, t0 = nominal
+    ts = p.t_star_s
+    # the top spring's steady loads: the bit's plus the mud drag on every block (scaled)
+    top_force = w0 + p.d_hat * float(np.sum(p.a)) * v0
+    top_torque = t0 + p.c_hat * float(np.sum(p.l)) * om0
+    return Trajectory(
+        time_s=rows[:, 0] * ts,
+        bit_speed_rad_s=rows[:, 1] / ts,
+        bit_axial_speed_m_s=rows[:, 2] / ts,
+        bit_depth_m=rows[:, 3],
+        wob_n=rows[:, 4] * p.force_scale_n,
+        tob_nm=rows[:, 5] * p.torque_scale_nm,
+        depth_of_cut_m=rows[:, 6],
+        delay_s=rows[:, 7] * ts,
+        surface_torque_nm=(rows[:, 8] + top_torque) * p.torque_scale_nm,
+        hook_load_n=buoyed_weight_n(p) - (rows[:, 9] + top_force) * p.force_scale_n,
+        block_position_m=rows[:, 10],
+        top_drive_speed_rad_s=rows[:, 11] / ts,
+        torsional_stick=flags[:, 0].copy(),
+        axial_stick=flags[:, 1].copy(),
+        off_bottom=flags[:, 2].copy(),
+        meta=meta)
+
 
 def stick_slip_severity(traj: Trajectory, start_s: float | None = None) -> float:
     """(max - min) / mean of the bit speed (0 for steady rotation, about 2 for stick-slip)."""
@@ -116,7 +165,7 @@ STICK_SPEED_FRACTION = 0.02
 def _stuck(traj: Trajectory) -> np.ndarray:
     """Samples where the bit turns slower than 2 % of the top-drive speed (stuck or creeping
     between short slips)."""
-    return traj.bit_speed_rad_s < STICK_SPEED_FRACTION * traj.meta["top_drive_rad_s"]
+    return traj.bit_speed_rad_s < STICK_SPEED_FRACTION * traj.top_drive_speed_rad_s
 
 
 def stick_time_fraction(traj: Trajectory, start_s: float | None = None) -> float:
@@ -216,8 +265,9 @@ class DrillStringSimulator:
         a_ax = np.linalg.solve(ma, -ca @ v_ax - ka @ q_ax - en * self.f_ax)
         a_t = np.linalg.solve(mt, -ct @ v_t - kt @ q_t - en * self.f_t)
         self._x[:6 * n] = np.concatenate([q_ax, v_ax, a_ax, q_t, v_t, a_t])
-        self._last = dict(wob=w, tob=t, depth=self.d0, delay=self.tau_n0, stick_t=False,
-                          stick_a=False, off=False)
+        self._row = np.array([0.0, self.omega0 + v_t[-1], self.v0 + v_ax[-1], 0.0, w, t, self.d0,
+                              self.tau_n0, 0.0, 0.0, 0.0, self.omega0])
+        self._flags = np.zeros(3, bool)
 
     # ---- bit solves --------------------------------------------------------------------
     def _axial(self, delta_free: float, v_free: float, rotating: bool):
@@ -275,25 +325,31 @@ class DrillStringSimulator:
 
     # ---- stepping ------------------------------------------------------------------------
     def advance(self, duration_s: float, top_drive_rpm: float | None = None,
-                block_speed_m_s: float | None = None) -> Trajectory:
+                block_speed_m_s: float | None = None, *,
+                top_drive_rad_s: float | None = None) -> Trajectory:
         """Run ``duration_s`` further (rounded to whole steps) and return its samples.
 
         A speed given here holds until another is given; ``None`` keeps the last command
-        (initially the configuration's speeds)."""
+        (initially the configuration's speeds). The top-drive speed in rpm or rad/s, not
+        both."""
         p, n, h = self.p, self.n, self.h
         steps = max(1, int(round(duration_s / self.step_s)))
+        if top_drive_rpm is not None:
+            if top_drive_rad_s is not None:
+                raise ValueError("give the top-drive speed in rpm or in rad/s, not both")
+            top_drive_rad_s = rpm_to_rad_s(top_drive_rpm)
         if block_speed_m_s is not None:
             self._du = p.scaled_rate(block_speed_m_s) - self.v0
-        if top_drive_rpm is not None:
-            self._dphi = p.scaled_speed(rpm_to_rad_s(top_drive_rpm)) - self.omega0
+        if top_drive_rad_s is not None:
+            self._dphi = p.scaled_speed(top_drive_rad_s) - self.omega0
         du, dphi = self._du, self._dphi
-        out = np.empty((steps, 9))
+        out = np.empty((steps, ROW_COLUMNS))
         flags = np.zeros((steps, 3), bool)
         T, gbit, x, hist = self._T, self._g_bit, self._x, self.hist
         ns = 6 * n
         i_top = 3 * n
         i_zacc, i_tacc = 3 * n - 1, 6 * n - 1
-        gain_t = self._top_gain_t
+        gain_t, gain_ax = self._top_gain_t, self._top_gain_ax
         torque_prev = self.f_t
         v0, om0, w0, t0 = self.v0, self.omega0, self.w0, self.t0
         corrector = self.config.corrector
@@ -323,30 +379,20 @@ class DrillStringSimulator:
             thn, thv = pred[4 * n - 1], pred[5 * n - 1]
             bit_pos = v0 * tau1 + zn
             hist.append(tau1, om0 * tau1 + thn, bit_pos)
-            surface = gain_t * (Phi1 - pred[i_top])
             out[k] = (tau1, om0 + thv, v0 + zv, bit_pos, force, torque, depth, delay,
-                      surface)
+                      gain_t * (Phi1 - pred[i_top]), gain_ax * (U1 - pred[0]), v0 * tau1 + U1,
+                      om0 + dphi)
             flags[k] = (st, sa, off)
+        self._row, self._flags = out[-1].copy(), flags[-1].copy()
         return self._to_si(out, flags)
 
+    def sample(self) -> Trajectory:
+        """The one sample at the current time (at t = 0 the initial state)."""
+        return self._to_si(self._row[None, :], self._flags[None, :])
+
     def _to_si(self, out, flags) -> Trajectory:
-        p = self.p
-        ts = p.t_star_s
-        nominal_surface = self.t0 + p.c_hat * float(np.sum(p.l)) * self.omega0
-        return Trajectory(
-            time_s=out[:, 0] * ts,
-            bit_speed_rad_s=out[:, 1] / ts,
-            bit_axial_speed_m_s=out[:, 2] / ts,
-            bit_depth_m=out[:, 3],
-            wob_n=out[:, 4] * p.force_scale_n,
-            tob_nm=out[:, 5] * p.torque_scale_nm,
-            depth_of_cut_m=out[:, 6],
-            delay_s=out[:, 7] * ts,
-            surface_torque_nm=(out[:, 8] + nominal_surface) * p.torque_scale_nm,
-            torsional_stick=flags[:, 0].copy(),
-            axial_stick=flags[:, 1].copy(),
-            off_bottom=flags[:, 2].copy(),
-            meta=self.meta())
+        return trajectory_from_rows(self.p, out, flags, (self.v0, self.omega0, self.w0, self.t0),
+                                    self.meta())
 
     def meta(self) -> dict:
         p = self.p

@@ -26,13 +26,14 @@ class NodeContext:
         return self.mode == "fast"
 
 
-def _default_root() -> Path:
+def default_root() -> Path:
+    """The repository: RIG_ROOT, else the working directory."""
     return Path(os.environ.get("RIG_ROOT", Path.cwd()))
 
 
 def load_context(node) -> NodeContext:
     """Declare and read the common parameters, then load scenario and configuration once."""
-    root = _default_root()
+    root = default_root()
     config_dir = node.declare_parameter("config_dir", str(root / "config")).value
     scenario_path = node.declare_parameter(
         "scenario", str(root / "config" / "scenarios" / "case2.yaml")).value

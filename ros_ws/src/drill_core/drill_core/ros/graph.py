@@ -1,8 +1,11 @@
 """The rig's node graph, declared once: every topic (type, QoS) and every node (module,
-what it publishes and subscribes).
+what it publishes and subscribes, which kinds of scenario it runs in).
 
-The launcher picks a run's nodes from ``NODES`` and derives from them the endpoints the
-plant waits for before the lockstep starts (``lockstep_endpoints``);
+A tripping scenario runs the well-control graph (plant, four actuators, estimator, an
+advisor, protection); a drilling scenario (drill_string) its own: the driller, the top
+drive and the block feed, and the drill-string plant. The launcher picks a run's nodes
+from ``NODES`` and derives from them the endpoints the plant waits for before the
+lockstep starts (``lockstep_endpoints``);
 docs/architecture.md's topic table is generated from it (``python -m
 drill_core.ros.graph``) and a test holds the two together. The nodes create their
 endpoints in code; this table is what they must match (docs/design.md §2).
@@ -13,10 +16,12 @@ import sys
 from dataclasses import dataclass
 
 from drill_core.ros import topics
+from drill_core.scenario import SCENARIO_KINDS
 
 CLOCK = "/clock"
 EVERY_TOPIC = "*"                 # the recorder subscribes to whatever is published
 FRAMES = tuple(topics.actuator_frame(name) for name in topics.ACTUATORS)
+DRILLING_FRAMES = tuple(topics.actuator_frame(name) for name in topics.DRILLING_ACTUATORS)
 
 
 @dataclass(frozen=True)
@@ -47,6 +52,14 @@ TOPICS = (
     Topic(topics.LEVEL_IN_FORCE, "std_msgs/String", "latched", "the level applied"),
     Topic(topics.ESTOP_IN_FORCE, "std_msgs/Bool", "latched", "the stop applied"),
     Topic(CLOCK, "rosgraph_msgs/Clock", "reliable", "fast mode only"),
+    Topic(topics.SURFACE, "drill_msgs/SurfaceMeasurement", "reliable", "drilling mode"),
+    Topic(topics.DOWNHOLE, "drill_msgs/DownholeMeasurement", "reliable",
+          "drilling mode, wired pipe"),
+    Topic(topics.DRILLING_TRUTH, "drill_msgs/DrillingTruth", "reliable",
+          "drilling mode, evaluation only"),
+    Topic(topics.DRILLING_COMMAND, "drill_msgs/DrillingCommand", "reliable", "drilling mode"),
+    *(Topic(frame, "drill_msgs/ActuatorFrame", "reliable", "drilling mode")
+      for frame in DRILLING_FRAMES),
 )
 BY_TOPIC = {t.name: t for t in TOPICS}
 
@@ -61,6 +74,9 @@ class Node:
     controller: str | None = None    # the scenario controller this advisor is
     reads_clock: bool = False        # runs on /clock in fast mode (the others act on stamps)
     realtime_only: bool = False
+    kinds: tuple[str, ...] = ("tripping",)   # the scenario kinds whose runs hold it
+    plant: bool = False              # the run's clock: starts the lockstep once the graph is
+                                     # connected (wait_for) and ends the run
 
     @property
     def status_topic(self) -> str:
@@ -75,8 +91,15 @@ def _actuator(name: str) -> Node:
                 (topics.MEASUREMENT, topics.MACHINE_COMMAND))
 
 
+def _drilling_actuator(name: str) -> Node:
+    return Node(name, "drill_string.ros.actuator_node", "DrillingActuatorNode",
+                (topics.actuator_frame(name),), (topics.SURFACE, topics.DRILLING_COMMAND),
+                kinds=("drilling",))
+
+
 NODES = (
-    Node("recorder", "drill_bringup.recorder", "Recorder", (), (EVERY_TOPIC,), reads_clock=True),
+    Node("recorder", "drill_bringup.recorder", "Recorder", (), (EVERY_TOPIC,), reads_clock=True,
+         kinds=SCENARIO_KINDS),
     *(_actuator(name) for name in topics.ACTUATORS),
     Node("estimator", "drill_estimator.estimator_node", "EstimatorNode", (topics.ESTIMATE,),
          (topics.MEASUREMENT, *FRAMES)),
@@ -105,25 +128,38 @@ NODES = (
           *FRAMES),
          realtime_only=True),
     Node("plant", "drill_plant.plant_node", "PlantNode",
-         (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, CLOCK), FRAMES),
+         (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, CLOCK), FRAMES, plant=True),
+    Node("driller", "drill_string.ros.driller_node", "DrillerNode", (topics.DRILLING_COMMAND,),
+         (topics.SURFACE,), kinds=("drilling",)),
+    *(_drilling_actuator(name) for name in topics.DRILLING_ACTUATORS),
+    Node("drilling_plant", "drill_string.ros.plant_node", "DrillingPlantNode",
+         (topics.SURFACE, topics.DOWNHOLE, topics.DRILLING_TRUTH, CLOCK), DRILLING_FRAMES,
+         kinds=("drilling",), plant=True),
 )
 BY_NAME = {n.name: n for n in NODES}
 CONTROLLERS = tuple(n.controller for n in NODES if n.controller)
 # The plant starts frame 0 once these are matched: everything the lockstep passes on, and
 # the scenario events the recorder must not miss.
 LOCKSTEP_TOPICS = (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, topics.ESTIMATE, CLOCK,
-                   topics.COMMAND, topics.MACHINE_COMMAND, *FRAMES)
+                   topics.COMMAND, topics.MACHINE_COMMAND, *FRAMES, topics.SURFACE,
+                   topics.DOWNHOLE, topics.DRILLING_TRUTH, topics.DRILLING_COMMAND,
+                   *DRILLING_FRAMES)
 
 
 # Process layouts: the groups of nodes that share one process (a container, one executor;
 # drill_core.ros.container); every node not in a group runs in a process of its own. The
 # recorder always runs alone, so a dying node cannot take the recording with it.
+# A drilling run groups its nodes the same way: the drives with the actuators, the
+# drilling plant with the plant, the driller with the advisors.
+_ACTUATORS = (*topics.ACTUATORS, *topics.DRILLING_ACTUATORS)
+_PLANT = ("plant", "drilling_plant", *_ACTUATORS)
 LAYOUTS = {
     "separate": {},
-    "actuators": {"actuators": topics.ACTUATORS},
-    "plant": {"plant": ("plant", *topics.ACTUATORS)},
-    "two": {"plant": ("plant", *topics.ACTUATORS),
-            "control": ("estimator", *(n.name for n in NODES if n.controller), "protection")},
+    "actuators": {"actuators": _ACTUATORS},
+    "plant": {"plant": _PLANT},
+    "two": {"plant": _PLANT,
+            "control": ("estimator", *(n.name for n in NODES if n.controller), "protection",
+                        "driller")},
 }
 
 
@@ -177,16 +213,19 @@ def _middleware_readers(topic: str, nodes: list[Node], local: dict) -> int:
     return sum(n.subscribes_to(topic) and topic not in local.get(n.name, ()) for n in nodes)
 
 
-def run_nodes(controller: str, fast: bool) -> list[Node]:
-    """The nodes of a run under ``controller``, recorder first and plant last: the
-    actuators, the estimator, the controller's advisor with the process protection, the
-    console in realtime mode."""
+def run_nodes(controller: str, fast: bool, kind: str = "tripping") -> list[Node]:
+    """The nodes of a run of a ``kind`` scenario under ``controller``, recorder first and
+    plant last. Tripping: the actuators, the estimator, the controller's advisor with the
+    process protection, the console in realtime mode. Drilling (controller ``none``): the
+    driller, the top drive, the block feed and the drilling plant."""
+    if kind not in SCENARIO_KINDS:
+        raise ValueError(f"scenario kind {kind!r} is not one of {', '.join(SCENARIO_KINDS)}")
     if controller not in CONTROLLERS + ("none",):
         raise ValueError(f"controller {controller!r} is not one of {', '.join(CONTROLLERS)}, none")
     advisor = [n for n in NODES if n.controller == controller]
     out = []
     for node in NODES:
-        if node.controller and node not in advisor:
+        if kind not in node.kinds or (node.controller and node not in advisor):
             continue
         if node.name == "protection" and not advisor:
             continue
@@ -213,7 +252,7 @@ def lockstep_endpoints(nodes: list[Node], fast: bool, local: dict | None = None)
         subscribers = _middleware_readers(topic, nodes, local or {})
         if subscribers:
             out.append(f"sub@{topic}:{subscribers}")
-        others = sum(n.name != "plant" for n in publishers)
+        others = sum(not n.plant for n in publishers)
         if others:
             out.append(f"pub@{topic}:{others}")
     return out
@@ -258,7 +297,7 @@ def markdown_table() -> str:
         pubs = [n.name for n in NODES if t.name in n.publishes]
         subs = [n.name for n in NODES if t.name in n.subscribes]
         if t.name in FRAMES:
-            pubs = ["`<name>` (each actuator)"]
+            pubs = ["`<name>` (each tripping actuator)"]
             subs = [_frames_of(n) for n in NODES if any(f in n.subscribes for f in FRAMES)]
         qos = "reliable, transient local, depth 1" if t.qos == "latched" else "reliable, keep all"
         note = f" ({t.note})" if t.note else ""

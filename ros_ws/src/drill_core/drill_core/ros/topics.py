@@ -25,6 +25,12 @@ SETPOINTS = "/setpoints"                # drill_msgs/Setpoints, latched
 SET_SETPOINTS = "/set_setpoints"        # drill_msgs/srv/SetSetpoints, validating
 OPERATOR_EVENTS = "/operator/events"    # drill_msgs/OperatorEvent
 RIG_EVENTS = "/rig/events"              # drill_msgs/OperatorEvent, plant: scenario events (faults)
+# drilling mode (drill_string): its own node set
+SURFACE = "/drilling/surface"           # drill_msgs/SurfaceMeasurement, drilling plant -> driller, drives
+DOWNHOLE = "/drilling/downhole"         # drill_msgs/DownholeMeasurement, drilling plant (wired pipe)
+DRILLING_TRUTH = "/drilling/truth"      # drill_msgs/DrillingTruth, drilling plant: evaluation only
+DRILLING_COMMAND = "/drilling/command"  # drill_msgs/DrillingCommand, driller -> top drive, block feed
+DRILLING_ACTUATORS = ("top_drive", "block_feed")   # drilling mode's machines (actuator_frame)
 
 
 def actuator_frame(name: str) -> str:
