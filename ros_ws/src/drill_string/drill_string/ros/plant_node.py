@@ -66,9 +66,10 @@ class DrillingPlantNode(RigNode):
         frames = {name: self.frames.take(name, stamp) for name in topics.DRILLING_ACTUATORS}
         if self.k >= self.last_k:       # the frames of the last sample: every node acted on it
             self.status.publish(stamp)
-            if not flush((self.pub_downhole, self.pub_truth, self.pub_surface)):
-                self.get_logger().warning("a reader did not acknowledge the last samples")
             self.get_logger().info(f"scenario finished after {self.k} frames")
+            acked = flush((self.pub_downhole, self.pub_truth, self.pub_surface))
+            self.get_logger().info("the readers have the last samples" if acked else
+                                   "a reader did not acknowledge the last samples")
             self.finish()
             return
         for name in self.plant.advance(frames["top_drive"].output, frames["block_feed"].output):
