@@ -24,7 +24,7 @@ from drill_core.events import EVENT_KINDS
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
-from drill_core.ros.lockstep import LockstepStart
+from drill_core.ros.lockstep import LockstepStart, flush
 from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns
@@ -102,7 +102,9 @@ class PlantNode(RigNode):
 
     def _finish(self, stamp_ns: int) -> None:
         self.status.publish(stamp_ns)
-        self.get_logger().info(f"scenario finished after {self.k} frames")
+        acked = flush((self.pub_measurement, self.pub_truth, self.pub_events))
+        self.get_logger().info(f"scenario finished after {self.k} frames"
+                               + ("" if acked else "; a reader had not acknowledged the last"))
         self.finish()
 
     # -------------------------------------------------------------- realtime mode
