@@ -145,6 +145,30 @@ def realtime_margins(domain_id: int, busy_domain_id: int | None = None) -> dict:
             **{key: summary[key] for key in report.REALTIME_MARGINS}}
 
 
+DRILLING_SCENARIOS = ("drilling_12in_op1", "drilling_12in_op2", "drilling_36in")
+
+
+def drilling_speed(scenario: str, domain_id: int) -> dict:
+    """A drilling scenario (Paper IV) against real time: the string model alone (its
+    simulated seconds per CPU second) and the whole run through the graph (simulated
+    seconds per wall second, from process start to the recording closed)."""
+    from drill_string.scenario import load_drilling_scenario
+    from drill_string.simulate import simulate
+    path = runs.scenario_path(scenario)
+    scenario_obj, _ = load_drilling_scenario(path, runs.ROOT / "config")
+    cpu = time.process_time()
+    simulate(scenario_obj.drilling_config(), scenario_obj.duration_s)
+    cpu = time.process_time() - cpu
+    with tempfile.TemporaryDirectory() as tmp:
+        code, run_dir = runs.run_scenario(path, runs_dir=Path(tmp), domain_id=domain_id,
+                                          quiet=True)
+        launch = json.loads((run_dir / "launch.json").read_text())
+        if code != 0:
+            raise RuntimeError(f"{scenario} failed: {launch}")
+    return {"scenario": scenario, "simulated_s": scenario_obj.duration_s,
+            "model_cpu_s": cpu, "graph_wall_s": launch["wall_time_s"]}
+
+
 def write_doc(results: dict, path: Path) -> None:
     lines = [
         "# Benchmarks",
@@ -189,6 +213,18 @@ def write_doc(results: dict, path: Path) -> None:
             lines += [f"### Time budget, layout {g['layout']}, {g['executor']} executor", "",
                       budget.markdown(g["budget"]), ""]
         lines += [budget.__doc__.split("\n\n")[1].replace("\n", " "), ""]
+    if "drilling" in results:
+        lines += ["## Drilling mode (Paper IV)", "",
+                  "Each drilling scenario's simulated time against the string model alone (CPU "
+                  "time of `drill_string.simulate`) and against the whole run through the graph "
+                  "(wall time from process start to the recording closed, start-up included; "
+                  "the paper notes that solving for the bit's delay can take seconds per step):",
+                  "", "| scenario | simulated | model alone | x real time | graph run | "
+                  "x real time |", "| --- | --- | --- | --- | --- | --- |"]
+        lines += [f"| {d['scenario']} | {d['simulated_s']:.2f} s | {d['model_cpu_s']:.3f} s | "
+                  f"{d['simulated_s'] / d['model_cpu_s']:.0f} | {d['graph_wall_s']:.1f} s | "
+                  f"{d['simulated_s'] / d['graph_wall_s']:.2f} |" for d in results["drilling"]]
+        lines.append("")
     if "realtime" in results:
         lines += ["## Realtime margins", "",
                   "The short trip in realtime mode: how late the plant's 0.1 s frames started "
@@ -230,6 +266,10 @@ def main(argv=None) -> int:
             results["graph"].append(graph_rtf("case2", domain, layout, executor))
             print(f"[bench] case2 graph ({layout}, {executor}): "
                   f"{results['graph'][-1]['wall_s']:.1f} s", flush=True)
+        results["drilling"] = [drilling_speed(name, domain) for name in DRILLING_SCENARIOS]
+        for d in results["drilling"]:
+            print(f"[bench] {d['scenario']}: model {d['model_cpu_s']:.2f} s CPU, graph "
+                  f"{d['graph_wall_s']:.1f} s for {d['simulated_s']:.1f} s", flush=True)
         busy_domain = launcher.default_domain_id()
         results["realtime"] = [realtime_margins(domain), realtime_margins(domain, busy_domain)]
         for r in results["realtime"]:
