@@ -31,13 +31,19 @@ def default_root() -> Path:
     return Path(os.environ.get("RIG_ROOT", Path.cwd()))
 
 
-def load_context(node) -> NodeContext:
-    """Declare and read the common parameters, then load scenario and configuration once."""
+def common_parameters(node, default_scenario: str) -> tuple[str, str, str]:
+    """Declare and read the parameters every node of a run gets: (config_dir, scenario
+    path, mode), the scenario by default config/scenarios/<default_scenario>.yaml."""
     root = default_root()
     config_dir = node.declare_parameter("config_dir", str(root / "config")).value
     scenario_path = node.declare_parameter(
-        "scenario", str(root / "config" / "scenarios" / "case2.yaml")).value
-    mode = node.declare_parameter("mode", "fast").value
+        "scenario", str(root / "config" / "scenarios" / f"{default_scenario}.yaml")).value
+    return config_dir, scenario_path, node.declare_parameter("mode", "fast").value
+
+
+def load_context(node) -> NodeContext:
+    """Declare and read the common parameters, then load scenario and configuration once."""
+    config_dir, scenario_path, mode = common_parameters(node, "case2")
     if mode not in MODES:
         raise ValueError(f"parameter mode: {mode!r} is not one of {', '.join(MODES)}")
     scenario, config = load_scenario_config(scenario_path, config_dir)

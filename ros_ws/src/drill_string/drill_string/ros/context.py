@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from drill_core.ros.context import default_root
+from drill_core.ros.context import common_parameters
 
 from drill_string.scenario import DrillingRig, DrillingScenario, load_drilling_scenario
 
@@ -18,11 +18,7 @@ class DrillingContext:
 
 def load_drilling_context(node) -> DrillingContext:
     """Declare and read the common parameters, then load scenario and configuration once."""
-    root = default_root()
-    config_dir = node.declare_parameter("config_dir", str(root / "config")).value
-    scenario_path = node.declare_parameter(
-        "scenario", str(root / "config" / "scenarios" / "drilling_12in_op1.yaml")).value
-    mode = node.declare_parameter("mode", "fast").value
+    config_dir, scenario_path, mode = common_parameters(node, "drilling_12in_op1")
     if mode != "fast":
         raise ValueError(f"parameter mode: {mode!r}; a drilling run is fast mode only")
     return DrillingContext(*load_drilling_scenario(scenario_path, config_dir))
