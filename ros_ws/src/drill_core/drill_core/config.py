@@ -194,6 +194,10 @@ class Actuators:
     bpp: Lag = param(doc="back-pressure pump flow [m^3/s]")
     mud_pump: Lag = param(doc="stand-pipe pressure [Pa]")
     watchdog_timeout_s: float = param("s", 0.0, 60.0, lo_open=True)
+    choke_flow_frozen_after_samples: int = param(
+        "samples", 0, 10000, default=5,
+        doc="the same return-flow sample this many frames running is frozen: the flow "
+            "controller falls back on the valve law (0: never)")
     choke_pressure_kp: float = param(
         "1", 0.0, 100.0, default=0.0,
         doc="pressure mode: PI gain, opening per unit normalised choke-dp error")

@@ -15,7 +15,7 @@ its stamp, so the result does not depend on timing.
 realtime mode: each measurement is processed on arrival with the latest frame of each
 actuator (inputs held when a frame is missing).
 
-Before the update the channels are screened (drill_estimator.channel_watch): a frozen
+Before the update the channels are screened (drill_core.channel_watch): a frozen
 channel is left out like a NaN one, and the estimate reports the frozen channels and the
 age of the stalest channel, so a dropout shows as staleness while the filter rides on its
 model (its covariance grows).
@@ -42,7 +42,7 @@ from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_core.ros.status import StatusReporter
 from drill_core.estimation_model import MEASUREMENT_NAMES
-from drill_estimator.channel_watch import ChannelWatch
+from drill_core.channel_watch import ChannelWatch
 from drill_estimator.model_inputs import ModelInputs
 from drill_estimator.ukf import RigUkf, UpdateResult
 

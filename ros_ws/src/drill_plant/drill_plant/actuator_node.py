@@ -7,9 +7,10 @@ from the sample they were computed at. The choke honours the command's manual mo
 (``choke_manual``: drive to ``choke_opening_ref``), its pressure controller
 (``choke_pressure_control``: hold the measured choke dp at ``choke_dp_ref_pa``, ramped at
 ``choke_dp_ref_rate_pa_s``, with ``choke_flow_ref_m3s`` as flow feedforward) and otherwise
-its PI flow controller on ``choke_flow_ref_m3s``. If commands stop for longer than the
-watchdog timeout it holds a safe state (block held where it is, choke opening and
-pumps held) and says so on its status topic. A scenario's actuator faults
+its PI flow controller on ``choke_flow_ref_m3s`` against the measured return flow (the
+valve law when that sample is bad: counted as ``valve_law_frames`` on its status). If
+commands stop for longer than the watchdog timeout it holds a safe state (block held where
+it is, choke opening and pumps held) and says so on its status topic. A scenario's actuator faults
 (drill_core.events) act here: ``stuck`` freezes the output, ``trip`` stops a pump whatever
 it is commanded; the frame names the fault acting.
 """
@@ -125,6 +126,8 @@ class ActuatorNode(RigNode):
         self.pub.publish(frame)
         self.status.mode = f"{self.ctx.mode}/{'watchdog' if tripped else 'commanded'}"
         self.status.values = {"command": out.command, "output": float(out.output[-1])}
+        if self.actuator == "choke":     # frames its flow loop ran on the valve law
+            self.status.values["valve_law_frames"] = float(self.model.valve_law_frames)
         self.status.tick(now_ns)
 
     def _fault(self, stamp_ns: int) -> str:
@@ -161,7 +164,8 @@ class ActuatorNode(RigNode):
                                                  since_s, target, m.choke_dp_pa, self.step_s,
                                                  self.steps)
             manual = cmd.choke_opening_ref if cmd.choke_manual else None
-            return self.model.frame(target, m.choke_dp_pa, self.step_s, self.steps, manual)
+            return self.model.frame(target, m.choke_dp_pa, self.step_s, self.steps, manual,
+                                    m.return_flow_m3s)
         return self.model.frame(target, self.step_s, self.steps)
 
 

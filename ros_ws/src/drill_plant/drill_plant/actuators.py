@@ -1,6 +1,7 @@
 """Actuator models (docs/design.md §4): first-order lags with range and rate limits,
-the drawworks' block-position controller, the choke's PI flow controller and a
-command watchdog. Plain Python; the actuator node wires them to topics.
+the drawworks' block-position controller, the choke's PI flow controller (on the
+return-flow meter) and pressure controller, and a command watchdog. Plain Python; the
+actuator node wires them to topics.
 
 Each actuator advances one sensor frame at a time: given the command in force and
 the measurement at t_k, it returns its output at t_k + i*dt for i = 0..N-1, the
@@ -15,6 +16,7 @@ import numpy as np
 
 from drill_core import hydraulics as hy
 from drill_core.block_control import block_command, integral_rate
+from drill_core.channel_watch import ChannelWatch
 from drill_core.config import Actuators, Lag
 
 
@@ -101,14 +103,18 @@ class Choke:
     then the choke-valve lag.
 
     Flow mode (the paper's): the reference is a choke flow [m^3/s]; the controlled flow is
-    inferred from the valve law with the measured differential pressure and the current
-    opening (the choke flow itself is not measured). Pressure mode (an MPD choke
-    controller's surface back-pressure loop): at every sensor frame a PI on the measured
-    choke dp against a set-point that ramps from the command's value at its rate, plus
-    the opening the valve law gives for a feedforward flow at that set-point. Manual mode
-    drives the valve to a given opening (the paper's estimation study, sec. 4.3, holds the
-    choke at 50 %). Every switch is bumpless: each mode continues from the opening the
-    valve was left at.
+    the Coriolis meter's return flow (the flow through the choke line). A bad sample of it
+    (NaN, inf, or frozen: the same value ``choke_flow_frozen_after_samples`` frames running)
+    falls back on the valve law with the measured differential pressure and the current
+    opening, counted in ``valve_law_frames``: the valve law takes the clean valve
+    coefficient, so a plugging choke passes less than it says (docs/faults.md).
+
+    Pressure mode (an MPD choke controller's surface back-pressure loop): at every sensor
+    frame a PI on the measured choke dp against a set-point that ramps from the command's
+    value at its rate, plus the opening the valve law gives for a feedforward flow at that
+    set-point. Manual mode drives the valve to a given opening (the paper's estimation
+    study, sec. 4.3, holds the choke at 50 %). Every switch is bumpless: each mode
+    continues from the opening the valve was left at.
     """
 
     def __init__(self, config: Actuators, wm: hy.WellModel, initial_opening: float):
@@ -118,11 +124,24 @@ class Choke:
         self.opening_command = self.lag.value
         self.previous_error: float | None = None
         self.pressure_integral: float | None = None     # pressure mode's integral [1]
+        self.flow_watch = ChannelWatch(("return_flow_m3s",), config.choke_flow_frozen_after_samples)
+        self.valve_law_frames = 0     # flow-mode frames on the valve law (bad return-flow sample)
+
+    def measured_flow(self, return_flow_m3s: float, measured_dp_pa: float) -> float:
+        """The flow loop's measured choke flow [m^3/s]: the return-flow sample, or the valve
+        law at the current opening and ``measured_dp_pa`` when the sample is bad."""
+        screened, _ = self.flow_watch.screen(0.0, [return_flow_m3s])    # (no staleness kept)
+        if math.isfinite(screened[0]):
+            return float(screened[0])
+        self.valve_law_frames += 1
+        return float(hy.choke_flow(self.wm, self.lag.value, measured_dp_pa))
 
     def frame(self, flow_ref_m3s: float, measured_dp_pa: float, step_s: float,
-              steps: int, manual_opening: float | None = None) -> FrameOutput:
-        """One frame; ``manual_opening`` [1] (not None) is manual mode and the frame's
-        reference is then NaN (no flow reference)."""
+              steps: int, manual_opening: float | None = None,
+              return_flow_m3s: float = math.nan) -> FrameOutput:
+        """One frame; ``return_flow_m3s`` is the return-flow sample the flow loop controls
+        (the valve law when it is bad); ``manual_opening`` [1] (not None) is manual mode
+        and the frame's reference is then NaN (no flow reference)."""
         self.pressure_integral = None            # leaving pressure mode
         if manual_opening is not None:
             self.opening_command = self.lag.limit(manual_opening)
@@ -130,11 +149,13 @@ class Choke:
             return FrameOutput(self.opening_command, math.nan,
                                self.lag.advance(self.opening_command, step_s, steps))
         c = self.config
-        if not (math.isfinite(flow_ref_m3s) and math.isfinite(measured_dp_pa)):
-            # a bad sample holds the opening; the PI's memory stays clean
+        flow = self.measured_flow(return_flow_m3s, measured_dp_pa) \
+            if math.isfinite(flow_ref_m3s) else math.nan
+        if not math.isfinite(flow):
+            # a bad reference, or no usable flow sample (and no dp for the valve law): the
+            # opening is held, the PI's memory stays clean
             return FrameOutput(self.opening_command, flow_ref_m3s,
                                self.lag.advance(self.opening_command, step_s, steps))
-        flow = float(hy.choke_flow(self.wm, self.lag.value, measured_dp_pa))
         error = (flow_ref_m3s - flow) / c.choke_flow_scale_m3s
         previous = error if self.previous_error is None else self.previous_error
         dt = step_s * steps

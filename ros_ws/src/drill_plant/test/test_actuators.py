@@ -1,6 +1,8 @@
-"""The choke's manual mode (drill_plant.actuators.Choke): the valve goes to the commanded
+"""The choke (drill_plant.actuators.Choke): in manual mode the valve goes to the commanded
 opening through its lag, the PI flow controller is bypassed, and back in automatic the
-velocity-form PI continues from the opening it was left at."""
+velocity-form PI continues from the opening it was left at; the flow controller holds the
+measured return flow (a plugged choke included) and falls back on the valve law when
+that sample is bad."""
 from __future__ import annotations
 
 import math
@@ -82,3 +84,44 @@ def test_one_nan_position_holds_the_drawworks_and_keeps_its_integral_finite():
     for k in range(20):
         out = dw.frame(5.0, math.nan if k == 3 else 0.1 * k, STEP_S, STEPS)
         assert np.all(np.isfinite(out.output)) and math.isfinite(dw.integral_m_s)
+
+
+def _plugged_loop(choke: Choke, wm, flow_ref_m3s: float, meter: bool, frames: int = 300):
+    """The flow loop on a choke whose valve passes half of the clean law's flow (a plugged
+    choke, constant dp); with ``meter`` it reads that flow from the return-flow meter."""
+    true_flow = math.nan
+    for _ in range(frames):
+        true_flow = 0.5 * float(hy.choke_flow(wm, choke.lag.value, DP_PA))
+        choke.frame(flow_ref_m3s, DP_PA, STEP_S, STEPS,
+                    return_flow_m3s=true_flow if meter else math.nan)
+    return true_flow
+
+
+def test_on_the_return_flow_meter_a_plugged_choke_passes_its_reference(setup):
+    actuators, wm = setup
+    flow_ref = float(hy.choke_flow(wm, 0.3, DP_PA))
+    metered, deceived = Choke(actuators, wm, 0.3), Choke(actuators, wm, 0.3)
+    assert _plugged_loop(metered, wm, flow_ref, True) == pytest.approx(flow_ref, rel=1e-3)
+    assert metered.lag.value == pytest.approx(0.6, rel=1e-2) and metered.valve_law_frames == 0
+    # on the clean valve law the loop believes the reference is met at half of it
+    assert _plugged_loop(deceived, wm, flow_ref, False) == pytest.approx(0.5 * flow_ref, rel=1e-3)
+    assert deceived.valve_law_frames == 300
+
+
+def test_a_bad_return_flow_sample_falls_back_on_the_valve_law_and_is_counted(setup):
+    actuators, wm = setup
+    choke = Choke(actuators, wm, 0.3)
+    law = float(hy.choke_flow(wm, 0.3, DP_PA))
+    rng = np.random.default_rng(3)
+    for value in (law * (1.0 + 1e-3 * rng.normal()) for _ in range(10)):   # a live meter
+        assert choke.measured_flow(value, DP_PA) == value
+    assert choke.measured_flow(math.nan, DP_PA) == pytest.approx(law)
+    assert choke.measured_flow(math.inf, DP_PA) == pytest.approx(law)
+    assert choke.valve_law_frames == 2
+    frozen = law * 1.2
+    seen = [choke.measured_flow(frozen, DP_PA) for _ in range(7)]
+    limit = actuators.choke_flow_frozen_after_samples
+    assert seen[:limit - 1] == [frozen] * (limit - 1)            # not yet known frozen
+    assert seen[limit - 1:] == [pytest.approx(law)] * (8 - limit)  # the same sample again: law
+    assert choke.valve_law_frames == 2 + 8 - limit
+    assert choke.measured_flow(law, DP_PA) == law                # moving again: the meter

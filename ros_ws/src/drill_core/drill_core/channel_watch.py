@@ -1,8 +1,9 @@
-"""Screening of the measured channels before the UKF fuses them (plain Python): a channel
-repeating exactly the same value for ``frozen_after`` samples (0: never) is flagged frozen
-and left out (a live sensor's noise never repeats a float) until it changes again; each channel's
-age is the time since its last usable sample, so a dropout is reported as staleness
-while the filter rides on its model."""
+"""Screening of measured channels before they are used (plain Python; the UKF's update,
+the choke's flow loop on the return-flow meter): a channel repeating exactly the same value
+for ``frozen_after`` samples (0: never) is flagged frozen and left out (a live sensor's
+noise never repeats a float) until it changes again; each channel's age is the time since
+its last usable sample, so a dropout is reported as staleness while the user rides on its
+model."""
 from __future__ import annotations
 
 import math

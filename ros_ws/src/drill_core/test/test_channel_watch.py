@@ -3,7 +3,7 @@ import math
 
 import numpy as np
 
-from drill_estimator.channel_watch import ChannelWatch
+from drill_core.channel_watch import ChannelWatch
 
 
 def test_a_repeated_value_is_frozen_after_n_samples_and_released_when_it_moves():
