@@ -283,6 +283,7 @@ class NmpcNode(AdvisorNode):
         self.status.values = {"solve_time_s": float(r.solve_time_s),
                               "iterations": float(r.iterations),
                               "fallback_count": float(self.supervisor.fallback_count),
+                              "rollouts": float(self.supervisor.rollouts),
                               "commands": float(self.commands)}
         self.status.tick(stamp)
 

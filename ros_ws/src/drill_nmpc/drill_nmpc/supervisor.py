@@ -5,8 +5,9 @@ Plain module (no rclpy). Each sample it turns the estimate into the OCP's initia
 drawworks' last command), caps the friction parameters for a stable prediction, builds
 the references (the trip's motion profile for the block) and the soft constraints' band
 edges, learns the model's BHP bias from its one-step errors, solves from the shifted
-previous solution and, on an unusable answer, re-solves cold with the relaxed constraint
-set (paper Alg. 3) or holds the last input. Commands are always finite and inside the
+previous solution and, on an unusable answer, once more from that solution's inputs rolled
+out through the prediction model (no dynamics gaps), then cold with the relaxed constraint
+set (paper Alg. 3), or holds the last input. Commands are always finite and inside the
 bounds. docs/nmpc.md sections 0 and 5.
 """
 from __future__ import annotations
@@ -104,6 +105,7 @@ class Supervisor:
         self._applied: np.ndarray | None = None      # u_{-1} of the previous step (u_{-2})
         self._speed = 0.0                            # block-reference speed of the last period
         self.theta_clamps = 0                        # estimates whose theta had to be capped
+        self.rollouts = 0                            # solves from the rolled-out warm start
         self._trip: tuple[float, float] | None = None  # (block target m, furthest string position on the way m)
         self._profile: MotionProfile | None = None     # block reference's motion profile (block_reference profile)
         self.bhp_bias = 0.0                            # model's BHP offset (bhp_bias_gain > 0) [Pa]
@@ -239,6 +241,18 @@ class Supervisor:
         E = np.tile(self.integral, (pb.N + 1, 1)) if pb.ne else None
         return pb.pack(x0, u_prev, X, U, E, {}, self._speed), None, None
 
+    def _rollout_guess(self, x0, par, u_prev, pump_on, y_sp):
+        """The previous solution's inputs, shifted one sample, rolled out from x_0 through
+        the prediction model: states and NMPC1's integral without dynamics gaps (the pump
+        state of now); slacks and multipliers zero."""
+        pb, w = self.problem, self._warm
+        U = np.vstack([w["U"][1:], w["U"][-1:]])
+        X = pb.simulate(x0, par, U, pump_on)
+        if not np.all(np.isfinite(X)):
+            return self._initial_guess(x0, par, u_prev, pump_on)
+        E = pb.integral_rollout(X, par, self.integral, y_sp, self.bhp_bias) if pb.ne else None
+        return pb.pack(x0, u_prev, X, U, E, {}, self._speed), None, None
+
     def _shifted_guess(self, x0, par, u_prev):
         """Previous solution shifted one sample (primal and multipliers), re-expressed
         around the new x_0 and u_{-1}."""
@@ -321,11 +335,19 @@ class Supervisor:
 
         last = None
         reasons: list[str] = []
-        for relaxed in (False, True):
-            if relaxed or self._warm is None:
-                z0, lam_z0, lam_g0 = self._initial_guess(x0, par, u_prev, pump_on)
-            else:
+        # warm starts in turn: the shifted previous solution, its inputs rolled out again
+        # (the iterate of the first was unusable: the plan's states no longer fit, e.g. the
+        # mud pump stopped), then held inputs with the relaxed constraint set (a fallback)
+        attempts = ("shifted", "rollout", "relaxed") if self._warm is not None \
+            else ("cold", "relaxed")
+        for start in attempts:
+            relaxed = start == "relaxed"
+            if start == "shifted":
                 z0, lam_z0, lam_g0 = self._shifted_guess(x0, par, u_prev)
+            elif start == "rollout":
+                z0, lam_z0, lam_g0 = self._rollout_guess(x0, par, u_prev, pump_on, y_sp)
+            else:
+                z0, lam_z0, lam_g0 = self._initial_guess(x0, par, u_prev, pump_on)
             lbz, ubz, lbg, ubg = pb.bounds(u_prev, vlim, bhp_band, dp_band, circulating, relaxed,
                                            self.block_range(x, u_prev, y_sp[0]))
             try:
@@ -345,6 +367,7 @@ class Supervisor:
                 self._warm = None
                 self.fallback_count += 1
             else:
+                self.rollouts += start == "rollout"
                 self._warm = {"X": X, "U": U, "E": E, "slacks": slacks,
                               "lam_z": sol["lam_z"], "lam_g": sol["lam_g"]}
             u = self.limit(U[0], u_prev, self._speed)
@@ -362,8 +385,12 @@ class Supervisor:
             self.choke_flow_m3s = result.choke_flow_m3s = float(self.model.choke_flow(x0, u))
             if clamped:
                 result.status = f"{result.status}; {clamped}"
-            if relaxed:
-                result.status = f"{result.status}; first attempt: {reasons[0]}"
+            if reasons:
+                what = "first attempt" if relaxed else "warm start rolled out; shifted one"
+                result.status = f"{result.status}; {what}: {reasons[0]}"
+            fraction = sol["stats"].get("step_fraction", 1.0)
+            if fraction < 1.0:
+                result.status = f"{result.status}; step shortened to {fraction:g}"
             return result
         self._warm = None
         return self._hold(u_prev, "; ".join(reasons) or "failed", t0,

@@ -34,6 +34,7 @@ _ITERATION_LIMIT = ("Maximum_Iterations_Exceeded", "SOLVER_RET_LIMITED", RTI_STA
 # GAP_TOLERANCE, both in the OCP's scaled units (S_u: one slew step; S_x: 1 bar, 10 L/s, ...).
 LINEAR_TOLERANCE = 5.0e-2
 GAP_TOLERANCE = 5.0
+STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.125)   # RTI step lengths tried until the gaps are within it
 
 
 def _succeeded(stats: dict) -> bool:
@@ -413,6 +414,21 @@ class NmpcProblem:
             X[k + 1] = np.array(self.F(X[k], U[k], par, 1.0 if pump_on else 0.0)).ravel()
         return X
 
+    def integral_rollout(self, X, par, e0, y_sp, bhp_bias_pa: float = 0.0) -> np.ndarray:
+        """NMPC1's integral E[(N+1) x ne] along X as the NLP integrates it (stage 0 without
+        the BHP bias); empty columns for the other configurations."""
+        E = np.zeros((self.N + 1, self.ne))
+        if not self.ne:
+            return E
+        E[0] = np.asarray(e0, dtype=float).ravel()[:self.ne]
+        for k in range(self.N):
+            y = np.array([float(v) for v in outputs(self.em, self.model.full(X[k], par))])
+            if k >= 1:
+                y[2] += bhp_bias_pa
+            E[k + 1] = E[k] + self.ts * np.array([(y[i] - y_sp[i]) / self.y_span[i]
+                                                  for i in INTEGRAL_OUTPUTS])
+        return E
+
     def shift_multipliers(self, lam_z, lam_g):
         """Multipliers of the previous solution moved one stage earlier (stage k <- k+1)."""
         new_z = np.zeros(self.nz)
@@ -449,8 +465,7 @@ class NmpcProblem:
         bound = float(np.max(np.maximum(np.maximum(lbz - z, z - ubz), 0.0), initial=0.0))
         slew = max((float(np.max(excess[st.rows[name]])) for st in self.stages
                     for name in ("slew", "acceleration") if name in st.rows), default=0.0)
-        gap = max((float(np.max(excess[st.gap])) for st in self.stages if st.gap is not None),
-                  default=0.0)
+        gap = self.dynamics_gap(g, lbg, ubg)
         ok = max(bound, slew) <= LINEAR_TOLERANCE and gap <= GAP_TOLERANCE
         return ok, False, "" if ok else f"{status}: bounds {bound:.2g}, slew {slew:.2g}, gap {gap:.2g}"
 
@@ -484,13 +499,30 @@ class NmpcProblem:
             args["lam_a0"] = lam_g0
         qp = self.solver(**args)
         qp_stats = self.solver.stats()
-        z = z0 + np.array(qp["x"]).ravel()
-        f, g = self.nlp_functions(z, p)
+        dz = np.array(qp["x"]).ravel()
+        lam_z, lam_g = np.array(qp["lam_x"]).ravel(), np.array(qp["lam_a"]).ravel()
         # An inexact QP answer (HPIPM's iteration or step-length limit) is still a step: the
         # assessment checks the linear constraints and the dynamics of the iterate, as it
-        # does for an iteration-limited SQP.
-        finite = np.all(np.isfinite(np.array(qp["x"])))
+        # does for an iteration-limited SQP. A full step whose dynamics gaps exceed the
+        # tolerance (a linearisation far from the model: the string at rest in gelled mud,
+        # the pump stopped) is shortened, halving it up to three times.
+        finite = bool(np.all(np.isfinite(dz)))
+        for fraction in STEP_FRACTIONS:
+            z = z0 + fraction * dz
+            f, g = self.nlp_functions(z, p)
+            g = np.array(g).ravel()
+            if not finite or self.dynamics_gap(g, lbg, ubg) <= GAP_TOLERANCE:
+                break
+        if fraction < 1.0:          # the multipliers move with the primal step
+            lam_z = fraction * lam_z + (1.0 - fraction) * (0.0 if lam_z0 is None else lam_z0)
+            lam_g = fraction * lam_g + (1.0 - fraction) * (0.0 if lam_g0 is None else lam_g0)
         status = RTI_STATUS if finite else f"QP {qp_stats.get('return_status', 'failed')}"
-        return {"z": z, "lam_z": np.array(qp["lam_x"]).ravel(),
-                "lam_g": np.array(qp["lam_a"]).ravel(), "f": float(f), "g": np.array(g).ravel(),
-                "stats": {"success": False, "return_status": status, "iter_count": 1}}
+        return {"z": z, "lam_z": lam_z, "lam_g": lam_g, "f": float(f), "g": g,
+                "stats": {"success": False, "return_status": status, "iter_count": 1,
+                          "step_fraction": fraction}}
+
+    def dynamics_gap(self, g, lbg, ubg) -> float:
+        """The largest violation of the gap rows (dynamics) in scaled units."""
+        excess = np.maximum(np.maximum(lbg - g, g - ubg), 0.0)
+        return max((float(np.max(excess[st.gap])) for st in self.stages if st.gap is not None),
+                   default=0.0)

@@ -23,6 +23,7 @@ from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFr
                                          outputs)
 from drill_nmpc.soft_constraints import SLACK_NAMES
 from drill_nmpc.supervisor import Supervisor
+from drill_nmpc.transcription import GAP_TOLERANCE
 from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
 
 CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
@@ -228,6 +229,92 @@ def test_fallback_policy_relaxed_then_hold(config, em, supervisor, monkeypatch):
     r = supervisor.step(x, sp, u)
     assert r.fallback == "hold" and not r.success
     assert np.all(np.isfinite(r.u))
+
+
+def test_an_unusable_warm_start_is_rolled_out_again_before_any_fallback(config, em, supervisor,
+                                                                         monkeypatch):
+    """The shifted previous solution's iterate rejected: its inputs are rolled out through
+    the prediction model (no dynamics gaps) and solved with every constraint; no fallback."""
+    x, u = _steady(config, em)
+    sp = trip_setpoints(0.0, 0.0, 100.0, float(outputs(em, x)[2]))
+    supervisor.reset()
+    r = supervisor.step(x, sp, u)                       # a plan to shift
+    pb = supervisor.problem
+    real = pb.solve
+    starts = []
+
+    def reject_the_shifted_one(p, z0, lbz, ubz, lbg, ubg, lam_z0=None, lam_g0=None):
+        g = np.array(pb.nlp_functions(z0, p)[1]).ravel()
+        model_rows = [st.gap.start + i for st in pb.stages if st.gap is not None
+                      for i in range(pb.nd)]           # the prediction model's states
+        starts.append((float(np.max(np.abs(g[model_rows]))), lam_z0 is None))
+        sol = real(p, z0, lbz, ubz, lbg, ubg, lam_z0, lam_g0)
+        if len(starts) == 1:
+            sol["stats"] = dict(sol["stats"], return_status="Infeasible_Problem_Detected")
+        return sol
+
+    monkeypatch.setattr(pb, "solve", reject_the_shifted_one)
+    fallbacks, rollouts = supervisor.fallback_count, supervisor.rollouts
+    r = supervisor.step(x, sp, r.u)
+    assert len(starts) == 2 and starts[0][0] > 1e-3
+    assert starts[1] == (pytest.approx(0.0, abs=1e-9), True)
+    assert r.fallback == "none" and "warm start rolled out" in r.status
+    assert supervisor.fallback_count == fallbacks and supervisor.rollouts == rollouts + 1
+
+
+def test_the_integral_rollout_is_the_nlps_own(config, em):
+    """NMPC1's integral along a rolled-out trajectory leaves no gap in the NLP; held at
+    e_0 it would (the BHP 3 bar off its set-point)."""
+    sup = Supervisor(config, em, configuration="NMPC1", jit=False)
+    pb = sup.problem
+    x, u = _steady(config, em)
+    x0 = sup.model.initial_state(x, u)
+    par = x[sup.model.nd_model:]
+    U = np.tile(u, (pb.N, 1))
+    X = pb.simulate(x0, par, U)
+    y_sp = np.array([0.0, 2.0e6, float(outputs(em, x)[2]) - 3.0e5])
+    e0 = np.array([0.1, -0.2])
+    p = pb.parameters(x0, par, u, e0, np.tile(y_sp, pb.N), y_sp, u, True, 0.0, 1.0e4)
+    gaps = []
+    for E in (pb.integral_rollout(X, par, e0, y_sp, 1.0e4), np.tile(e0, (pb.N + 1, 1))):
+        _, g = pb.nlp_functions(pb.pack(x0, u, X, U, E, {}), p)
+        gaps.append(pb.dynamics_gap(np.array(g).ravel(), pb._lbg0, pb._ubg0))
+    assert gaps[0] < 1e-9 and gaps[1] > 0.1
+
+
+def test_a_step_too_long_for_the_linearisation_is_shortened(config, em, supervisor, monkeypatch):
+    """A full real-time-iteration step with dynamics gaps over the tolerance is halved (the
+    multipliers with it) until they are within it."""
+    x, u = _steady(config, em)
+    sp = trip_setpoints(0.0, 0.0, 100.0, float(outputs(em, x)[2]))
+    pb = supervisor.problem
+    real_nlp = pb.nlp_functions
+    calls = []
+
+    def gaps_on_the_full_step(z, p):
+        f, g = real_nlp(z, p)
+        calls.append(z)
+        g = np.array(g).ravel().copy()
+        if len(calls) == 1:                            # the full step: far off the model
+            g[pb.stages[0].gap] += 10.0 * GAP_TOLERANCE
+        return f, g
+
+    real_rti = pb._rti_step
+    seen = {}
+
+    def spy(p, z0, *args):
+        seen["z0"] = z0
+        seen["out"] = real_rti(p, z0, *args)
+        return seen["out"]
+
+    supervisor.reset()
+    monkeypatch.setattr(pb, "nlp_functions", gaps_on_the_full_step)
+    monkeypatch.setattr(pb, "_rti_step", spy)
+    r = supervisor.step(x, sp, u)
+    out = seen["out"]
+    assert out["stats"]["step_fraction"] == 0.5 and len(calls) == 2
+    assert np.allclose(out["z"] - seen["z0"], 0.5 * (calls[0] - seen["z0"]))
+    assert r.fallback == "none" and "step shortened to 0.5" in r.status
 
 
 def test_result_fields(config, em, supervisor):
