@@ -2,7 +2,9 @@
 a real one). A BHP dropout, a frozen choke gauge, a NaN and a spike must not poison the
 estimate or any command; the estimator reports staleness and the frozen channel; a kick
 zone 7 bar over the BHP reference is detected from the surface flows and stops the trip;
-every event is on /rig/events in the recording."""
+every event is on /rig/events in the recording. A mud-pump trip during a pull-out: the
+protection finds the lost circulation from the command and the string-flow meter and keeps
+BHP inside the pore/fracture window under the NMPC."""
 import math
 from pathlib import Path
 
@@ -13,15 +15,25 @@ from drill_bringup import cli, mcap_io, report
 from drill_core.ros import topics
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]
-SCENARIO = Path(__file__).resolve().parent / "scenarios" / "faults_short.yaml"
+SCENARIOS = Path(__file__).resolve().parent / "scenarios"
+
+
+def _run(tmp_path_factory, name: str, domain_id: int):
+    code, run_dir = cli.run_scenario(SCENARIOS / f"{name}.yaml",
+                                     runs_dir=tmp_path_factory.mktemp(name),
+                                     domain_id=domain_id, timeout_s=240, quiet=True)
+    assert code == 0, (run_dir / "launch.json").read_text()
+    return next(run_dir.glob("*.mcap"))
 
 
 @pytest.fixture(scope="module")
 def run_mcap(tmp_path_factory):
-    code, run_dir = cli.run_scenario(SCENARIO, runs_dir=tmp_path_factory.mktemp("faults"),
-                                     domain_id=97, timeout_s=240, quiet=True)
-    assert code == 0, (run_dir / "launch.json").read_text()
-    return next(run_dir.glob("*.mcap"))
+    return _run(tmp_path_factory, "faults_short", 97)
+
+
+@pytest.fixture(scope="module")
+def pump_trip_mcap(tmp_path_factory):
+    return _run(tmp_path_factory, "pump_trip_short", 93)
 
 
 def _messages(path, topic):
@@ -75,3 +87,18 @@ def test_the_kick_is_detected_and_the_trip_stopped(run_mcap):
     _, position = series.get("position")
     assert position[-1] < 28.0 - 5.0                             # the stand was not finished
     assert summary["influx_volume_m3"] > kick["volume_at_detection_m3"]
+
+
+def test_a_pump_trip_is_answered_and_bhp_stays_in_the_window(pump_trip_mcap):
+    series = report.load_series(pump_trip_mcap)
+    t, bhp = series.get("bhp")
+    _, pore = series.get("pore")
+    _, fracture = series.get("fracture")
+    assert np.all((bhp > pore) & (bhp < fracture)), (bhp.min(), bhp.max())
+    alarms = [e for e in series.events if e[1] == "protection" and e[2] == "alarm"]
+    lost = [e for e in alarms if e[3].startswith("circulation lost")]
+    assert len(lost) == 1 and 8.0 < lost[0][0] < 8.5           # the trip at 8 s, found at once
+    clamps = [e[3] for e in series.events if e[1] == "protection" and e[2] == "clamp"]
+    assert any("choke held shut" in c for c in clamps)
+    tb, bpp = series.get("bpp")
+    assert bpp[tb < 8.0].max() < 1.0e-5 and bpp[-1] > 0.005     # the back-pressure pump runs

@@ -4,36 +4,58 @@ without DDS (the rungs below the full graph in docs/nmpc.md's ladder).
 
 A bench, not a product path: the ``truth`` state source reads the truth plant's state
 (an oracle); ``ukf`` runs the estimator on the noisy measurements as the graph does.
-Process protection is not in the loop (the controllers' commands respect its limits).
+The scenario's events act as in the graph (sensor faults and formation changes on the
+plant, a pump trip or a stuck actuator on its actuator). The process protection
+(drill_protection.protection, with the kick detector's trip hold) is in the loop with
+``--protection``; without it the controllers' commands go to the actuators as they are
+(they respect its limits on the normal cases).
 
     python -m drill_bringup.loop_bench case2 --controller automated_mpd --state ukf --seeds 1 2 3
+    python -m drill_bringup.loop_bench pump_trip --controller baseline --protection
 """
 from __future__ import annotations
 
 import argparse
 import json
 import math
+import dataclasses
 import sys
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 
-from drill_bringup.runs import scenario_path
+from drill_bringup.runs import ROOT, scenario_path
 from drill_bringup.report import format_legs, tracking_metrics
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
-from drill_core.estimation_model import (BLOCK_INTEGRAL, build_estimation_model,
+from drill_core.estimation_model import (BLOCK_INTEGRAL, MEASUREMENT_NAMES, build_estimation_model,
                                          fitted_friction_parameters)
+from drill_core.events import of_owner
 from drill_core.scenario import initial_setpoints, load_scenario_config, setpoints_at
 from drill_core.units import PA_PER_BAR
+from drill_core.channel_watch import ChannelWatch
 from drill_estimator.model_inputs import frame_inputs
 from drill_estimator.ukf import RigUkf
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
+from drill_nmpc.baseline import Baseline
 from drill_nmpc.inputs import choke_command, choke_input
 from drill_nmpc.supervisor import Supervisor
-from drill_plant.actuators import Choke, Drawworks, Pump
-from drill_plant.plant_model import PlantLayout, steady_state
+from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
+from drill_plant.plant_model import EVENT_PARAMETERS, PARAMETER_NAMES, PlantLayout, steady_state
+from drill_plant.sensor_faults import SensorFaults
 from drill_plant.simulator import PlantSimulator
+from drill_protection.kick_detection import FlowSample, detector_for
+from drill_protection.protection import ProcessProtection
+from drill_protection.pump_trip import PumpTripResponse
+
+CONTROLLERS = ("automated_mpd", "nmpc", "baseline")
+BASELINE_KP_M3S_PER_PA = 5.0e-9     # the baseline node's default gains (30 L/min per bar)
+BASELINE_TI_S = 5.0
+VELOCITY_WINDOW_S = 1.0             # the protection node's block-velocity window
+PORE, FRACTURE = (PARAMETER_NAMES.index(n) for n in ("pore_pressure_pa", "fracture_pressure_pa"))
+CLAMPED_BLOCK_TOLERANCE_M = 1.0e-3  # the nmpc node's: an applied block reference this far off
+                                    # ours was changed by the protection
 
 
 @dataclass
@@ -46,10 +68,13 @@ class Command:
     dp_ref_pa: float = math.nan
     dp_rate_pa_s: float = 0.0
     stamp_s: float = 0.0
+    mud_pump_on: bool = True
 
 
 class Rig:
-    """Truth plant and the four actuator models, one sensor frame per call."""
+    """Truth plant and the four actuator models, one sensor frame per call, with the
+    scenario's events: the plant's parameter steps and sensor faults, the actuators' own
+    faults (stuck, trip)."""
 
     def __init__(self, config: RigConfig, scenario, seed: int):
         ini = scenario.initial
@@ -68,20 +93,52 @@ class Rig:
         self.step_s, self.steps = config.plant.step_s, config.plant.steps_per_frame
         self.layout = PlantLayout(self.sim.wm.n)
         self.block_frame = None       # the drawworks' last frame (command and reference)
+        self.circulating = ini.circulation_m3s > 0.0
+        self.parameter_events = [e for e in of_owner(scenario.events, "plant")
+                                 if e.kind in EVENT_PARAMETERS]
+        self.actuator_faults = of_owner(scenario.events, "actuator")
+        self.sensor_faults = SensorFaults(scenario.events, seed)
+
+    def measure(self, t_s: float):
+        """The sample at t_s: parameter events due first, then the sensors and their faults."""
+        for event in [e for e in self.parameter_events if t_s + 1e-9 >= e.time_s]:
+            self.sim.set_parameter(EVENT_PARAMETERS[event.kind], event.value)
+            self.parameter_events.remove(event)
+        return self.sensor_faults.apply(t_s, self.sim.measure(self.circulating))
+
+    def _fault(self, name: str, t_s: float) -> str:
+        return next((e.kind for e in self.actuator_faults
+                     if e.target == name and e.active(t_s)), "")
+
+    def _frame(self, name: str, model, target: float, t_s: float, act) -> FrameOutput:
+        """An actuator's frame under its fault: stuck freezes the output, a trip stops the
+        pump whatever it is commanded."""
+        fault = self._fault(name, t_s)
+        if fault == "stuck":
+            return FrameOutput(target, target, np.full(self.steps, model.lag.value))
+        return act(0.0 if fault == "trip" else target)
 
     def frame(self, cmd: Command, m, t_s: float) -> np.ndarray:
         """Actuator outputs over the frame [4 x steps] and the plant advanced by them."""
-        dw = self.drawworks.frame(cmd.block_ref_m, m.block_position_m, self.step_s, self.steps)
+        step, steps = self.step_s, self.steps
+        dw = self._frame("drawworks", self.drawworks, cmd.block_ref_m, t_s,
+                         lambda r: self.drawworks.frame(r, m.block_position_m, step, steps))
         if math.isfinite(cmd.dp_ref_pa):
-            ch = self.choke.pressure_frame(cmd.dp_ref_pa, cmd.dp_rate_pa_s, t_s - cmd.stamp_s,
-                                           cmd.choke_flow_m3s, m.choke_dp_pa, self.step_s,
-                                           self.steps)
+            ch = self._frame("choke", self.choke, cmd.choke_flow_m3s, t_s,
+                             lambda q: self.choke.pressure_frame(
+                                 cmd.dp_ref_pa, cmd.dp_rate_pa_s, t_s - cmd.stamp_s, q,
+                                 m.choke_dp_pa, step, steps))
         else:
-            ch = self.choke.frame(cmd.choke_flow_m3s, m.choke_dp_pa, self.step_s, self.steps)
+            ch = self._frame("choke", self.choke, cmd.choke_flow_m3s, t_s,
+                             lambda q: self.choke.frame(q, m.choke_dp_pa, step, steps,
+                                                        return_flow_m3s=m.return_flow_m3s))
+        bpp = self._frame("bpp", self.bpp, cmd.bpp_m3s, t_s,
+                          lambda q: self.bpp.frame(q, step, steps))
+        pump = self._frame("mud_pump", self.pump, cmd.spp_pa if cmd.mud_pump_on else 0.0, t_s,
+                           lambda p: self.pump.frame(p, step, steps))
         self.block_frame = dw
-        rows = np.vstack([dw.output, ch.output,
-                          self.bpp.frame(cmd.bpp_m3s, self.step_s, self.steps).output,
-                          self.pump.frame(cmd.spp_pa, self.step_s, self.steps).output])
+        self.circulating = pump.command > 0.0
+        rows = np.vstack([dw.output, ch.output, bpp.output, pump.output])
         self.sim.advance(rows)
         return rows
 
@@ -92,7 +149,7 @@ class TruthState:
     def __init__(self, rig: Rig, em):
         self.rig, self.em = rig, em
 
-    def observe(self, m, inputs) -> tuple[EstimateView, np.ndarray]:
+    def observe(self, m, inputs, t: float) -> tuple[EstimateView, np.ndarray]:
         truth, lay = self.rig.sim.truth(), self.rig.layout
         x = truth.state
         flows = [x[lay.flow(i)] for i in range(2, self.em.n + 1)]
@@ -109,23 +166,29 @@ class TruthState:
 
 
 class UkfState:
-    """The estimator as in the graph: time update over the last frame, then the sample."""
+    """The estimator as in the graph: channels screened, time update over the last frame,
+    then the sample (the string-flow channel only while the meter reads)."""
 
     def __init__(self, config: RigConfig, rig: Rig):
         self.ukf = RigUkf(config)
+        self.watch = ChannelWatch(MEASUREMENT_NAMES, config.estimator.frozen_after_samples)
         self.wm = rig.sim.wm
         self.dp_pa = math.nan
 
-    def observe(self, m, inputs) -> tuple[EstimateView, np.ndarray]:
-        y = np.array([m.block_position_m, m.choke_dp_pa, m.bhp_pa, m.string_flow_m3s])
+    def observe(self, m, inputs, t: float) -> tuple[EstimateView, np.ndarray]:
+        circulating = bool(m.string_flow_valid)
+        y, _ = self.watch.screen(t, [
+            m.block_position_m, m.choke_dp_pa, m.bhp_pa,
+            m.string_flow_m3s if circulating else math.nan])
         ukf = self.ukf
         if not ukf.initialised:
-            ukf.initialise(ukf.initial_state(y, True))
+            ukf.initialise(ukf.initial_state(y, circulating))
         else:
             ukf.predict_frame(frame_inputs(self.wm, inputs[0], inputs[1], inputs[2], inputs[3],
                                            self.dp_pa))
-            ukf.update(y, True)
-        self.dp_pa = m.choke_dp_pa
+            ukf.update(y, circulating)
+        if math.isfinite(y[1]):
+            self.dp_pa = float(y[1])
         x = ukf.mean
         return EstimateView(bhp_pa=ukf.bhp_pa, string_position_m=float(x[ukf.em.position]),
                             string_velocity_mps=float(x[ukf.em.velocity]),
@@ -134,7 +197,9 @@ class UkfState:
 
 
 class NmpcController:
-    """The NMPC supervisor as the nmpc node runs it (u_{-1}, actuator outputs, command)."""
+    """The NMPC supervisor as the nmpc node runs it (u_{-1}, actuator outputs, the pump
+    planned off while the string-flow meter reads nothing, the block reference the
+    drawworks was given, command)."""
 
     def __init__(self, config: RigConfig, rig: Rig, ini, block_integral_from_drawworks: bool):
         self.rig = rig
@@ -148,17 +213,26 @@ class NmpcController:
         self.initial = (choke_input(self.cfg, self.operating_flow_m3s, ini.choke_dp_pa), bpp, spp)
         self.solve_times: list[float] = []
         self.fallbacks = 0
+        self.statuses: list[tuple[float, str, str]] = []          # (t, fallback, status)
 
-    def step(self, x_hat, sp, inputs, t: float) -> Command:
+    def step(self, x_hat, sp, inputs, t: float, flow_observable: bool = True) -> Command:
         if self.u is None:
             self.u = self.sup.safe_input([x_hat[0], *self.initial])
         frame = self.rig.block_frame if self.block_integral else None
+        if frame is not None and math.isfinite(frame.reference) \
+                and abs(frame.reference - self.u[0]) > CLAMPED_BLOCK_TOLERANCE_M:
+            self.u = self.u.copy()
+            self.u[0] = frame.reference
+        if sp.mud_pump_on and not flow_observable:
+            sp = dataclasses.replace(sp, mud_pump_on=False)
         r = self.sup.step(x_hat, sp, self.u, actuators={
             "block_m": inputs[0, -1], "bpp_flow_m3s": inputs[2, -1], "spp_pa": inputs[3, -1],
             "block_command_m": frame.command if frame else None,
             "block_reference_m": frame.reference if frame else None})
         self.solve_times.append(r.solve_time_s)
         self.fallbacks += r.fallback != "none"
+        if r.fallback != "none":
+            self.statuses.append((t, r.fallback, r.status))
         u = self.u = np.asarray(r.u, dtype=float)
         choke = choke_command(self.cfg, r, self.operating_flow_m3s)
         if not choke.pressure_control:
@@ -166,14 +240,72 @@ class NmpcController:
         return Command(u[0], choke.flow_m3s, u[2], u[3], choke.dp_ref_pa, choke.dp_ref_rate_pa_s, t)
 
 
+class Protection:
+    """The protection node in process: the block velocity over its window, the kick
+    detector's trip hold, and the limiter between the advisor's command and the machines."""
+
+    def __init__(self, config: RigConfig, rig: Rig, scenario):
+        op = rig.op
+        start = np.array([0.0, float(op.choke_flow_m3s), scenario.initial.bpp_flow_m3s,
+                          float(op.inputs[3])])
+        self.protection = ProcessProtection(config, rig.sim.wm, start)
+        self.detector = detector_for(config, rig.sim.wm.geometry)
+        self.stop_trip = config.protection.kick_detection.stop_trip
+        self.speed_limit = config.protection.trip_speed_max_mps
+        self.positions: deque = deque()
+        self.clamps: list[tuple[float, str]] = []
+        self.alarms: list[tuple[float, str]] = []
+        self.trip = PumpTripResponse(config.protection.pump_trip, rig.sim.wm,
+                                     config.pressure_window_pa)
+
+    def measurement(self, m, t: float) -> None:
+        reading = self.detector.update(FlowSample(
+            t, m.return_flow_m3s, m.string_flow_m3s if m.string_flow_valid else math.nan,
+            m.bpp_flow_m3s, m.block_position_m, m.choke_dp_pa, m.bhp_pa))
+        if self.stop_trip:
+            self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" \
+                if reading.alarm else ""
+        alarm = self.trip.observe(t, m.string_flow_valid, m.choke_dp_pa, m.bhp_pa)
+        if alarm:
+            self.alarms.append((t, alarm))
+        self.positions.append((t, m.block_position_m))
+        while self.positions and t - self.positions[0][0] > VELOCITY_WINDOW_S + 1e-9:
+            self.positions.popleft()
+
+    def limit(self, cmd: Command, m, sp, t: float) -> Command:
+        if math.isfinite(sp.trip_speed_limit_mps) and sp.trip_speed_limit_mps > 0.0:
+            self.speed_limit = sp.trip_speed_limit_mps
+        (t0, x0), (t1, x1) = self.positions[0], self.positions[-1]
+        velocity = (x1 - x0) / (t1 - t0) if t1 > t0 else 0.0
+        circulation = m.string_flow_m3s if m.string_flow_valid and math.isfinite(m.string_flow_m3s) \
+            else 0.0
+        pressure = math.isfinite(cmd.dp_ref_pa)
+        self.trip.request(cmd.mud_pump_on, cmd.spp_pa)
+        d = self.protection.apply(
+            [cmd.block_ref_m, cmd.choke_flow_m3s, cmd.bpp_m3s, cmd.spp_pa], m.block_position_m,
+            velocity, m.bhp_pa, max(circulation, 0.0), self.speed_limit, None,
+            (cmd.dp_ref_pa, cmd.dp_rate_pa_s) if pressure else None,
+            surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s), trip_action=self.trip.action(t))
+        self.clamps += [(t, text) for text in d.clamps]
+        dp = d.choke_dp_setpoint
+        c = d.command
+        return Command(float(c[0]), float(c[1]), float(c[2]), float(c[3]),
+                       dp[0] if dp else math.nan, dp[1] if dp else 0.0, cmd.stamp_s,
+                       cmd.mud_pump_on)
+
+
 def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf",
         seed: int | None = None, overrides: dict | None = None,
-        block_integral_from_drawworks: bool = True) -> dict:
-    """One scenario in-process; the report's tracking figures plus the BHP estimate RMSE.
-    ``block_integral_from_drawworks`` False withholds the drawworks' command from the NMPC
-    (as before it took its block-controller integral from there: docs/nmpc.md)."""
-    scenario, config = load_scenario_config(scenario_path(scenario_name),
-                                            scenario_path(scenario_name).parent.parent, overrides)
+        block_integral_from_drawworks: bool = True, protection: bool = False) -> dict:
+    """One scenario in-process; the report's tracking figures, the time BHP spent outside
+    the formation window, the BHP estimate RMSE. ``block_integral_from_drawworks`` False
+    withholds the drawworks' command from the NMPC (as before it took its block-controller
+    integral from there: docs/nmpc.md); ``protection`` puts the process protection between
+    the controller and the actuators."""
+    if controller not in CONTROLLERS:
+        raise ValueError(f"controller {controller!r} is not one of {', '.join(CONTROLLERS)}")
+    scenario, config = load_scenario_config(scenario_path(scenario_name), ROOT / "config",
+                                            overrides)
     rig = Rig(config, scenario, scenario.seed if seed is None else seed)
     em = build_estimation_model(config)
     source = TruthState(rig, em) if state == "truth" else UkfState(config, rig)
@@ -182,17 +314,24 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
     mpd = AutomatedMpd(config, em, bpp, spp) if controller == "automated_mpd" else None
     nmpc = NmpcController(config, rig, scenario.initial, block_integral_from_drawworks) \
         if controller == "nmpc" else None
+    baseline = Baseline(float(rig.op.choke_flow_m3s), BASELINE_KP_M3S_PER_PA, BASELINE_TI_S,
+                        config.nmpc.input_max.choke_flow_m3s, scenario.baseline_trip_speed_mps,
+                        config.nmpc.sample_time_s) if controller == "baseline" else None
+    guard = Protection(config, rig, scenario) if protection else None
     cmd = Command(0.0, rig.op.choke_flow_m3s, bpp, spp)
     frames = int(round(scenario.duration_s / config.plant.sensor_period_s))
     per_sample = int(round(config.nmpc.sample_time_s / config.plant.sensor_period_s))
     log = {k: [] for k in ("t", "bhp", "pos", "ref", "band", "target", "bhp_est", "velocity",
-                           "choke_dp", "choke_dp_ref", "opening", "block_ref")}
+                           "choke_dp", "choke_dp_ref", "opening", "block_ref", "pore",
+                           "fracture", "choke_flow_ref", "bpp", "spp", "return_flow")}
     inputs = np.repeat(rig.op.inputs[:, None], rig.steps, axis=1)
     bhp_ref = math.nan
     for k in range(frames):
         t = k * config.plant.sensor_period_s
-        m = rig.sim.measure(True)
-        view, x_hat = source.observe(m, inputs)
+        m = rig.measure(t)
+        view, x_hat = source.observe(m, inputs, t)
+        if guard is not None:
+            guard.measurement(m, t)
         sp = setpoints_at(scenario, t, start)
         if math.isnan(bhp_ref):
             bhp_ref = sp.bhp_ref_pa if math.isfinite(sp.bhp_ref_pa) else view.bhp_pa
@@ -200,12 +339,20 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
             if math.isfinite(sp.bhp_ref_pa):
                 bhp_ref = sp.bhp_ref_pa
             if nmpc is not None:
-                cmd = nmpc.step(x_hat, sp, inputs, t)
+                cmd = nmpc.step(x_hat, sp, inputs, t, bool(m.string_flow_valid))
+            elif baseline is not None:
+                baseline.step(m.block_position_m, m.bhp_pa, sp.block_position_target_m, bhp_ref,
+                              sp.controller_enabled)
+                cmd = Command(baseline.block_ref_m, baseline.choke_ref_m3s,
+                              float(scenario.initial.bpp_flow_m3s), spp, stamp_s=t)
             else:
                 c = mpd.step(view, sp, bhp_ref)
                 cmd = Command(c.block_position_ref_m, c.choke_flow_feedforward_m3s,
                               c.bpp_flow_m3s, c.spp_pa, c.choke_dp_ref_pa,
                               c.choke_dp_ref_rate_pa_s, t)
+            cmd.mud_pump_on = bool(sp.mud_pump_on)
+            if guard is not None:
+                cmd = guard.limit(cmd, m, sp, t)
         truth = rig.sim.state
         log["t"].append(t)
         log["bhp"].append(truth[rig.layout.pressure(em.n)])
@@ -218,10 +365,21 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
         log["choke_dp"].append(m.choke_dp_pa)
         log["choke_dp_ref"].append(cmd.dp_ref_pa + cmd.dp_rate_pa_s * (t - cmd.stamp_s))
         log["block_ref"].append(cmd.block_ref_m)
+        log["choke_flow_ref"].append(cmd.choke_flow_m3s)
+        log["return_flow"].append(m.return_flow_m3s)
+        log["pore"].append(rig.sim.parameters[PORE])
+        log["fracture"].append(rig.sim.parameters[FRACTURE])
         inputs = rig.frame(cmd, m, t)
         log["opening"].append(inputs[1, 0])
+        log["bpp"].append(inputs[2, 0])
+        log["spp"].append(inputs[3, 0])
     a = {k: np.asarray(v, dtype=float) for k, v in log.items()}
     out = tracking_metrics(a["t"], a["bhp"], a["pos"], a["ref"], a["band"], a["target"])
+    dt = config.plant.sensor_period_s
+    out["bhp_under_pore_s"] = float(np.count_nonzero(a["bhp"] < a["pore"]) * dt)
+    out["bhp_over_fracture_s"] = float(np.count_nonzero(a["bhp"] > a["fracture"]) * dt)
+    out["worst_underbalance_pa"] = float(max(np.max(a["pore"] - a["bhp"]), 0.0))
+    out["worst_over_fracture_pa"] = float(max(np.max(a["bhp"] - a["fracture"]), 0.0))
     out["bhp_estimate_rmse_pa"] = float(np.sqrt(np.mean((a["bhp_est"] - a["bhp"]) ** 2)))
     out["max_string_speed_mps"] = float(np.max(np.abs(a["velocity"])))
     out["trace"] = a
@@ -229,15 +387,20 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
         out["solve_time_median_s"] = float(np.median(nmpc.solve_times))
         out["solve_time_p99_s"] = float(np.percentile(nmpc.solve_times, 99))
         out["fallbacks"] = nmpc.fallbacks
+        out["fallback_log"] = nmpc.statuses
+    if guard is not None:
+        out["clamps"], out["alarms"] = guard.clamps, guard.alarms
     return out
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario")
-    parser.add_argument("--controller", default="automated_mpd", choices=("automated_mpd", "nmpc"))
+    parser.add_argument("--controller", default="automated_mpd", choices=CONTROLLERS)
     parser.add_argument("--state", default="ukf", choices=("truth", "ukf"))
     parser.add_argument("--seeds", type=int, nargs="*")
+    parser.add_argument("--protection", action="store_true",
+                        help="the process protection between the controller and the actuators")
     parser.add_argument("--set", action="append", default=[],
                         help="config override FILE.KEY=VALUE, e.g. automated_mpd.feedforward_lead_s=2")
     args = parser.parse_args(argv)
@@ -247,10 +410,14 @@ def main(argv=None) -> int:
         stem, name = key.split(".", 1)
         overrides.setdefault(stem, {})[name] = json.loads(value)
     for seed in args.seeds or [None]:
-        r = run(args.scenario, args.controller, args.state, seed, overrides)
+        r = run(args.scenario, args.controller, args.state, seed, overrides,
+                protection=args.protection)
         print(f"{args.scenario} seed {seed}: BHP RMSE {r['bhp_rmse_pa'] / PA_PER_BAR:.2f} bar, "
               f"outside {r['bhp_time_outside_s']:.1f} s ({r['bhp_time_outside_settled_s']:.1f} s "
               f"after 30 s), worst {r['bhp_worst_excursion_pa'] / PA_PER_BAR:.2f} bar, "
+              f"under pore {r['bhp_under_pore_s']:.1f} s (worst "
+              f"{r['worst_underbalance_pa'] / PA_PER_BAR:.2f} bar), over fracture "
+              f"{r['bhp_over_fracture_s']:.1f} s (worst {r['worst_over_fracture_pa'] / PA_PER_BAR:.2f} bar), "
               f"legs {format_legs(r['trip_legs'])}, estimate RMSE "
               f"{r['bhp_estimate_rmse_pa'] / PA_PER_BAR:.2f} bar" + (
                   f", solve median {r['solve_time_median_s'] * 1e3:.1f} ms, p99 "

@@ -1,5 +1,8 @@
 """The in-process closed loop (drill_bringup.loop_bench) that the ladder of docs/nmpc.md
-stands on: the truth plant, the actuator models, a state source and a controller."""
+stands on: the truth plant, the actuator models, a state source and a controller (and the
+scenario's events and the process protection)."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -23,3 +26,15 @@ def test_nmpc_on_the_ukf_state_trips_and_holds_bhp():
     assert 0.0 < r["bhp_estimate_rmse_pa"] < 0.5e5              # a real estimate, not the truth
     # the choke worked the trip: its opening moved with the surge and swab
     assert np.max(trace["opening"]) - np.min(trace["opening"]) > 0.02
+
+
+@pytest.mark.slow
+def test_a_pump_trip_in_process_meets_the_protections_answer():
+    """The scenario's events act (the mud pump trips on its actuator) and the process
+    protection is in the loop: it finds the lost circulation and BHP stays in the window."""
+    scenario = Path(__file__).resolve().parents[4] / "test" / "scenarios" / "pump_trip_short.yaml"
+    r = loop_bench.run(str(scenario), "nmpc", "ukf", protection=True)
+    trace = r["trace"]
+    assert [t for t, text in r["alarms"]] == [pytest.approx(8.1)]
+    assert trace["spp"][-1] < 1.0e5 and trace["bpp"][-1] > 0.005      # pump off, bpp on
+    assert r["bhp_under_pore_s"] == 0.0 and r["bhp_over_fracture_s"] == 0.0

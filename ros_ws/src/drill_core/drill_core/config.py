@@ -427,6 +427,19 @@ class KickDetection:
 
 
 @dataclass(frozen=True)
+class PumpTrip:
+    """The protection's answer to an unplanned loss of circulation
+    (drill_protection.pump_trip)."""
+    bpp_flow_m3s: float = param("m^3/s", 0.0, 0.1,
+                                doc="the back-pressure pump runs at least this while it lasts")
+    static_margin_pa: float = param(
+        "Pa", 0.0, 1.0e7, doc="the choke makes the friction good until the BHP without it is "
+                              "this far inside the window's low edge")
+    trap_max_s: float = param("s", 0.0, 600.0, doc="the choke makes the friction good for at "
+                                                   "most this long (0: never)")
+
+
+@dataclass(frozen=True)
 class Protection:
     """Process protection between advisors and machines (docs/design.md §10)."""
     pressure_margin_pa: float = param("Pa", 0.0, 1.0e7,
@@ -437,6 +450,7 @@ class Protection:
     kick_detection: KickDetection = param()
     window_guard: bool = param(doc="outside the window (with margin) the choke and the back-"
                                    "pressure pump are driven back toward it")
+    pump_trip: PumpTrip = param()
 
 
 @dataclass(frozen=True)

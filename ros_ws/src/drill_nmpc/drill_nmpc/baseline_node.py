@@ -33,23 +33,7 @@ from drill_core.ros import topics
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_nmpc.advisor_node import AdvisorNode
-
-
-class BaselinePi:
-    """PI choke-flow controller on the BHP error, positional form with anti-windup."""
-
-    def __init__(self, q0_m3s: float, kp_m3s_per_pa: float, ti_s: float, q_max_m3s: float):
-        self.q0, self.kp, self.ti, self.q_max = q0_m3s, kp_m3s_per_pa, ti_s, q_max_m3s
-        self.integral_pa_s = 0.0
-
-    def update(self, error_pa: float, dt_s: float) -> float:
-        trial = self.integral_pa_s + error_pa * dt_s
-        q = self.q0 + self.kp * (error_pa + trial / self.ti)
-        if 0.0 <= q <= self.q_max:
-            self.integral_pa_s = trial            # integrate only while unsaturated
-        else:
-            q = self.q0 + self.kp * (error_pa + self.integral_pa_s / self.ti)
-        return min(max(q, 0.0), self.q_max)
+from drill_nmpc.baseline import Baseline
 
 
 class BaselineNode(AdvisorNode):
@@ -61,11 +45,9 @@ class BaselineNode(AdvisorNode):
         self.speed = float(self.ctx.scenario.baseline_trip_speed_mps)
         kp = self.declare_parameter("kp_m3s_per_pa", 5.0e-9).value      # 30 L/min per bar
         ti = self.declare_parameter("ti_s", 5.0).value
-        self.ts = cfg.nmpc.sample_time_s
-        self.pi = BaselinePi(float(op.choke_flow_m3s), float(kp), float(ti),
-                             cfg.nmpc.input_max.choke_flow_m3s)
-        self.block_ref: float | None = None
-        self.choke_ref = float(op.choke_flow_m3s)
+        self.controller = Baseline(float(op.choke_flow_m3s), float(kp), float(ti),
+                                   cfg.nmpc.input_max.choke_flow_m3s, self.speed,
+                                   cfg.nmpc.sample_time_s)
         self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
                                  topics.RELIABLE)
 
@@ -77,28 +59,18 @@ class BaselineNode(AdvisorNode):
         self.follow_schedule(stamp)
         self.publish_events(self.book.resolve_bhp(bhp), stamp)
         sp = self.book.active
-        if self.block_ref is None:
-            self.block_ref = position if math.isfinite(position) else 0.0
         bhp_ref = sp.bhp_ref_pa if self.book.bhp_resolved else None
-        if not sp.controller_enabled:
-            if math.isfinite(position):
-                self.block_ref = position                       # manual: hold the string
-        else:
-            step = self.speed * self.ts
-            delta = sp.block_position_target_m - self.block_ref
-            self.block_ref += max(-step, min(step, delta))
-            if math.isfinite(bhp) and bhp_ref is not None:
-                self.choke_ref = self.pi.update(bhp - bhp_ref, self.ts)
-            else:
-                self.status.error(f"measurement at {stamp * 1e-9:.3f} s without a finite BHP: "
-                                  "choke reference held")
+        c = self.controller
+        if not c.step(position, bhp, sp.block_position_target_m, bhp_ref, sp.controller_enabled):
+            self.status.error(f"measurement at {stamp * 1e-9:.3f} s without a finite BHP: "
+                              "choke reference held")
         self.publish_command(RigCommand(
-            block_position_ref_m=float(self.block_ref), choke_flow_ref_m3s=float(self.choke_ref),
+            block_position_ref_m=float(c.block_ref_m), choke_flow_ref_m3s=float(c.choke_ref_m3s),
             bpp_flow_m3s=self.bpp_m3s, spp_pa=self.spp_pa, mud_pump_on=bool(sp.mud_pump_on),
             choke_manual=False, source="baseline"), stamp)
         self.status.mode = f"{self.ctx.mode}/{'baseline' if sp.controller_enabled else 'manual'}"
-        self.status.values = {"block_ref_m": float(self.block_ref),
-                              "choke_flow_ref_m3s": float(self.choke_ref),
+        self.status.values = {"block_ref_m": float(c.block_ref_m),
+                              "choke_flow_ref_m3s": float(c.choke_ref_m3s),
                               "bhp_ref_pa": float(bhp_ref) if bhp_ref is not None else math.nan}
         self.status.tick(stamp)
 

@@ -12,7 +12,10 @@ machines respects the most conservative of
   the measured return flow and the back-pressure pump one slew below its measured flow
   (unless the advisor asks for more of that), the other way round under the pore
   pressure plus the margin (the choke on its flow loop while it acts). Starting from the
-  measured flows, not the last commands, it cannot wind up behind the pumps' lags.
+  measured flows, not the last commands, it cannot wind up behind the pumps' lags,
+* an unplanned loss of circulation (drill_protection.pump_trip): the back-pressure pump
+  kept at a flow the choke can hold back-pressure with, and once the choke held shut
+  while the BHP the well will have without the annular friction is under the window.
 
 A manual choke opening (choke panel in manual) is kept inside the choke's range; its
 rate is limited by the choke actuator's own lag. A choke-dp set-point (the choke on its
@@ -30,6 +33,7 @@ import numpy as np
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
 from drill_core.units import PA_PER_BAR
+from drill_protection.pump_trip import TripAction
 
 INPUTS = ("block_position_ref_m", "choke_flow_ref_m3s", "bpp_flow_m3s", "spp_pa")
 _SPEED_GRID_POINTS = 61
@@ -121,12 +125,14 @@ class ProcessProtection:
               circulation_m3s: float, operator_speed_limit_mps: float,
               manual_choke_opening: float | None = None,
               choke_dp_setpoint: tuple[float, float] | None = None,
-              surface_flows: tuple[float, float] | None = None) -> Decision:
+              surface_flows: tuple[float, float] | None = None,
+              trip_action: TripAction | None = None) -> Decision:
         """Limit ``request`` [u_r, q_c, q_bpp, p_spp], the requested manual choke opening and
         choke-dp set-point (dp Pa, ramp Pa/s) (both None: the choke on its PI flow
         controller; a manual opening wins); ``surface_flows`` are the measured return and
-        back-pressure pump flows [m^3/s] the window guard starts from. Returns the command
-        to send and why."""
+        back-pressure pump flows [m^3/s] the window guard starts from; ``trip_action`` the
+        answer to a lost circulation (drill_protection.pump_trip), None when there is
+        none. Returns the command to send and why."""
         p = self.config.protection
         period = p.command_period_s
         request = np.asarray(request, dtype=float)
@@ -137,7 +143,8 @@ class ProcessProtection:
         if manual_choke_opening is not None and not np.isfinite(manual_choke_opening):
             clamps.append("non-finite manual choke opening: holding the last choke mode")
             manual_choke_opening = self.previous_manual_opening
-        if self.emergency_stop or self.automation_level != "closed_loop":
+        not_applied = self.emergency_stop or self.automation_level != "closed_loop"
+        if not_applied:
             why = "emergency stop" if self.emergency_stop else f"automation level {self.automation_level}"
             clamps.append(f"{why}: advisor command not applied, block held at rest, pressures held")
             request = self.previous.copy()
@@ -155,17 +162,21 @@ class ProcessProtection:
             choke_dp_setpoint = None
 
         guard = self._window_guard(bhp_pa, clamps)
-        if guard:
+        trip = None if not_applied else trip_action
+        shut = trip is not None and trip.choke_flow_m3s is not None
+        if guard or shut:
             manual_choke_opening, choke_dp_setpoint = None, None
 
         for i in (1, 2, 3):
             limited = np.clip(command[i], self.previous[i] - self.slew[i], self.previous[i] + self.slew[i])
             limited = float(np.clip(limited, self.lower[i], self.upper[i]))
-            if limited != command[i] and not (guard and i in (1, 2)):
+            if limited != command[i] and not (guard and i in (1, 2)) and not (shut and i == 1):
                 clamps.append(f"{INPUTS[i]} {command[i]:.6g} -> {limited:.6g} (machine range/rate)")
             command[i] = limited
         if guard:
             self._drive_back(guard, command, surface_flows)
+        if trip is not None:
+            self._answer_trip(trip, guard, command, clamps)
 
         (down, why_down), (up, why_up) = self.speed_limits(
             bhp_pa, string_velocity_mps, circulation_m3s, operator_speed_limit_mps)
@@ -191,6 +202,20 @@ class ProcessProtection:
         self.previous_dp_setpoint = choke_dp_setpoint
         return Decision(command, tuple(clamps), (down, up), manual_choke_opening,
                         choke_dp_setpoint)
+
+    def _answer_trip(self, trip: TripAction, guard: int, command: np.ndarray,
+                     clamps: list[str]) -> None:
+        """A lost circulation: the choke's flow reference set (held shut) while the friction
+        is made good; the back-pressure pump at least at its flow, unless the window guard
+        is relieving a BHP over the window."""
+        if trip.choke_flow_m3s is not None:
+            command[1] = float(np.clip(trip.choke_flow_m3s, self.lower[1], self.upper[1]))
+            clamps.append(trip.reason)
+        floor = min(trip.bpp_flow_min_m3s, self.upper[2])
+        if guard <= 0 and command[2] < floor:
+            clamps.append(f"{INPUTS[2]} {command[2]:.6g} -> {floor:.6g} ({trip.reason}: the "
+                          "back-pressure pump gives the choke a flow)")
+            command[2] = floor
 
     def _drive_back(self, guard: int, command: np.ndarray, surface_flows) -> None:
         """Choke flow reference and back-pressure pump one slew from where the machines are

@@ -11,6 +11,9 @@ says whether advisor commands reach the machines (only in closed_loop). Every
 measurement feeds the flow-balance kick detector (drill_protection.kick_detection); a
 kick or losses alarm is raised and cleared as an event and, with ``stop_trip``, holds the
 trip (the block reference brakes to rest within the acceleration limit) until it clears.
+Every measurement also feeds the circulation watch (drill_protection.pump_trip): a lost
+circulation (the mud pump asked for, the string-flow meter blank) is an alarm, and the
+protection answers it until circulation is back or no longer asked for.
 """
 from __future__ import annotations
 
@@ -33,6 +36,7 @@ from drill_core.ros.stamps import to_ns
 from drill_core.ros.status import StatusReporter
 from drill_protection.kick_detection import FlowSample, detector_for
 from drill_protection.protection import ProcessProtection
+from drill_protection.pump_trip import PumpTripResponse
 
 VELOCITY_WINDOW_S = 1.0
 
@@ -48,6 +52,8 @@ class ProtectionNode(RigNode):
         start = np.array([0.0, op.choke_flow_m3s, ini.bpp_flow_m3s, op.spp_pa])
         self.protection = ProcessProtection(ctx.config, ctx.well_model, start)
         self.detector = detector_for(ctx.config, ctx.well_model.geometry)
+        self.circulation = PumpTripResponse(ctx.config.protection.pump_trip, ctx.well_model,
+                                            ctx.config.pressure_window_pa)
         self.operator_speed_limit = ctx.config.protection.trip_speed_max_mps
         self.positions: deque = deque()
         self.inbox = StampedInbox(("command", "measurement"))
@@ -126,6 +132,10 @@ class ProtectionNode(RigNode):
                                  f"{reading.excess_flow_m3s * LPM_PER_M3S:+.0f} L/min", stamp)
         if self.ctx.config.protection.kick_detection.stop_trip:
             self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" if reading.alarm else ""
+        change = self.circulation.observe(stamp * 1e-9, m.string_flow_valid, m.choke_dp_pa, m.bhp_pa)
+        if change:
+            self.alarm_count += self.circulation.lost
+            self._event("alarm", change, stamp)
 
     def _on_command(self, msg: RigCommand) -> None:
         self.inbox.put("command", msg)
@@ -154,13 +164,15 @@ class ProtectionNode(RigNode):
     def _limit(self, request: RigCommand, m: RigMeasurement, stamp: int) -> None:
         circulation = m.string_flow_m3s if m.string_flow_valid and math.isfinite(m.string_flow_m3s) \
             else 0.0
+        self.circulation.request(request.mud_pump_on, request.spp_pa)
         decision = self.protection.apply(
             [request.block_position_ref_m, request.choke_flow_ref_m3s, request.bpp_flow_m3s,
              request.spp_pa], m.block_position_m, self._velocity(), m.bhp_pa, max(circulation, 0.0),
             self.operator_speed_limit, request.choke_opening_ref if request.choke_manual else None,
             (request.choke_dp_ref_pa, request.choke_dp_ref_rate_pa_s)
             if request.choke_pressure_control else None,
-            surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s))
+            surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s),
+            trip_action=self.circulation.action(stamp * 1e-9))
         manual = decision.manual_choke_opening
         dp_setpoint = decision.choke_dp_setpoint
         out = RigCommand(block_position_ref_m=float(decision.command[0]),

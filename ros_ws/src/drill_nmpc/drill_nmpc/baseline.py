@@ -1,0 +1,58 @@
+"""The conventional MPD baseline's control law (plain Python, no rclpy; the node is
+drill_nmpc.baseline_node): a fixed-speed trip and a PI choke on the measured BHP.
+
+Each sample the block reference moves toward the target at the fixed trip speed (a ramp
+of speed * t_s per sample, stopping on the target) and the choke-flow reference is
+q_c0 + k_p e + (k_p / T_i) * integral(e), e = BHP_measured - BHP_ref (BHP too high: open
+the choke, let more out), clipped to [0, q_max] with anti-windup.
+"""
+from __future__ import annotations
+
+import math
+
+
+class BaselinePi:
+    """PI choke-flow controller on the BHP error, positional form with anti-windup."""
+
+    def __init__(self, q0_m3s: float, kp_m3s_per_pa: float, ti_s: float, q_max_m3s: float):
+        self.q0, self.kp, self.ti, self.q_max = q0_m3s, kp_m3s_per_pa, ti_s, q_max_m3s
+        self.integral_pa_s = 0.0
+
+    def update(self, error_pa: float, dt_s: float) -> float:
+        trial = self.integral_pa_s + error_pa * dt_s
+        q = self.q0 + self.kp * (error_pa + trial / self.ti)
+        if 0.0 <= q <= self.q_max:
+            self.integral_pa_s = trial            # integrate only while unsaturated
+        else:
+            q = self.q0 + self.kp * (error_pa + self.integral_pa_s / self.ti)
+        return min(max(q, 0.0), self.q_max)
+
+
+class Baseline:
+    """The baseline's state between samples: the block ramp and the PI choke."""
+
+    def __init__(self, q0_m3s: float, kp_m3s_per_pa: float, ti_s: float, q_max_m3s: float,
+                 trip_speed_mps: float, sample_time_s: float):
+        self.pi = BaselinePi(q0_m3s, kp_m3s_per_pa, ti_s, q_max_m3s)
+        self.speed_mps, self.ts = trip_speed_mps, sample_time_s
+        self.block_ref_m: float | None = None
+        self.choke_ref_m3s = q0_m3s
+
+    def step(self, position_m: float, bhp_pa: float, target_m: float, bhp_ref_pa: float | None,
+             enabled: bool = True) -> bool:
+        """One sample from the measured block position and BHP; updates ``block_ref_m`` and
+        ``choke_ref_m3s``. Disabled, the block is held where it is measured and the choke
+        reference kept. Returns False when the BHP (or its reference) was missing and the
+        choke reference was held."""
+        if self.block_ref_m is None:
+            self.block_ref_m = position_m if math.isfinite(position_m) else 0.0
+        if not enabled:
+            if math.isfinite(position_m):
+                self.block_ref_m = position_m
+            return True
+        step = self.speed_mps * self.ts
+        self.block_ref_m += max(-step, min(step, target_m - self.block_ref_m))
+        if not (math.isfinite(bhp_pa) and bhp_ref_pa is not None):
+            return False
+        self.choke_ref_m3s = self.pi.update(bhp_pa - bhp_ref_pa, self.ts)
+        return True

@@ -1,0 +1,39 @@
+"""The PI baseline's control law (drill_nmpc.baseline): the fixed-speed ramp to the target,
+the PI choke on the BHP error with anti-windup, a missing BHP holding the choke."""
+import math
+
+import pytest
+
+from drill_nmpc.baseline import Baseline
+
+Q0, KP, TI, Q_MAX = 0.01, 5.0e-9, 5.0, 0.05
+
+
+def test_the_block_ramps_at_the_trip_speed_and_stops_on_the_target():
+    b = Baseline(Q0, KP, TI, Q_MAX, trip_speed_mps=0.5, sample_time_s=1.0)
+    refs = []
+    for _ in range(5):
+        b.step(0.0, 6.85e7, 1.8, 6.85e7)
+        refs.append(b.block_ref_m)
+    assert refs == pytest.approx([0.5, 1.0, 1.5, 1.8, 1.8])
+    b.step(3.0, 6.85e7, 0.0, 6.85e7, enabled=False)       # manual: held where measured
+    assert b.block_ref_m == 3.0
+
+
+def test_the_pi_opens_the_choke_on_a_high_bhp_and_holds_it_without_a_reading():
+    b = Baseline(Q0, KP, TI, Q_MAX, trip_speed_mps=0.5, sample_time_s=1.0)
+    assert b.step(0.0, 6.85e7 + 1.0e5, 0.0, 6.85e7)
+    # 1 bar high: kp (1 bar + 1 bar s / Ti) = 30 + 6 L/min more
+    assert b.choke_ref_m3s == pytest.approx(Q0 + KP * (1.0e5 + 1.0e5 / TI))
+    held = b.choke_ref_m3s
+    assert not b.step(0.0, math.nan, 0.0, 6.85e7) and b.choke_ref_m3s == held
+    assert not b.step(0.0, 6.85e7, 0.0, None) and b.choke_ref_m3s == held
+
+
+def test_the_integral_stops_at_the_range():
+    b = Baseline(Q0, KP, TI, Q_MAX, trip_speed_mps=0.5, sample_time_s=1.0)
+    for _ in range(50):
+        b.step(0.0, 6.85e7 - 50.0e5, 0.0, 6.85e7)          # far too low: shut
+    assert b.choke_ref_m3s == 0.0
+    b.step(0.0, 6.85e7, 0.0, 6.85e7)                        # on the reference again
+    assert b.choke_ref_m3s > 0.0                            # no wound-up integral holds it shut

@@ -1,0 +1,154 @@
+"""The protection's answer to a lost circulation (drill_protection.pump_trip): found from
+the command and the string-flow meter only, the back-pressure pump kept going, the choke
+held shut once while the BHP without friction is under the window, within the fracture
+limit; and how the limiter applies it."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drill_core import hydraulics as hy
+from drill_core.config import load_rig
+from drill_protection.protection import ProcessProtection
+from drill_protection.pump_trip import PumpTripResponse, TripAction
+
+CONFIG = Path(__file__).resolve().parents[4] / "config"
+SPP_PA = 1.06e7
+BHP_PA = 6.85e7
+PERIOD_S = 0.1
+
+
+@pytest.fixture(scope="module")
+def setup():
+    config = load_rig(CONFIG)
+    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
+                             config.plant.choke_regularisation_pa)
+    return config, wm
+
+
+def response(setup) -> PumpTripResponse:
+    config, wm = setup
+    return PumpTripResponse(config.protection.pump_trip, wm, config.pressure_window_pa)
+
+
+def circulate(r: PumpTripResponse, seconds: float, start_s: float = 0.0) -> float:
+    """Circulation read for ``seconds``; the time reached."""
+    t = start_s
+    while t < start_s + seconds - 1e-9:
+        assert r.observe(t, True, 2.0e6, BHP_PA) == ""
+        t += PERIOD_S
+    return t
+
+
+def dp_for_friction_free_bhp(r: PumpTripResponse, bhp_pa: float) -> float:
+    return bhp_pa - r.column_pa
+
+
+def test_the_mud_column_plus_the_choke_dp_is_the_bhp_without_friction(setup):
+    config, wm = setup
+    r = response(setup)
+    r.observe(0.0, True, 2.0e6, BHP_PA)
+    # 1800 kg/m^3 over 3607.8 m: 637 bar; with 20 bar at the choke 657 bar (the 28 bar of
+    # annular friction at 1000 L/min make up the 685 bar)
+    assert r.friction_free_bhp_pa() == pytest.approx(657.07e5, abs=0.01e5)
+    friction = sum(hy.annulus_friction(np, wm, [1000.0 / 60000.0] * (wm.n - 1), 0.0))
+    assert r.friction_free_bhp_pa() + friction == pytest.approx(BHP_PA, abs=0.5e5)
+
+
+def test_a_blank_meter_while_the_pump_is_asked_for_is_a_lost_circulation(setup):
+    r = response(setup)
+    r.request(True, SPP_PA)
+    t = circulate(r, 2.0)
+    assert r.action(t) is None                                 # circulating: nothing to do
+    text = r.observe(t, False, 2.0e6, BHP_PA)
+    assert text.startswith("circulation lost") and r.lost
+    assert r.observe(t + PERIOD_S, False, 2.0e6, BHP_PA) == ""   # said once
+    assert r.action(t + 1.0) is not None
+    assert r.observe(t + 2.0, True, 2.0e6, BHP_PA).startswith("circulation back")
+    assert not r.lost and r.action(t + 2.0) is None
+
+
+@pytest.mark.parametrize("mud_pump_on, spp_pa, circulated_s", [
+    (False, SPP_PA, 2.0),      # the advisor stopped the pump (a connection): planned
+    (True, 0.0, 2.0),          # no stand-pipe pressure asked for: planned
+    (True, SPP_PA, 0.0),       # the meter never read a flow (a run started without circulation)
+])
+def test_a_planned_stop_or_a_well_never_circulated_is_no_loss(setup, mud_pump_on, spp_pa,
+                                                               circulated_s):
+    r = response(setup)
+    r.request(mud_pump_on, spp_pa)
+    t = circulate(r, circulated_s)
+    for k in range(20):
+        assert r.observe(t + k * PERIOD_S, False, 2.0e6, BHP_PA) == ""
+    assert not r.lost and r.action(t + 2.0) is None
+
+
+def test_the_choke_is_held_shut_once_until_the_bhp_without_friction_is_inside(setup):
+    config, _ = setup
+    c = config.protection.pump_trip
+    low, _ = config.pressure_window_pa
+    r = response(setup)
+    r.request(True, SPP_PA)
+    t = circulate(r, 1.0)
+    r.observe(t, False, 2.0e6, BHP_PA)                   # lost; without friction 657 bar
+    a = r.action(t + 1.0)
+    assert a.choke_flow_m3s == 0.0 and a.bpp_flow_min_m3s == c.bpp_flow_m3s
+    assert "choke held shut" in a.reason
+    # the trapped flow raises the choke dp until the BHP without friction reaches the edge
+    r.observe(t + 2.0, False, dp_for_friction_free_bhp(r, low + c.static_margin_pa), BHP_PA)
+    a = r.action(t + 2.0)
+    assert a.choke_flow_m3s is None and a.bpp_flow_min_m3s == c.bpp_flow_m3s
+    # once: a later fall of the choke dp (the advisor's) does not shut it again
+    r.observe(t + 3.0, False, 1.0e6, BHP_PA)
+    assert r.action(t + 3.0).choke_flow_m3s is None
+
+
+def test_the_choke_is_not_shut_at_the_fracture_edge_nor_after_its_time(setup):
+    config, _ = setup
+    c = config.protection.pump_trip
+    _, high = config.pressure_window_pa
+    r = response(setup)
+    r.request(True, SPP_PA)
+    t = circulate(r, 1.0)
+    r.observe(t, False, 2.0e6, high)                     # BHP at the fracture edge
+    assert r.action(t + 1.0).choke_flow_m3s is None      # the window guard's side
+    r.observe(t + 1.1, False, 2.0e6, BHP_PA)
+    assert r.action(t + 2.0).choke_flow_m3s == 0.0
+    assert r.action(t + c.trap_max_s + 1.0).choke_flow_m3s is None   # given up
+    assert r.action(t + c.trap_max_s + 2.0).choke_flow_m3s is None
+
+
+def test_the_limiter_shuts_the_choke_past_its_slew_and_keeps_the_pump_going(setup):
+    config, wm = setup
+    flow = 1000.0 / 60000.0
+    p = ProcessProtection(config, wm, np.array([0.0, flow, 0.0, SPP_PA]))
+    action = TripAction(0.0, 0.01, "circulation lost 1 s ago: choke held shut")
+    d = p.apply([0.0, flow, 0.0, SPP_PA], 0.0, 0.0, BHP_PA, 0.0, 0.5,
+                choke_dp_setpoint=(2.0e6, 0.0), trip_action=action)
+    assert d.command[1] == 0.0 and d.choke_dp_setpoint is None     # on its flow loop, shut
+    assert d.command[2] == pytest.approx(0.01)                      # past the pump's slew
+    assert action.reason in d.clamps
+    assert any(c.startswith("bpp_flow_m3s 0 -> 0.01") for c in d.clamps)
+    # the advisor's choke again: it moves from the shut choke at its slew
+    d = p.apply([0.0, flow, 0.0, SPP_PA], 0.0, 0.0, BHP_PA, 0.0, 0.5,
+                trip_action=TripAction(None, 0.01, "circulation lost 2 s ago"))
+    assert d.command[1] == pytest.approx(config.nmpc.input_slew.choke_flow_m3s)
+    assert d.command[2] == pytest.approx(0.01)
+
+
+def test_over_the_window_the_guard_relieves_and_the_pump_floor_yields(setup):
+    config, wm = setup
+    _, high = config.pressure_window_pa
+    p = ProcessProtection(config, wm, np.array([0.0, 0.01, 0.01, SPP_PA]))
+    d = p.apply([0.0, 0.01, 0.01, SPP_PA], 0.0, 0.0, high + 1.0e5, 0.0, 0.5,
+                surface_flows=(0.01, 0.01), trip_action=TripAction(None, 0.01, "lost"))
+    assert d.command[2] < 0.01                            # the guard slows the pump
+
+
+def test_no_answer_under_an_emergency_stop(setup):
+    config, wm = setup
+    p = ProcessProtection(config, wm, np.array([0.0, 0.01, 0.0, SPP_PA]))
+    p.emergency_stop = True
+    d = p.apply([0.0, 0.01, 0.0, SPP_PA], 0.0, 0.0, BHP_PA, 0.0, 0.5,
+                trip_action=TripAction(0.0, 0.01, "lost"))
+    assert d.command[1] == pytest.approx(0.01) and d.command[2] == 0.0
