@@ -2,8 +2,8 @@
 container holds components (rclpy has no container of its own).
 
 Run: python -m drill_core.ros.container <process name> <JSON list of nodes> <marker>
-<JSON list of local topics>, each node {"module", "node_class", "ros_args" (the node's own --ros-args: name remap and
-parameters), "finishes"}. The nodes are the same classes that run alone; they take their
+<JSON list of local topics>, each node {"module", "node_class", "ros_args" (the node's own
+--ros-args: name remap and parameters), "finishes"}. The nodes are the same classes that run alone; they take their
 arguments per node (no global arguments), so two nodes of one class (the actuators)
 keep their own names and parameters. The local topics (drill_core.ros.graph.local_topics)
 go between the nodes here on the local bus (drill_core.ros.local_bus), not through the
@@ -30,7 +30,6 @@ from drill_core.ros.budget import ProcessClock
 from drill_core.ros.executors import SPIN_TIMEOUT_S, create_executor
 from drill_core.ros.local_bus import LocalBus
 from drill_core.ros.node import CONTAINED
-
 
 
 def create_nodes(specs: list[dict]) -> list:

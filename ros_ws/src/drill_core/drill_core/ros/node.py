@@ -15,8 +15,8 @@ from the process's local bus (drill_core.ros.local_bus) instead of the middlewar
 
 A node that ends the run (the plant at the scenario's end, the estimator after the last
 sample) calls ``finish``: on its own it shuts its process down; in a container
-(drill_core.ros.container) it only marks itself finished, and the container ends once
-every finishing node it holds has finished and the work they left is done.
+(drill_core.ros.container) it only marks itself finished, and once every finishing node
+there has, the container tells the launcher so and spins on until it is stopped.
 
 In fast mode the launcher also gives each node ``match_before_first_publish`` (``topic:N``,
 drill_core.ros.graph.first_publish_matches): the first message on such a topic waits until
