@@ -16,6 +16,9 @@
                                    (Paper IV): crossing frequencies, critical delays, delay
                                    margin, critical speed; with --output the figures like
                                    the paper's Figs. 3, 4 and 7
+  rig export RUN_DIR [--format csv|parquet] [--topics T ...] [--wide RATE_HZ] [--output DIR]
+                                   the recording as tables, one per topic (or one resampled
+                                   at RATE_HZ), SI columns named with units, UTC stamps
   rig compare [SCENARIO ...] [--seeds N] [--output FILE]
                                    Cases 1-3 and the fault scenarios under the NMPC, automated
                                    MPD and the PI baseline, Case 4 under its NMPC, N seeds
@@ -81,6 +84,8 @@ def main(argv=None) -> int:
     stab.add_argument("--bha", action="store_true", help="the lowest block(s) are collars")
     stab.add_argument("--mud-viscosity", type=float, help="Pa s (default: the section's)")
     stab.add_argument("--output", type=Path, help="write the Fig. 3, 4 and 7 like plots here")
+    from drill_bringup import export
+    export.add_arguments(sub.add_parser("export", help="a run's recording as CSV or Parquet tables"))
     comp = sub.add_parser("compare", help="run Cases 1-4 under every controller; tabulate")
     comp.add_argument("scenarios", nargs="*", help="default: case1..case4 and the fault "
                                                    "scenarios (kick, losses, pump_trip, "
@@ -100,6 +105,8 @@ def main(argv=None) -> int:
             _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name)
             print(table)
             return 0
+        if args.command == "export":
+            return export.main(args)
         if args.command == "stability":
             return _stability(args)
         if args.command == "compare":
