@@ -19,6 +19,11 @@
   rig export RUN_DIR [--format csv|parquet] [--topics T ...] [--wide RATE_HZ] [--output DIR]
                                    the recording as tables, one per topic (or one resampled
                                    at RATE_HZ), SI columns named with units, UTC stamps
+  rig sweep SCENARIO --seeds N [--first-seed S] [--controller C ...] [--set FILE.KEY=VALUE ...]
+            [--workers W] [--cluster ADDRESS] [--output DIR]
+                                   the scenario on N seeds through the graph, on a local pool
+                                   or a Dask cluster; mean, spread and worst of each figure
+                                   per controller (table, plot); the same --output resumes
   rig compare [SCENARIO ...] [--seeds N] [--output FILE]
                                    Cases 1-3 and the fault scenarios under the NMPC, automated
                                    MPD and the PI baseline, Case 4 under its NMPC, N seeds
@@ -86,6 +91,8 @@ def main(argv=None) -> int:
     stab.add_argument("--output", type=Path, help="write the Fig. 3, 4 and 7 like plots here")
     from drill_bringup import export
     export.add_arguments(sub.add_parser("export", help="a run's recording as CSV or Parquet tables"))
+    from drill_bringup import sweep
+    sweep.add_arguments(sub.add_parser("sweep", help="a scenario on many seeds, aggregated"))
     comp = sub.add_parser("compare", help="run Cases 1-4 under every controller; tabulate")
     comp.add_argument("scenarios", nargs="*", help="default: case1..case4 and the fault "
                                                    "scenarios (kick, losses, pump_trip, "
@@ -107,6 +114,8 @@ def main(argv=None) -> int:
             return 0
         if args.command == "export":
             return export.main(args)
+        if args.command == "sweep":
+            return sweep.main(args)
         if args.command == "stability":
             return _stability(args)
         if args.command == "compare":

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drill_bringup import report, runs
+from drill_bringup import batch, report, runs
 from drill_core.scenario import load_scenario
 from drill_core.units import L_PER_M3, PA_PER_BAR
 
@@ -59,21 +59,24 @@ def plan(cases, controllers, seeds: int) -> list[tuple[str, str, int]]:
     return out
 
 
-def run_all(items, runs_dir: Path | None = None) -> list[dict]:
-    """Run each (case, controller, seed); a row per run with its summary."""
+def run_all(items, runs_dir: Path | None = None, run=batch.run_one) -> list[dict]:
+    """Run each (case, controller, seed), one after another (drill_bringup.batch); a row per
+    run with its summary. A failed run stops the comparison, naming it."""
+    specs = [batch.RunSpec(case, str(runs.scenario_path(case)), controller, seed,
+                           None if runs_dir is None else str(runs_dir))
+             for case, controller, seed in items]
     rows = []
-    for case, controller, seed in items:
-        print(f"[compare] {case} / {controller} / seed {seed} ...", flush=True)
-        code, run_dir = runs.run_scenario(runs.scenario_path(case), runs_dir=runs_dir, seed=seed,
-                                          controller=controller, quiet=True)
-        launch = json.loads((run_dir / "launch.json").read_text())
-        if code != 0:
-            raise RuntimeError(f"{case} / {controller} / seed {seed} failed: {launch['message']}")
-        summary = json.loads((run_dir / "summary.json").read_text())
-        rows.append({"case": case, "controller": controller, "seed": seed, "summary": summary,
-                     "run_dir": str(run_dir), "wall_s": launch["wall_time_s"]})
-        print(f"[compare]   BHP RMSE {summary['bhp_rmse_pa'] / PA_PER_BAR:.3f} bar, "
-              f"{launch['wall_time_s']:.1f} s wall", flush=True)
+
+    def done(row: dict) -> None:
+        label = f"{row['case']} / {row['controller']} / seed {row['seed']}"
+        if not row["ok"]:
+            raise RuntimeError(f"{label} failed: {row['message']}")
+        rows.append({k: row[k] for k in ("case", "controller", "seed", "summary", "run_dir",
+                                         "wall_s")})
+        print(f"[compare] {label}: BHP RMSE {row['summary']['bhp_rmse_pa'] / PA_PER_BAR:.3f} "
+              f"bar, {row['wall_s']:.1f} s wall", flush=True)
+    print(f"[compare] {len(specs)} runs, one at a time", flush=True)
+    batch.execute(specs, run, on_done=done)
     return rows
 
 

@@ -16,7 +16,6 @@ plant, a pump trip or a stuck actuator on its actuator). The process protection
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import dataclasses
 import sys
@@ -28,7 +27,7 @@ import numpy as np
 from drill_bringup.runs import ROOT, scenario_path
 from drill_bringup.report import format_legs, tracking_metrics
 from drill_core import hydraulics as hy
-from drill_core.config import RigConfig
+from drill_core.config import RigConfig, parse_settings
 from drill_core.estimation_model import (BLOCK_INTEGRAL, MEASUREMENT_NAMES, build_estimation_model,
                                          fitted_friction_parameters)
 from drill_core.events import of_owner
@@ -404,11 +403,7 @@ def main(argv=None) -> int:
     parser.add_argument("--set", action="append", default=[],
                         help="config override FILE.KEY=VALUE, e.g. automated_mpd.feedforward_lead_s=2")
     args = parser.parse_args(argv)
-    overrides: dict = {}
-    for item in args.set:
-        key, value = item.split("=", 1)
-        stem, name = key.split(".", 1)
-        overrides.setdefault(stem, {})[name] = json.loads(value)
+    overrides = parse_settings(args.set)
     for seed in args.seeds or [None]:
         r = run(args.scenario, args.controller, args.state, seed, overrides,
                 protection=args.protection)

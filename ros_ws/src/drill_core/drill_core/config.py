@@ -7,6 +7,7 @@ objects, so there is one description of the well.
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -522,6 +523,34 @@ def load_rig(directory: str | os.PathLike, overrides: dict[str, dict] | None = N
     return RigConfig(directory=str(directory), **sections)
 
 
+def parse_settings(items) -> dict[str, dict]:
+    """``--set FILE.KEY=VALUE`` items (the loop bench, ``rig sweep``) as :func:`load_rig`
+    overrides: FILE a config file stem, KEY a dotted path into that file, VALUE JSON (a bare
+    word is a string), e.g. ``nmpc.bhp_bias_gain=0``. Later items win. The values are
+    checked, key and range named, when the configuration loads."""
+    overrides: dict = {}
+    for item in items:
+        key, equals, text = item.partition("=")
+        stem, dot, path = key.strip().partition(".")
+        if not (equals and dot and path and all(path.split("."))):
+            raise ConfigError(f"--set {item!r}: expected FILE.KEY=VALUE, e.g. nmpc.bhp_bias_gain=0")
+        if stem not in _FILES:
+            raise ConfigError(f"--set {item!r}: {stem!r} is not a configuration file; one of "
+                              f"{', '.join(_FILES)}")
+        try:
+            value = json.loads(text)
+        except json.JSONDecodeError:
+            value = text.strip()
+        *parents, leaf = path.split(".")
+        node = overrides.setdefault(stem, {})
+        for parent in parents:
+            node = node.setdefault(parent, {})
+            if not isinstance(node, dict):
+                raise ConfigError(f"--set {item!r}: {parent!r} was set to a value above")
+        node[leaf] = value
+    return overrides
+
+
 def replace(obj: object, **changes: object) -> object:
     """A copy of a frozen configuration object with some fields changed (re-validated)."""
     new = dataclasses.replace(obj, **changes)
@@ -535,4 +564,4 @@ __all__ = ["ConfigError", "RigConfig", "Well", "StringSection", "Mud", "Turbulen
            "MeasurementNoise", "SurfaceSensorNoise", "Lag", "Actuators", "Estimator", "FrictionLawTuning", "FRICTION_LAWS",
            "Nmpc", "ChokeDpSetpoint", "AutomatedMpd", "InputVector", "OutputVector", "Protection",
            "KickDetection", "Formation",
-           "load_rig", "load_section", "replace"]
+           "load_rig", "load_section", "parse_settings", "replace"]
