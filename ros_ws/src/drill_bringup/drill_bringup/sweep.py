@@ -76,6 +76,7 @@ def sweep_scenario(source: Path, sets, output: Path) -> Path:
     if path.exists() and path.read_text() != text:
         raise ConfigError(f"{output} holds a sweep of other settings ({path} differs from "
                           f"{source} with these --set overrides); use another --output")
+    created = not output.exists()
     output.mkdir(parents=True, exist_ok=True)
     staged = output / f".{SCENARIO_FILE}"
     staged.write_text(text)
@@ -83,7 +84,10 @@ def sweep_scenario(source: Path, sets, output: Path) -> Path:
         load_scenario_config(staged, runs.ROOT / "config")
     except ConfigError as err:
         staged.unlink()
-        raise ConfigError(str(err).replace(str(staged), f"{source} with --set")) from None
+        if created:
+            output.rmdir()
+        raise ConfigError(f"--set {' '.join(sets)}: "
+                          + str(err).replace(str(staged), f"{source} with --set")) from None
     staged.replace(path)
     return path
 
@@ -208,10 +212,10 @@ def sweep(case: str, seeds: int, first_seed: int | None = None, controllers=(), 
     scenario, _ = load_scenario_config(source, runs.ROOT / "config")
     output = (output or runs.ROOT / "runs" /
               f"sweep-{scenario.name}-{datetime.now():%Y%m%d-%H%M%S}").resolve()
-    path = sweep_scenario(source, sets, output)
     controllers = list(dict.fromkeys(controllers or [scenario.controller]))
     first = scenario.seed if first_seed is None else first_seed
-    specs = plan(case, path, controllers, seeds, first, output)
+    specs = plan(case, output / SCENARIO_FILE, controllers, seeds, first, output)
+    sweep_scenario(source, sets, output)
     settings = {"scenario": scenario.name, "scenario_file": str(source),
                 "overrides": parse_settings(sets), "controllers": controllers,
                 "seeds": list(range(first, first + seeds))}
