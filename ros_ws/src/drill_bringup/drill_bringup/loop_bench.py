@@ -34,7 +34,7 @@ from drill_core.events import of_owner
 from drill_core.scenario import initial_setpoints, load_scenario_config, setpoints_at
 from drill_core.units import PA_PER_BAR
 from drill_core.channel_watch import ChannelWatch
-from drill_estimator.model_inputs import frame_inputs
+from drill_estimator.model_inputs import ModelInputs, frame_inputs
 from drill_estimator.ukf import RigUkf
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.baseline import Baseline
@@ -47,6 +47,7 @@ from drill_plant.simulator import PlantSimulator
 from drill_protection.kick_detection import FlowSample, detector_for
 from drill_protection.protection import ProcessProtection
 from drill_protection.pump_trip import PumpTripResponse
+from drill_protection.well_control import WindowResponse
 
 CONTROLLERS = ("automated_mpd", "nmpc", "baseline")
 BASELINE_KP_M3S_PER_PA = 5.0e-9     # the baseline node's default gains (30 L/min per bar)
@@ -172,7 +173,9 @@ class UkfState:
         self.ukf = RigUkf(config)
         self.watch = ChannelWatch(MEASUREMENT_NAMES, config.estimator.frozen_after_samples)
         self.wm = rig.sim.wm
-        self.dp_pa = math.nan
+        self.held = ModelInputs(self.ukf.em, self.ukf.block_input,
+                                config.estimator.frozen_after_samples)   # choke dp, return flow
+        self.held.choke_dp_pa = math.nan
 
     def observe(self, m, inputs, t: float) -> tuple[EstimateView, np.ndarray]:
         circulating = bool(m.string_flow_valid)
@@ -184,10 +187,11 @@ class UkfState:
             ukf.initialise(ukf.initial_state(y, circulating))
         else:
             ukf.predict_frame(frame_inputs(self.wm, inputs[0], inputs[1], inputs[2], inputs[3],
-                                           self.dp_pa))
+                                           self.held.choke_dp_pa, self.held.return_flow_m3s))
             ukf.update(y, circulating)
         if math.isfinite(y[1]):
-            self.dp_pa = float(y[1])
+            self.held.accept_choke_dp(float(y[1]))
+        self.held.observe_return_flow(t, m.return_flow_m3s)
         x = ukf.mean
         return EstimateView(bhp_pa=ukf.bhp_pa, string_position_m=float(x[ukf.em.position]),
                             string_velocity_mps=float(x[ukf.em.velocity]),
@@ -256,6 +260,8 @@ class Protection:
         self.alarms: list[tuple[float, str]] = []
         self.trip = PumpTripResponse(config.protection.pump_trip, rig.sim.wm,
                                      config.pressure_window_pa)
+        self.window = WindowResponse(config.protection.well_control, config.pressure_window_pa)
+        self.flow_threshold_m3s = config.protection.kick_detection.flow_threshold_m3s
 
     def measurement(self, m, t: float) -> None:
         reading = self.detector.update(FlowSample(
@@ -264,6 +270,12 @@ class Protection:
         if self.stop_trip:
             self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" \
                 if reading.alarm else ""
+        narrowed = self.window.observe(t, m.bhp_pa, m.choke_dp_pa, reading.alarm,
+                                       reading.excess_flow_m3s, self.flow_threshold_m3s)
+        if narrowed:
+            self.alarms.append((t, narrowed))
+        self.protection.window_pa = self.window.window_pa
+        self.protection.well_control = self.window.choke_dp_setpoint()
         alarm = self.trip.observe(t, m.string_flow_valid, m.choke_dp_pa, m.bhp_pa)
         if alarm:
             self.alarms.append((t, alarm))

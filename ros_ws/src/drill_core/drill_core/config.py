@@ -441,6 +441,19 @@ class PumpTrip:
 
 
 @dataclass(frozen=True)
+class WellControl:
+    """The protection's answer to a kick or losses alarm: the BHP window narrowed in steps
+    (drill_protection.well_control)."""
+    step_pa: float = param("Pa", 0.0, 5.0e6, lo_open=True,
+                           doc="each step of the window's edge toward the other")
+    interval_s: float = param("s", 0.0, 600.0, lo_open=True,
+                              doc="another step this long after the last while the well flows")
+    gap_pa: float = param("Pa", 0.0, 5.0e6, doc="the narrowed window is at least this wide")
+    offset_time_constant_s: float = param(
+        "s", 0.0, 600.0, lo_open=True, doc="low-pass of BHP - choke dp for the choke's set-point")
+
+
+@dataclass(frozen=True)
 class Protection:
     """Process protection between advisors and machines (docs/design.md §10)."""
     pressure_margin_pa: float = param("Pa", 0.0, 1.0e7,
@@ -452,6 +465,7 @@ class Protection:
     window_guard: bool = param(doc="outside the window (with margin) the choke and the back-"
                                    "pressure pump are driven back toward it")
     pump_trip: PumpTrip = param()
+    well_control: WellControl = param()
 
 
 @dataclass(frozen=True)

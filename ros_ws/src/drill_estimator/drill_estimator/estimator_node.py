@@ -20,7 +20,8 @@ channel is left out like a NaN one, and the estimate reports the frozen channels
 age of the stalest channel, so a dropout shows as staleness while the filter rides on its
 model (its covariance grows).
 
-Time-update inputs come from the actuator frames through drill_estimator.model_inputs.
+Time-update inputs come from the actuator frames and the return-flow meter's sample
+(the choke flow) through drill_estimator.model_inputs.
 
 Run: python -m drill_estimator.estimator_node --ros-args -p config_dir:=<dir> -p mode:=fast
      -p use_sim_time:=true
@@ -67,7 +68,8 @@ class EstimatorNode(RigNode):
         self.latest: dict[str, ActuatorFrame] = {}             # realtime mode
         self.pending: dict[int, RigMeasurement] = {}           # fast mode, by stamp
         self.previous_ns: int | None = None                    # stamp of the last measurement used
-        self.inputs = ModelInputs(self.ukf.em, self.ukf.block_input)
+        self.inputs = ModelInputs(self.ukf.em, self.ukf.block_input,
+                                  cfg.estimator.frozen_after_samples)
         self.frame_ms = 0.0
 
         self.pub = self.create_publisher(StateEstimate, topics.ESTIMATE, topics.RELIABLE)
@@ -150,6 +152,7 @@ class EstimatorNode(RigNode):
             x0 = ukf.initial_state(y, circulating)
             ukf.initialise(x0)
             self.inputs.start(x0, float(y[1]))
+            self.inputs.observe_return_flow(stamp * 1e-9, msg.return_flow_m3s)
             self.previous_ns = stamp
             self._publish(msg, None)
             return
@@ -167,6 +170,7 @@ class EstimatorNode(RigNode):
         result = ukf.update(y, circulating)
         if result.accepted and np.isfinite(y[1]):
             self.inputs.accept_choke_dp(float(y[1]))
+        self.inputs.observe_return_flow(stamp * 1e-9, msg.return_flow_m3s)
         if not result.accepted:
             self.status.error(f"measurement at {stamp} ns rejected: {y.tolist()}")
         elif result.dropped:
@@ -216,6 +220,7 @@ class EstimatorNode(RigNode):
             if result is not None else 0.0,
             "rejected": float(ukf.rejected), "rejected_channels": float(ukf.rejected_channels),
             "frozen_samples": float(self.watch.frozen_samples),
+            "valve_law_frames": float(self.inputs.valve_law_frames),
             "inflations": float(ukf.inflations),
             "repairs": float(ukf.repairs),
             "resets": float(ukf.resets),

@@ -1,49 +1,67 @@
 """The UKF's time-update inputs u = [u_b (or u_r) m, q_c m^3/s, q_bpp m^3/s, p_in Pa] per
 plant step, from the actuators' frames.
 
-The choke flow is not measured: a virtual flow meter takes it from the valve law with the
-choke opening and the last accepted measured choke differential pressure. A missing or
-bad frame holds its actuator's last good value, and says so.
+The choke flow is the Coriolis return-flow meter's last good sample on the choke line, held
+over the frame; while that sample is NaN, inf or frozen a virtual flow meter takes it from
+the valve law with the choke opening and the last accepted measured choke differential
+pressure (a plugging choke deceives the valve law: it passes less than the law says). A
+missing or bad frame holds its actuator's last good value, and says so.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 import numpy as np
 
 from drill_core import hydraulics as hy
+from drill_core.channel_watch import ChannelWatch
 from drill_core.estimation_model import EstimationModel
 from drill_core.events import ACTUATORS
 
 BLOCK_INPUTS = ("reference", "block_position")
 
 
+def choke_flow_input(wm: hy.WellModel, choke_opening, choke_dp_pa,
+                     return_flow_m3s: float) -> np.ndarray:
+    """The model's choke flow [m^3/s]: the screened return-flow sample where it is finite,
+    else the valve law at ``choke_opening`` and ``choke_dp_pa``."""
+    if math.isfinite(return_flow_m3s):
+        return np.full(np.shape(np.atleast_1d(choke_opening)), return_flow_m3s)
+    return hy.choke_flow(wm, choke_opening, choke_dp_pa)
+
+
 def frame_inputs(wm: hy.WellModel, block_m, choke_opening, bpp_flow_m3s, pump_pressure_pa,
-                 choke_dp_pa) -> np.ndarray:
+                 choke_dp_pa, return_flow_m3s: float = math.nan) -> np.ndarray:
     """Filter inputs U [4 x N] for one sensor frame from the actuator outputs.
 
     ``block_m`` is the drawworks output u_b (or its reference u_r, per block_input). Every
-    argument may be a scalar (held over the frame) or N samples.
+    argument but the (held) return-flow sample may be a scalar (held over the frame) or N
+    samples.
     """
     cols = [np.atleast_1d(np.asarray(v, dtype=float)) for v in
             (block_m, choke_opening, bpp_flow_m3s, pump_pressure_pa, choke_dp_pa)]
     steps = max(c.size for c in cols)
     cols = [np.broadcast_to(c, (steps,)) if c.size == 1 else c for c in cols]
     ref, opening, bpp, pump, dp = cols
-    return np.vstack([ref, hy.choke_flow(wm, opening, dp), bpp, pump])
+    return np.vstack([ref, choke_flow_input(wm, opening, dp, return_flow_m3s), bpp, pump])
 
 
 class ModelInputs:
     """Turns each frame's actuator samples into the model's inputs, holding the last good
     sample of each actuator (drawworks, choke opening, back-pressure pump flow, mud-pump
-    pressure: topics.ACTUATORS order) and the last accepted choke dp."""
+    pressure: topics.ACTUATORS order), the last accepted choke dp and the last return-flow
+    sample (NaN while the meter's sample is bad or frozen)."""
 
-    def __init__(self, em: EstimationModel, block_input: str):
+    def __init__(self, em: EstimationModel, block_input: str, frozen_after_samples: int):
         if block_input not in BLOCK_INPUTS:
             raise ValueError(f"block_input must be one of {BLOCK_INPUTS}, got {block_input!r}")
         self.em, self.block_input = em, block_input
         self.held = np.zeros(len(ACTUATORS))
         self.choke_dp_pa = 0.0
+        self.return_flow_m3s = math.nan
+        self.flow_watch = ChannelWatch(("return_flow_m3s",), frozen_after_samples)
+        self.valve_law_frames = 0     # frames whose choke flow came from the valve law
 
     def start(self, x0: np.ndarray, choke_dp_pa: float) -> None:
         """Hold the inputs that keep the estimation model's steady state ``x0``."""
@@ -66,6 +84,12 @@ class ModelInputs:
         """A measured choke dp the update accepted: the virtual flow meter's from now on."""
         self.choke_dp_pa = float(choke_dp_pa)
 
+    def observe_return_flow(self, time_s: float, return_flow_m3s: float) -> None:
+        """A return-flow sample: the choke flow of the next frame, unless NaN, inf or
+        frozen (then the valve law's)."""
+        screened, _ = self.flow_watch.screen(time_s, [return_flow_m3s])
+        self.return_flow_m3s = float(screened[0])
+
     def frame(self, frames: Mapping[str, object], steps: int) -> tuple[np.ndarray, list[str]]:
         """Inputs [4 x steps] from ``frames`` (actuator name -> its frame, with ``output``
         samples and the ``reference``; absent when it did not come) and the problems met."""
@@ -87,5 +111,8 @@ class ModelInputs:
             self.held[i] = row[-1]
             rows.append(row)
         inputs = np.vstack(rows)
-        inputs[1] = hy.choke_flow(self.em.wm, inputs[1], self.choke_dp_pa)
+        if not math.isfinite(self.return_flow_m3s):
+            self.valve_law_frames += 1
+        inputs[1] = choke_flow_input(self.em.wm, inputs[1], self.choke_dp_pa,
+                                     self.return_flow_m3s)
         return inputs, problems

@@ -21,6 +21,9 @@ def em():
     return build_estimation_model(load_rig(CONFIG_DIR))
 
 
+FROZEN_AFTER = 5
+
+
 def _frame(samples, reference=0.0):
     return SimpleNamespace(output=list(samples), reference=reference)
 
@@ -28,7 +31,7 @@ def _frame(samples, reference=0.0):
 def _started(em, block_input="block_position"):
     y = [0.0, 20.0e5, 6.6e7, CIRCULATION]
     x0 = initial_state(em, 1.0e6, y, True)
-    inputs = ModelInputs(em, block_input)
+    inputs = ModelInputs(em, block_input, FROZEN_AFTER)
     inputs.start(x0, y[1])
     return inputs, x0
 
@@ -65,4 +68,27 @@ def test_reference_mode_takes_the_drawworks_reference(em):
     u, _ = inputs.frame({"drawworks": _frame([5.0, 5.0], reference=7.5)}, 4)
     assert list(u[0]) == [7.5] * 4
     with pytest.raises(ValueError, match="block_input"):
-        ModelInputs(em, "hook_load")
+        ModelInputs(em, "hook_load", FROZEN_AFTER)
+
+
+def test_choke_flow_is_the_return_flow_sample_and_the_valve_law_only_while_it_is_bad(em):
+    """A plugging choke passes less than the valve law says: the meter's sample is the
+    model's choke flow; a NaN, inf or frozen sample falls back to the valve law, counted."""
+    inputs, _ = _started(em)
+    choke = {"choke": _frame([0.3] * 3)}
+    valve_law = hy.choke_flow(em.wm, 0.3, inputs.choke_dp_pa)
+    inputs.observe_return_flow(0.1, 0.5 * valve_law)
+    u, _ = inputs.frame(choke, 3)
+    assert np.allclose(u[1], 0.5 * valve_law) and inputs.valve_law_frames == 0
+    for time_s, bad in ((0.2, float("nan")), (0.3, float("inf"))):
+        inputs.observe_return_flow(time_s, bad)
+        u, _ = inputs.frame(choke, 3)
+        assert np.allclose(u[1], valve_law)
+    assert inputs.valve_law_frames == 2
+    for k in range(FROZEN_AFTER):                 # the same float FROZEN_AFTER times: frozen
+        inputs.observe_return_flow(0.4 + 0.1 * k, 0.01)
+    u, _ = inputs.frame(choke, 3)
+    assert np.allclose(u[1], valve_law) and inputs.valve_law_frames == 3
+    inputs.observe_return_flow(1.0, 0.02)         # it moves again: back on the meter
+    u, _ = inputs.frame(choke, 3)
+    assert np.allclose(u[1], 0.02)

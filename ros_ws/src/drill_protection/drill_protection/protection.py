@@ -13,6 +13,9 @@ machines respects the most conservative of
   (unless the advisor asks for more of that), the other way round under the pore
   pressure plus the margin (the choke on its flow loop while it acts). Starting from the
   measured flows, not the last commands, it cannot wind up behind the pumps' lags,
+* a confirmed kick or loss (drill_protection.well_control): the choke held on its
+  pressure loop at the set-point that puts BHP into the window that answer narrowed,
+  whatever the advisor asks for the choke, and the trip-speed limits kept to that window,
 * an unplanned loss of circulation (drill_protection.pump_trip): the back-pressure pump
   kept at a flow the choke can hold back-pressure with, and once the choke held shut
   while the BHP the well will have without the annular friction is under the window.
@@ -75,6 +78,10 @@ class ProcessProtection:
         self.emergency_stop = False
         self.automation_level = "closed_loop"
         self.trip_hold = ""          # why the trip is stopped (a well-control alarm), "" if not
+        # a kick or losses answered (drill_protection.well_control): the window the trip
+        # speed limits keep to, and the choke-dp set-point the choke holds [Pa] (None: none)
+        self.window_pa = config.pressure_window_pa
+        self.well_control: tuple[float, str] | None = None
         a, n = config.actuators, config.nmpc
         self.lower = np.array([a.drawworks.minimum, 0.0, a.bpp.minimum, a.mud_pump.minimum])
         self.upper = np.array([a.drawworks.maximum, n.input_max.choke_flow_m3s, a.bpp.maximum,
@@ -103,7 +110,7 @@ class ProcessProtection:
         change = surge_swab_pa(self.wm, np.concatenate([[string_velocity_mps], -grid, grid]),
                                circulation_m3s)
         static_bhp = bhp_pa - change[0]
-        low, high = self.config.pressure_window_pa
+        low, high = self.window_pa
 
         def outside(bhp):
             return np.maximum(low - bhp, 0.0) + np.maximum(bhp - high, 0.0)
@@ -161,6 +168,12 @@ class ProcessProtection:
         if manual_choke_opening is not None:
             choke_dp_setpoint = None
 
+        if self.well_control is not None and not not_applied:
+            dp_pa, why = self.well_control
+            manual_choke_opening, choke_dp_setpoint = None, (dp_pa, 0.0)
+            flowing = (surface_flows or (np.nan,))[0]      # the pressure loop's feed-forward
+            command[1] = flowing if np.isfinite(flowing) else self.previous[1]
+            clamps.append(why)
         guard = self._window_guard(bhp_pa, clamps)
         trip = None if not_applied else trip_action
         shut = trip is not None and trip.choke_flow_m3s is not None

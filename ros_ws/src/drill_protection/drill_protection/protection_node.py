@@ -37,6 +37,7 @@ from drill_core.ros.status import StatusReporter
 from drill_protection.kick_detection import FlowSample, detector_for
 from drill_protection.protection import ProcessProtection
 from drill_protection.pump_trip import PumpTripResponse
+from drill_protection.well_control import WindowResponse
 
 VELOCITY_WINDOW_S = 1.0
 
@@ -54,6 +55,8 @@ class ProtectionNode(RigNode):
         self.detector = detector_for(ctx.config, ctx.well_model.geometry)
         self.circulation = PumpTripResponse(ctx.config.protection.pump_trip, ctx.well_model,
                                             ctx.config.pressure_window_pa)
+        self.window = WindowResponse(ctx.config.protection.well_control,
+                                     ctx.config.pressure_window_pa)
         self.operator_speed_limit = ctx.config.protection.trip_speed_max_mps
         self.positions: deque = deque()
         self.inbox = StampedInbox(("command", "measurement"))
@@ -130,8 +133,16 @@ class ProtectionNode(RigNode):
         elif before and not reading.alarm:
             self._event("alarm", f"{before} alarm cleared: excess flow "
                                  f"{reading.excess_flow_m3s * LPM_PER_M3S:+.0f} L/min", stamp)
-        if self.ctx.config.protection.kick_detection.stop_trip:
+        detection = self.ctx.config.protection.kick_detection
+        if detection.stop_trip:
             self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" if reading.alarm else ""
+        narrowed = self.window.observe(stamp * 1e-9, m.bhp_pa, m.choke_dp_pa, reading.alarm,
+                                       reading.excess_flow_m3s, detection.flow_threshold_m3s)
+        if narrowed:
+            self.alarm_count += 1
+            self._event("alarm", narrowed, stamp)
+        self.protection.window_pa = self.window.window_pa
+        self.protection.well_control = self.window.choke_dp_setpoint()
         change = self.circulation.observe(stamp * 1e-9, m.string_flow_valid, m.choke_dp_pa, m.bhp_pa)
         if change:
             self.alarm_count += self.circulation.lost

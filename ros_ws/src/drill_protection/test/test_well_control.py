@@ -1,0 +1,116 @@
+"""The protection's answer to a kick or losses alarm (drill_protection.well_control): the
+window's edge stepped from the measured BHP while the well still flows, never past the
+other edge's gap or the configured window; and the limiter holding BHP in the narrowed
+window."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drill_core import hydraulics as hy
+from drill_core.config import WellControl, load_rig
+from drill_protection.protection import ProcessProtection
+from drill_protection.well_control import WindowResponse
+
+CONFIG = Path(__file__).resolve().parents[4] / "config"
+WINDOW_PA = (6.65e7, 7.05e7)
+THRESHOLD_M3S = 3.3e-4
+STEP = WellControl(step_pa=2.5e5, interval_s=15.0, gap_pa=5.0e5, offset_time_constant_s=10.0)
+PERIOD_S = 0.1
+
+
+def feed(r: WindowResponse, start_s: float, seconds: float, bhp_pa: float, alarm: str,
+         excess_m3s: float) -> list[tuple[float, str]]:
+    """Samples every 0.1 s; the events with their times."""
+    events, t = [], start_s
+    while t < start_s + seconds - 1e-9:
+        text = r.observe(t, bhp_pa, 2.0e6, alarm, excess_m3s, THRESHOLD_M3S)
+        if text:
+            events.append((t, text))
+        t += PERIOD_S
+    return events
+
+
+def test_no_alarm_leaves_the_configured_window():
+    r = WindowResponse(STEP, WINDOW_PA)
+    assert feed(r, 0.0, 60.0, 6.85e7, "", 0.0) == []
+    assert r.window_pa == WINDOW_PA
+
+
+def test_a_kick_raises_the_low_edge_from_the_bhp_in_steps_while_the_well_flows():
+    r = WindowResponse(STEP, WINDOW_PA)
+    feed(r, 0.0, 2.0, 6.85e7, "", 0.0)
+    events = feed(r, 2.0, 31.0, 6.85e7, "kick", 2 * THRESHOLD_M3S)
+    # at the alarm, after 15 s and after 30 s: BHP + 2.5, + 5, + 7.5 bar
+    assert [round(t, 1) for t, _ in events] == [2.0, 17.0, 32.0]
+    assert r.low_pa == pytest.approx(6.85e7 + 3 * STEP.step_pa)
+    assert "low edge raised to 692.5 bar" in events[-1][1]
+    assert r.high_pa == WINDOW_PA[1]
+    # the flow has stopped (under half the threshold): no more steps, and none given back
+    assert feed(r, 33.0, 60.0, 6.93e7, "kick", 0.4 * THRESHOLD_M3S) == []
+    assert feed(r, 93.0, 10.0, 6.93e7, "", 0.0) == []
+    assert r.low_pa == pytest.approx(6.85e7 + 3 * STEP.step_pa)
+
+
+def test_losses_lower_the_high_edge_never_closer_than_the_gap():
+    r = WindowResponse(STEP, WINDOW_PA)
+    feed(r, 0.0, 1.0, 6.80e7, "losses", -2 * THRESHOLD_M3S)
+    assert r.high_pa == pytest.approx(6.80e7 - STEP.step_pa)
+    feed(r, 1.0, 120.0, 6.80e7, "losses", -2 * THRESHOLD_M3S)
+    assert r.high_pa == pytest.approx(WINDOW_PA[0] + STEP.gap_pa)     # 670 bar, no lower
+    assert r.low_pa == WINDOW_PA[0]
+
+
+def test_a_bhp_over_the_window_starts_the_kick_edge_inside_it():
+    r = WindowResponse(STEP, WINDOW_PA)
+    feed(r, 0.0, 1.0, 7.20e7, "kick", 2 * THRESHOLD_M3S)
+    assert r.low_pa == pytest.approx(WINDOW_PA[1] - STEP.gap_pa)
+
+
+def test_non_finite_bhp_samples_are_left_out_of_the_median():
+    r = WindowResponse(STEP, WINDOW_PA)
+    feed(r, 0.0, 0.5, 6.85e7, "", 0.0)
+    r.observe(0.5, float("nan"), 2.0e6, "kick", 2 * THRESHOLD_M3S, THRESHOLD_M3S)
+    assert r.low_pa == pytest.approx(6.85e7 + STEP.step_pa)
+
+
+def test_the_choke_is_held_at_the_setpoint_that_puts_bhp_at_the_target():
+    """BHP - dp low-passed: a step in the pressures moves the set-point only by the
+    filter's share; the target is half a step inside the moved edge."""
+    r = WindowResponse(STEP, WINDOW_PA)
+    assert r.choke_dp_setpoint() is None
+    feed(r, 0.0, 30.0, 6.85e7, "", 0.0)                     # BHP - dp = 665 bar
+    assert r.choke_dp_setpoint() is None                    # window as configured
+    r.observe(30.0, 6.85e7, 2.0e6, "kick", 2 * THRESHOLD_M3S, THRESHOLD_M3S)
+    setpoint, why = r.choke_dp_setpoint()
+    assert r.target_bhp_pa == pytest.approx(6.85e7 + 1.5 * STEP.step_pa)
+    assert setpoint == pytest.approx(r.target_bhp_pa - (6.85e7 - 2.0e6))
+    assert "well control: choke held" in why
+    r.observe(30.1, 6.95e7, 2.0e6, "kick", 2 * THRESHOLD_M3S, THRESHOLD_M3S)  # a 10 bar wave
+    moved = setpoint - r.choke_dp_setpoint()[0]
+    assert moved == pytest.approx(1.0e6 * 0.1 / STEP.offset_time_constant_s)
+
+
+def test_the_limiter_holds_the_choke_on_its_pressure_loop_whatever_the_advisor_asks():
+    """With a well-control set-point the choke goes on its pressure loop at it, with the
+    measured return flow as feed-forward; the trip-speed limits keep to the narrowed window;
+    outside closed loop nothing is applied."""
+    config = load_rig(CONFIG)
+    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
+                             config.plant.choke_regularisation_pa)
+    start = np.array([0.0, 0.0167, 0.0, 1.06e7])
+    protection = ProcessProtection(config, wm, start)
+    request = [0.0, 0.0167, 0.0, 1.06e7]
+    free = protection.apply(request, 0.0, 0.0, 6.85e7, 0.0167, 0.6, surface_flows=(0.016, 0.0))
+    assert free.choke_dp_setpoint is None
+    protection.well_control = (3.0e6, "well control: test")
+    protection.window_pa = (6.87e7, config.pressure_window_pa[1])
+    held = protection.apply(request, 0.0, 0.0, 6.85e7, 0.0167, 0.6, surface_flows=(0.016, 0.0))
+    assert held.choke_dp_setpoint == (3.0e6, 0.0)
+    assert held.command[1] == pytest.approx(0.016)
+    assert "well control: test" in held.clamps
+    # a BHP 2 bar over the raised edge: pulling out (swab) is limited, running in is not
+    assert held.trip_speed_limits_mps[1] < free.trip_speed_limits_mps[1]
+    protection.automation_level = "advisory"
+    manual = protection.apply(request, 0.0, 0.0, 6.85e7, 0.0167, 0.6, surface_flows=(0.016, 0.0))
+    assert not any("well control" in c for c in manual.clamps)
