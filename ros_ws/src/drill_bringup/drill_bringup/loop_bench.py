@@ -266,7 +266,7 @@ class Protection:
     def measurement(self, m, t: float) -> None:
         reading = self.detector.update(FlowSample(
             t, m.return_flow_m3s, m.string_flow_m3s if m.string_flow_valid else math.nan,
-            m.bpp_flow_m3s, m.block_position_m, m.choke_dp_pa, m.bhp_pa))
+            m.bpp_flow_m3s, m.block_position_m, m.choke_dp_pa, m.bhp_pa, m.pit_volume_m3))
         if self.stop_trip:
             self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" \
                 if reading.alarm else ""

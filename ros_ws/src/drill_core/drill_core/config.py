@@ -425,6 +425,8 @@ class KickDetection:
     confirm_s: float = param("s", 0.0, 600.0, doc="beyond the threshold this long to raise, "
                                                    "within half of it this long to clear")
     stop_trip: bool = param(doc="an alarm stops the trip (the block held) until it clears")
+    pit_window_s: float = param("s", 0.0, 3600.0, doc="the pit-gain flow: least-squares slope "
+                                                      "of the pit over this long (0: no pit channel)")
 
 
 @dataclass(frozen=True)

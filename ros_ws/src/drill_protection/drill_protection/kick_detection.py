@@ -37,12 +37,14 @@ class FlowSample:
     string_position_m: float
     choke_dp_pa: float
     bhp_pa: float
+    pit_volume_m3: float = math.nan   # active pit (NaN: no reading)
 
 
 @dataclass(frozen=True)
 class Detection:
     """The detector's reading after a sample."""
     excess_flow_m3s: float      # averaged over the window (NaN until it has one)
+    pit_gain_flow_m3s: float    # the pit's reading of it over pit_window_s (NaN until then)
     excess_volume_m3: float     # influx - losses since the balance started, as it reads them
     alarm: str                  # "", "kick" or "losses"
     raised: bool                # the alarm was raised on this sample
@@ -59,12 +61,16 @@ class KickDetector:
         self.compliance_m3_pa = (compliance_top_m3_pa, compliance_bottom_m3_pa)
         self._pressures: deque = deque()        # (time s, choke dp Pa, BHP Pa) of the last second
         self.rejected = 0
+        self.rejected_pit = 0                   # pit samples left out (NaN, inf)
         self.alarm = ""
         self._integral_m3 = 0.0
         self._first: FlowSample | None = None
         self._first_pressures: list[float] = []  # the pressures' medians when the balance began
         self._last_time_s: float | None = None
         self._history: deque = deque()          # (time s, excess volume m^3)
+        self._pit: deque = deque()              # (time s, the pit's excess volume m^3)
+        self._pit_sums = [0.0] * 4              # of t, v, t^2, t v over it (t from the start)
+        self._pit_start: tuple[float, float, float] | None = None  # (time s, pit m^3, known m^3)
         self._since: dict[str, float | None] = {"kick": None, "losses": None, "clear": None}
         self._onset_volume: dict[str, float] = {}
         self._raised_volume = math.nan
@@ -80,6 +86,9 @@ class KickDetector:
         if not math.isfinite(s.string_flow_m3s):          # pump off: no balance to keep
             self._first = None
             self._history.clear()
+            self._pit.clear()
+            self._pit_sums = [0.0] * 4
+            self._pit_start = None
             return self._reading(False)
         if pressures_ok:
             self._pressures.append((s.time_s, s.choke_dp_pa, s.bhp_pa))
@@ -94,29 +103,64 @@ class KickDetector:
         dt = s.time_s - self._last_time_s
         self._last_time_s = s.time_s
         self._integral_m3 += (s.return_flow_m3s - s.string_flow_m3s - s.bpp_flow_m3s) * dt
-        volume = (self._integral_m3
-                  + self.area_m2 * (s.string_position_m - self._first.string_position_m)
-                  + sum(c * (p - p0) for c, p, p0 in zip(self.compliance_m3_pa, pressures,
-                                                          self._first_pressures)))
-        self._history.append((s.time_s, volume))
+        known = (self.area_m2 * (s.string_position_m - self._first.string_position_m)
+                 + sum(c * (p - p0) for c, p, p0 in zip(self.compliance_m3_pa, pressures,
+                                                         self._first_pressures)))
+        self._history.append((s.time_s, self._integral_m3 + known))
         while self._history[0][0] < s.time_s - self.config.window_s - 1e-9:
             self._history.popleft()
+        self._observe_pit(s, known)
         return self._reading(self._judge(s.time_s))
+
+    def _observe_pit(self, s: FlowSample, known_m3: float) -> None:
+        """The pit's excess volume: its change since its first reading in this balance, the
+        known terms' change out."""
+        if self.config.pit_window_s <= 0.0:
+            return
+        if not math.isfinite(s.pit_volume_m3):
+            self.rejected_pit += 1
+            return
+        if self._pit_start is None:
+            self._pit_start = (s.time_s, s.pit_volume_m3, known_m3)
+        start_s, pit0, known0 = self._pit_start
+        self._pit_add(s.time_s - start_s, s.pit_volume_m3 - pit0 + known_m3 - known0, 1.0)
+        while self._pit[0][0] < s.time_s - start_s - self.config.pit_window_s - 1e-9:
+            self._pit_add(*self._pit[0], -1.0)
+
+    def _pit_add(self, t: float, v: float, sign: float) -> None:
+        """Take a sample into the window (sign 1, at its end) or out of it (-1, its start)."""
+        if sign > 0.0:
+            self._pit.append((t, v))
+        else:
+            self._pit.popleft()
+        for i, term in enumerate((t, v, t * t, t * v)):
+            self._pit_sums[i] += sign * term
+
+    @property
+    def pit_gain_flow_m3s(self) -> float:
+        """Least-squares slope of the pit's excess volume over the window [m^3/s] (NaN until
+        the pit has read for a window since the balance began)."""
+        if len(self._pit) < 3 or self._pit[-1][0] < self.config.pit_window_s - 1e-6:
+            return math.nan
+        n = len(self._pit)
+        sum_t, sum_v, sum_tt, sum_tv = self._pit_sums
+        return (sum_tv - sum_t * sum_v / n) / (sum_tt - sum_t * sum_t / n)
 
     def _judge(self, time_s: float) -> bool:
         """Advance the alarm state on the windowed excess flow; True when raised now."""
-        flow = self.excess_flow_m3s
-        if math.isnan(flow):
+        flow, pit = self.excess_flow_m3s, self.pit_gain_flow_m3s
+        if math.isnan(flow) and math.isnan(pit):
             return False
         threshold, confirm = self.config.flow_threshold_m3s, self.config.confirm_s
         volume = self._history[-1][1]
-        for kind, beyond in (("kick", flow > threshold), ("losses", flow < -threshold)):
+        for kind, beyond in (("kick", flow > threshold or pit > threshold),
+                             ("losses", flow < -threshold or pit < -threshold)):
             if not beyond:
                 self._since[kind] = None
             elif self._since[kind] is None:
                 self._since[kind] = time_s
                 self._onset_volume[kind] = self._history[0][1]
-        quiet = abs(flow) < 0.5 * threshold
+        quiet = all(math.isnan(f) or abs(f) < 0.5 * threshold for f in (flow, pit))
         self._since["clear"] = (self._since["clear"] or time_s) if quiet else None
         if self.alarm and self._since["clear"] is not None \
                 and time_s - self._since["clear"] >= confirm:
@@ -140,7 +184,8 @@ class KickDetector:
 
     def _reading(self, raised: bool) -> Detection:
         volume = self._history[-1][1] if self._history else math.nan
-        return Detection(self.excess_flow_m3s, volume, self.alarm, raised, self._raised_volume)
+        return Detection(self.excess_flow_m3s, self.pit_gain_flow_m3s, volume, self.alarm, raised,
+                         self._raised_volume)
 
 
 def detector_for(config: RigConfig, geometry: WellGeometry) -> KickDetector:

@@ -42,6 +42,13 @@ from drill_protection.well_control import WindowResponse
 VELOCITY_WINDOW_S = 1.0
 
 
+def _flows(reading) -> str:
+    """The detector's two readings at the display edge."""
+    pit = reading.pit_gain_flow_m3s
+    return (f"excess flow {reading.excess_flow_m3s * LPM_PER_M3S:+.0f} L/min" +
+            (f", pit gain {pit * LPM_PER_M3S:+.0f} L/min" if math.isfinite(pit) else ""))
+
+
 class ProtectionNode(RigNode):
     def __init__(self, **node_options):
         super().__init__("protection", **node_options)
@@ -124,15 +131,13 @@ class ProtectionNode(RigNode):
         before = self.detector.alarm
         reading = self.detector.update(FlowSample(
             stamp * 1e-9, m.return_flow_m3s, m.string_flow_m3s if m.string_flow_valid else math.nan,
-            m.bpp_flow_m3s, m.block_position_m, m.choke_dp_pa, m.bhp_pa))
+            m.bpp_flow_m3s, m.block_position_m, m.choke_dp_pa, m.bhp_pa, m.pit_volume_m3))
         if reading.raised:
             self.alarm_count += 1
-            self._event("alarm", f"{reading.alarm} detected: excess flow "
-                                 f"{reading.excess_flow_m3s * LPM_PER_M3S:+.0f} L/min, "
+            self._event("alarm", f"{reading.alarm} detected: {_flows(reading)}, "
                                  f"{reading.volume_at_alarm_m3 * L_PER_M3:+.0f} L since it began", stamp)
         elif before and not reading.alarm:
-            self._event("alarm", f"{before} alarm cleared: excess flow "
-                                 f"{reading.excess_flow_m3s * LPM_PER_M3S:+.0f} L/min", stamp)
+            self._event("alarm", f"{before} alarm cleared: {_flows(reading)}", stamp)
         detection = self.ctx.config.protection.kick_detection
         if detection.stop_trip:
             self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" if reading.alarm else ""
@@ -205,6 +210,7 @@ class ProtectionNode(RigNode):
         self.status.mode = f"{self.ctx.mode}/{level}"
         self.status.values = {"clamps": float(self.clamp_count), "alarms": float(self.alarm_count),
                               "rejected_flow_samples": float(self.detector.rejected),
+                              "rejected_pit_samples": float(self.detector.rejected_pit),
                               "trip_speed_limit_in_mps": decision.trip_speed_limits_mps[0],
                               "trip_speed_limit_out_mps": decision.trip_speed_limits_mps[1]}
         self.status.tick(stamp)

@@ -8,7 +8,7 @@ from drill_core.config import KickDetection
 from drill_protection.kick_detection import FlowSample, KickDetector
 
 CONFIG = KickDetection(window_s=10.0, pressure_average_s=1.0, flow_threshold_m3s=3.3e-4,
-                       confirm_s=5.0, stop_trip=True)
+                       confirm_s=5.0, stop_trip=True, pit_window_s=0.0)
 AREA = 0.01                        # net displacement area [m^2]
 COMPLIANCE = (1.3e-8, 1.1e-8)      # [m^3/Pa] on the choke gauge and on the bottom gauge
 PUMP = 1000.0 / 60000.0
@@ -111,3 +111,51 @@ def test_a_pressure_spike_or_nan_raises_no_alarm():
     detector, readings = run(samples)
     assert not any(r.alarm for r in readings) and detector.rejected == 1
     assert max(abs(r.excess_flow_m3s) for r in readings[100:]) < 1.0e-6
+
+
+PIT_CONFIG = KickDetection(window_s=10.0, pressure_average_s=1.0, flow_threshold_m3s=3.3e-4,
+                           confirm_s=5.0, stop_trip=True, pit_window_s=120.0)
+
+
+def with_pit(samples, bias=lambda t: 0.0, noise_m3=0.05, seed=1, bad=()):
+    """The samples with the pit's volume: its integral of returns - flows in (what the
+    plant's pit does), plus radar noise; ``bias`` is added to the return-flow reading."""
+    rng = np.random.default_rng(seed)
+    pit, out = 40.0, []
+    for k, s in enumerate(samples):
+        if k:
+            pit += (s.return_flow_m3s - PUMP) * 0.1
+        reading = math.nan if k in bad else pit + noise_m3 * rng.standard_normal()
+        out.append(FlowSample(s.time_s, s.return_flow_m3s + bias(s.time_s), s.string_flow_m3s,
+                              s.bpp_flow_m3s, s.string_position_m, s.choke_dp_pa, s.bhp_pa,
+                              reading))
+    return out
+
+
+def test_the_pit_reads_the_same_balance_and_nothing_on_a_trip():
+    """A pull-out and back with the pit's noise: the pit-gain flow stays near zero."""
+    def speed(t):
+        return -0.5 if 20 <= t < 60 else (0.5 if 80 <= t < 120 else 0.0)
+    detector = KickDetector(PIT_CONFIG, AREA, *COMPLIANCE)
+    readings = [detector.update(s) for s in with_pit(well(300.0, speed=speed), bad=(500, 501))]
+    assert not any(r.alarm for r in readings)
+    pit = np.array([r.pit_gain_flow_m3s for r in readings])
+    assert np.all(np.isnan(pit[:1190])) and np.all(np.isfinite(pit[1210:]))
+    # the slope's noise over 120 s of 50 L samples is about 2.5 L/min (a threshold of 20)
+    assert np.max(np.abs(pit[1210:])) < 0.5 * PIT_CONFIG.flow_threshold_m3s
+    assert detector.rejected_pit == 2
+
+
+def test_the_pit_raises_a_kick_the_biased_return_flow_meter_hides():
+    """The return-flow meter reads 60 L/min low from the start of a 60 L/min influx: its
+    balance reads nothing, the pit's slope raises the kick once it crosses the threshold."""
+    influx = 1.0e-3
+    samples = with_pit(well(300.0, influx=lambda t: influx if t >= 90.0 else 0.0),
+                       bias=lambda t: -influx if t >= 90.0 else 0.0)
+    detector = KickDetector(PIT_CONFIG, AREA, *COMPLIANCE)
+    readings = [detector.update(s) for s in samples]
+    raised = [s.time_s for s, r in zip(samples, readings) if r.raised]
+    assert len(raised) == 1 and readings[int(raised[0] * 10)].alarm == "kick"
+    assert all(abs(r.excess_flow_m3s) < 1.0e-6 for r in readings[100:])
+    # the slope of a ramp that starts at 90 s reaches a third of its flow within the window
+    assert 90.0 + 10.0 < raised[0] < 90.0 + PIT_CONFIG.pit_window_s
