@@ -191,7 +191,7 @@ class UkfState:
             ukf.update(y, circulating)
         if math.isfinite(y[1]):
             self.held.accept_choke_dp(float(y[1]))
-        self.held.observe_return_flow(t, m.return_flow_m3s)
+        self.held.observe_return_flow(t, m.return_flow_m3s, circulating)
         x = ukf.mean
         return EstimateView(bhp_pa=ukf.bhp_pa, string_position_m=float(x[ukf.em.position]),
                             string_velocity_mps=float(x[ukf.em.velocity]),

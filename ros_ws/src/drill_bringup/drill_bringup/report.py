@@ -84,6 +84,7 @@ def load_series(mcap_path: Path) -> Series:
             s.add("friction_est", t, list(msg.friction_pa))
             s.add("nis", t, msg.nis)
             s.add("string_flow_observable", t, float(msg.string_flow_observable))
+            s.add("influx_est", t, getattr(msg, "bottom_influx_m3s", math.nan))
         elif rec.topic == topics.NMPC_STATUS:
             s.add("solve_time", t, msg.solve_time_s)
             s.add("fallback", t, 0.0 if msg.fallback == "none" else 1.0)
@@ -213,6 +214,14 @@ def _estimation(s: Series, t, bhp) -> dict:
     return out
 
 
+def _detector_config():
+    """The kick detector's thresholds in this checkout's configuration: the estimator's
+    influx estimate is judged against them too."""
+    from drill_bringup.runs import ROOT       # (runs imports this module)
+    from drill_core.config import load_rig
+    return load_rig(ROOT / "config").protection.kick_detection
+
+
 def summarise(s: Series) -> dict:
     """The run's numbers (SI): the paper's Table 7 form and window statistics (runs that
     track setpoints), surge/swab, estimator errors and solve times."""
@@ -229,7 +238,7 @@ def summarise(s: Series) -> dict:
     }
     if tracks_setpoints(s):
         out.update(_tracking(s, t, bhp, pos))
-    out.update(well_control.summarise(s, t, bhp))
+    out.update(well_control.summarise(s, t, bhp, _detector_config()))
     out.update(_estimation(s, t, bhp))
     out.update({key: float(s.plant_status[key]) for key in REALTIME_MARGINS
                 if key in s.plant_status})

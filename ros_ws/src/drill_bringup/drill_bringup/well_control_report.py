@@ -1,6 +1,7 @@
 """The well-control part of a run report: formation flows against the truth (influx,
 losses, pit gain), time spent under the pore or over the fracture pressure in force, the
-kick and loss detector's alarms against the truth (delay, volume in at detection, false
+kick and loss detector's alarms and the estimator's influx estimate (NMPC2's bottom-influx
+state, where the run estimates it) against the truth (delay, volume in at detection, false
 alarms), and the event timeline (scenario events from /rig/events, protection alarms).
 Plain Python over the report's Series (drill_bringup.report); SI in the summary, bar and
 L at the display edge."""
@@ -17,26 +18,55 @@ DETECTIONS = {"kick": ("kick detected", "influx_volume"), "losses": ("losses det
 FALSE_ALARM_BELOW_M3 = 1.0e-3
 
 
-def detections(s, t) -> dict:
-    """Per kind: the first true alarm's delay after the truth's onset and the volume in (or
-    lost) by then, and the alarms raised before any such volume (false alarms)."""
+def estimate_alarms(t, influx_m3s, threshold_m3s: float, confirm_s: float) -> dict:
+    """The times the estimator's influx estimate would raise each alarm: beyond the
+    detector's threshold (over it: kick, under minus it: losses) for its confirmation time,
+    again after it has come back within the threshold."""
+    out = {"kick": [], "losses": []}
+    for kind, beyond in (("kick", influx_m3s > threshold_m3s),
+                         ("losses", influx_m3s < -threshold_m3s)):
+        since = None
+        for time_s, over in zip(t, beyond):
+            if not over:
+                since = None
+            elif since is None:
+                since = time_s
+            elif since is not False and time_s - since >= confirm_s:
+                out[kind].append(float(time_s))
+                since = False                     # raised: once until it comes back
+    return out
+
+
+def _judged(alarms, t, volume) -> dict:
+    """The first true alarm's delay after the truth's onset, the volume by then, and the
+    alarms raised before any such volume (false)."""
+    at = [float(np.interp(a, t, volume)) for a in alarms]
+    true = [(a, v) for a, v in zip(alarms, at) if v >= FALSE_ALARM_BELOW_M3]
+    started = np.nonzero(volume > 0.0)[0]
+    onset = float(t[started[0]]) if len(started) else None
+    return {"onset_s": onset, "false_alarms": len(alarms) - len(true),
+            "delay_s": true[0][0] - onset if true and onset is not None else None,
+            "volume_at_detection_m3": true[0][1] if true else None}
+
+
+def detections(s, t, config) -> dict:
+    """Per kind: the protection's detector, and (``<kind> (estimate)``, where the run
+    estimates the bottom influx) the estimator's influx estimate judged with the detector's
+    threshold and confirmation time (``config``, drill_core.config.KickDetection)."""
     out = {}
+    t_est, influx = s.get("influx_est")
+    estimated = len(influx) > 0 and np.any(np.nan_to_num(influx) != 0.0)
+    by_estimate = estimate_alarms(t_est, np.nan_to_num(influx), config.flow_threshold_m3s,
+                                  config.confirm_s) if estimated else {}
     for kind, (prefix, key) in DETECTIONS.items():
         _, volume = s.get(key)
         alarms = [e[0] for e in s.events if e[1] == "protection" and e[3].startswith(prefix)]
-        at = [float(np.interp(a, t, volume)) for a in alarms]
-        true = [(a, v) for a, v in zip(alarms, at) if v >= FALSE_ALARM_BELOW_M3]
-        started = np.nonzero(volume > 0.0)[0]
-        onset = float(t[started[0]]) if len(started) else None
-        out[kind] = {
-            "onset_s": onset,
-            "false_alarms": len(alarms) - len(true),
-            "delay_s": true[0][0] - onset if true and onset is not None else None,
-            "volume_at_detection_m3": true[0][1] if true else None,
-        }
+        out[kind] = _judged(alarms, t, volume)
+        if estimated:
+            out[f"{kind} (estimate)"] = _judged(by_estimate[kind], t, volume)
     return out
 
-def summarise(s, t, bhp) -> dict:
+def summarise(s, t, bhp, detection_config) -> dict:
     """Formation figures of a run from its truth samples (empty for a recording made
     before the plant had a formation)."""
     _, pore = s.get("pore")
@@ -57,7 +87,7 @@ def summarise(s, t, bhp) -> dict:
         "worst_underbalance_pa": float(max(np.max(pore - bhp), 0.0)),
         "worst_overbalance_over_fracture_pa": float(max(np.max(bhp - fracture), 0.0)),
         "events": [list(e) for e in s.events if (e[1], e[2]) in TIMELINE_KINDS],
-        "detection": detections(s, t),
+        "detection": detections(s, t, detection_config),
     }
 
 

@@ -152,7 +152,7 @@ class EstimatorNode(RigNode):
             x0 = ukf.initial_state(y, circulating)
             ukf.initialise(x0)
             self.inputs.start(x0, float(y[1]))
-            self.inputs.observe_return_flow(stamp * 1e-9, msg.return_flow_m3s)
+            self.inputs.observe_return_flow(stamp * 1e-9, msg.return_flow_m3s, circulating)
             self.previous_ns = stamp
             self._publish(msg, None)
             return
@@ -170,7 +170,7 @@ class EstimatorNode(RigNode):
         result = ukf.update(y, circulating)
         if result.accepted and np.isfinite(y[1]):
             self.inputs.accept_choke_dp(float(y[1]))
-        self.inputs.observe_return_flow(stamp * 1e-9, msg.return_flow_m3s)
+        self.inputs.observe_return_flow(stamp * 1e-9, msg.return_flow_m3s, circulating)
         if not result.accepted:
             self.status.error(f"measurement at {stamp} ns rejected: {y.tolist()}")
         elif result.dropped:

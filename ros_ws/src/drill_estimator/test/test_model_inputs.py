@@ -77,18 +77,21 @@ def test_choke_flow_is_the_return_flow_sample_and_the_valve_law_only_while_it_is
     inputs, _ = _started(em)
     choke = {"choke": _frame([0.3] * 3)}
     valve_law = hy.choke_flow(em.wm, 0.3, inputs.choke_dp_pa)
-    inputs.observe_return_flow(0.1, 0.5 * valve_law)
+    inputs.observe_return_flow(0.1, 0.5 * valve_law, True)
     u, _ = inputs.frame(choke, 3)
     assert np.allclose(u[1], 0.5 * valve_law) and inputs.valve_law_frames == 0
     for time_s, bad in ((0.2, float("nan")), (0.3, float("inf"))):
-        inputs.observe_return_flow(time_s, bad)
+        inputs.observe_return_flow(time_s, bad, True)
         u, _ = inputs.frame(choke, 3)
         assert np.allclose(u[1], valve_law)
     assert inputs.valve_law_frames == 2
     for k in range(FROZEN_AFTER):                 # the same float FROZEN_AFTER times: frozen
-        inputs.observe_return_flow(0.4 + 0.1 * k, 0.01)
+        inputs.observe_return_flow(0.4 + 0.1 * k, 0.01, True)
     u, _ = inputs.frame(choke, 3)
     assert np.allclose(u[1], valve_law) and inputs.valve_law_frames == 3
-    inputs.observe_return_flow(1.0, 0.02)         # it moves again: back on the meter
+    inputs.observe_return_flow(1.0, 0.02, True)   # it moves again: back on the meter
     u, _ = inputs.frame(choke, 3)
     assert np.allclose(u[1], 0.02)
+    inputs.observe_return_flow(1.1, 0.03, False)  # no circulation: the valve law
+    u, _ = inputs.frame(choke, 3)
+    assert np.allclose(u[1], valve_law)
