@@ -2,11 +2,13 @@
 
   rig demo                         Case 2 trip in fast mode, with summary and plots
   rig run SCENARIO [--realtime] [--seed N] [--controller NAME] [--layout LAYOUT]
+          [--nodes NAMES --domain N --peers ADDR[,ADDR]] [--runs-dir DIR]
                                    any scenario (name under config/scenarios or a path),
                                    optionally under another controller than its own, with
                                    nodes grouped into processes (separate, actuators, plant,
                                    two); a drilling scenario (drilling_*) runs the drilling
-                                   graph, fast mode only
+                                   graph, fast mode only; --nodes: this host's share of a
+                                   run split across hosts (docs/multihost.md)
   rig report RUN_DIR               re-make the summary and plots of a run
   rig replay FILE [options]        republish a recording (see rig replay --help)
   rig reestimate RUN_DIR [--config-dir DIR] [--rate R]
@@ -37,8 +39,10 @@ from pathlib import Path
 
 from drill_bringup import launcher, report
 from drill_bringup.runs import ROOT, run_scenario, scenario_path
+from drill_bringup.split_run import split_options
 from drill_core.config import ConfigError
-from drill_core.ros.graph import CONTROLLERS, LAYOUTS
+from drill_core.ros.graph import CONTROLLERS, HOST_GROUPS, LAYOUTS, SelectionError
+
 
 def _stability(args) -> int:
     from drill_string.parameters import SECTIONS
@@ -74,6 +78,16 @@ def main(argv=None) -> int:
     run.add_argument("--layout", choices=tuple(LAYOUTS), default="separate",
                      help="process layout: one process per node (separate), or groups of "
                           "nodes in one process each (see docs/architecture.md)")
+    run.add_argument("--nodes", help="launch only this share of the run's nodes (comma list "
+                                     f"of node names and the groups {', '.join(HOST_GROUPS)}); "
+                                     "the other hosts launch the rest (docs/multihost.md)")
+    run.add_argument("--domain", type=int, help="ROS_DOMAIN_ID, 0-101 (default: a free one of "
+                                                "this host's); every host of a split run the same")
+    run.add_argument("--peers", help="comma list of the other hosts' IPv4 addresses or names: "
+                                     "discovery by unicast to them (ROS_STATIC_PEERS) besides "
+                                     "localhost")
+    run.add_argument("--runs-dir", type=Path, help="where the run directory goes "
+                                                   "(default: runs/)")
     rep = sub.add_parser("report", help="summary and plots of a run directory")
     rep.add_argument("run_dir", type=Path)
     sub.add_parser("replay", help="republish a recording", add_help=False)
@@ -105,8 +119,11 @@ def main(argv=None) -> int:
         if args.command == "demo":
             return run_scenario(scenario_path("case2"))[0]
         if args.command == "run":
-            return run_scenario(scenario_path(args.scenario), args.realtime, seed=args.seed,
-                                controller=args.controller, layout=args.layout)[0]
+            peers = split_options(args.nodes, args.domain, args.peers)
+            return run_scenario(scenario_path(args.scenario), args.realtime, args.runs_dir,
+                                seed=args.seed, domain_id=args.domain,
+                                controller=args.controller, layout=args.layout,
+                                here=args.nodes, peers=peers)[0]
         if args.command == "report":
             mcap = next(args.run_dir.glob("*.mcap"))
             _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name)
@@ -133,6 +150,9 @@ def main(argv=None) -> int:
         return replay.main(rest) or 0
     except ConfigError as err:
         print(f"[rig] configuration error: {err}", file=sys.stderr)
+        return 2
+    except SelectionError as err:
+        print(f"[rig] {err}", file=sys.stderr)
         return 2
 
 

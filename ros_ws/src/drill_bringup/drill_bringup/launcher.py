@@ -9,6 +9,9 @@ the plant starts the lockstep once every subscription the graph needs is
 connected, and exits when the scenario ends (so does the estimator, once it has
 estimated the last sample); the launcher then stops the rest.
 A node that dies makes the launch fail with its name, exit code and last log lines.
+A split run (docs/multihost.md) launches only this host's share of the graph (``here``)
+with static discovery peers; a share ends when its own finishing nodes have exited and
+those on other hosts are seen gone (drill_bringup.finish_watch).
 """
 from __future__ import annotations
 
@@ -127,19 +130,59 @@ def ros_args(spec: NodeSpec) -> list[str]:
     return args
 
 
-def processes(nodes: list[NodeSpec], layout: str = "separate") -> list[ProcessSpec]:
-    """The processes of ``nodes`` in ``layout`` (drill_core.ros.graph.LAYOUTS)."""
+@dataclass
+class FinishWatch:
+    """The process that ends a host's share of a split run: it exits once the run's
+    finishing nodes on other hosts, each seen publishing its topic of ``topics``, are gone
+    (drill_bringup.finish_watch)."""
+    topics: tuple[str, ...]
+    name: str = "finish_watch"
+    finishes: bool = True
+
+    def command_line(self, marker: Path) -> list[str]:
+        return [sys.executable, "-m", "drill_bringup.finish_watch", *self.topics]
+
+
+def finish_watch(nodes: list[NodeSpec], here: set[str]) -> FinishWatch | None:
+    """The watch of a split run's share ``here``: the first topic of each finishing node
+    of ``nodes`` that runs elsewhere (a topic only it publishes); None if all run here."""
+    elsewhere = [n.name for n in nodes if n.finishes and n.name not in here]
+    if not elsewhere:
+        return None
+    return FinishWatch(tuple(graph_decl.BY_NAME[name].publishes[0] for name in elsewhere))
+
+
+def processes(nodes: list[NodeSpec], layout: str = "separate",
+              here: set[str] | None = None) -> list[ProcessSpec]:
+    """The processes of ``nodes`` in ``layout`` (drill_core.ros.graph.LAYOUTS); with
+    ``here``, those of a split run's share that runs on this host (a process of the layout
+    must be wholly here or wholly elsewhere: its local bus does not cross hosts)."""
     by_name = {n.name: n for n in nodes}
     declared = [graph_decl.BY_NAME[n.name] for n in nodes]
     groups = graph_decl.process_groups(layout, declared)
-    return [ProcessSpec(name, [by_name[m.name] for m in members], declared)
-            for name, members in groups]
+    out = []
+    for name, members in groups:
+        names = {m.name for m in members}
+        if here is not None and names & here and names - here:
+            raise graph_decl.SelectionError(
+                f"--layout {layout}: process {name!r} holds "
+                f"{', '.join(m.name for m in members)}; --nodes takes "
+                f"{', '.join(sorted(names & here))} of them: put all or none here")
+        if here is None or names <= here:
+            out.append(ProcessSpec(name, [by_name[m.name] for m in members], declared))
+    return out
 
 
-def isolated_env(domain_id: int) -> dict:
+def isolated_env(domain_id: int, peers: tuple[str, ...] = ()) -> dict:
+    """The processes' environment: ``domain_id``, discovery on this host only, and with
+    ``peers`` (a split run) unicast discovery of those hosts as well (ROS_STATIC_PEERS:
+    the discovery range stays LOCALHOST, no multicast)."""
     env = dict(os.environ)
     env["ROS_DOMAIN_ID"] = str(domain_id)
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    env.pop("ROS_STATIC_PEERS", None)
+    if peers:
+        env["ROS_STATIC_PEERS"] = ";".join(peers)
     env["RMW_IMPLEMENTATION"] = "rmw_fastrtps_cpp"
     env["PYTHONUNBUFFERED"] = "1"
     return env
@@ -177,16 +220,20 @@ class Launch:
     """A running graph: start, watch, stop."""
 
     def __init__(self, nodes: list[NodeSpec], run_dir: Path, domain_id: int,
-                 layout: str = "separate"):
+                 layout: str = "separate", here: set[str] | None = None,
+                 peers: tuple[str, ...] = ()):
         names = [n.name for n in nodes]
         repeated = sorted({n for n in names if names.count(n) > 1})
         if repeated:      # processes are tracked by name: a repeat could never be stopped
             raise ValueError(f"node names must be unique; given more than once: {', '.join(repeated)}")
         self.nodes = nodes
-        self.processes = processes(nodes, layout)
+        self.processes = processes(nodes, layout, here)
+        watch = None if here is None else finish_watch(nodes, here)
+        if watch is not None:
+            self.processes.append(watch)
         self.run_dir = run_dir
         self.logs = run_dir / "logs"
-        self.env = isolated_env(domain_id)
+        self.env = isolated_env(domain_id, peers)
         self.env[BUDGET_DIR_ENV] = str(run_dir / "budget")
         self.procs: dict[str, subprocess.Popen] = {}
 
@@ -208,8 +255,9 @@ class Launch:
                 f"{self.logs / (name + '.log')}:\n{tail(self.logs / (name + '.log'))}")
 
     def watch(self, timeout_s: float, on_poll=None) -> tuple[bool, str]:
-        """Wait for every finishing node (the plant; in fast mode the estimator too) to end
-        the scenario; fail if any node dies first or time runs out."""
+        """Wait for every finishing node (the plant; in fast mode the estimator too; in a
+        split run's share, the watch of those on other hosts) to end the scenario; fail if
+        any node dies first or time runs out."""
         finishing = {spec.name for spec in self.processes if spec.finishes}
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:

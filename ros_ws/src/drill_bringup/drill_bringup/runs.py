@@ -10,6 +10,7 @@ from datetime import datetime
 from pathlib import Path
 
 from drill_bringup import launcher, report
+from drill_core.ros import graph as graph_decl
 from drill_core.scenario import load_scenario, scenario_kind
 
 ROOT = Path(os.environ.get("RIG_ROOT", Path.cwd()))
@@ -53,11 +54,14 @@ def _drilling_scenario(path: Path, realtime: bool, controller: str | None):
 def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = None,
                  seed: int | None = None, domain_id: int | None = None,
                  timeout_s: float | None = None, quiet: bool = False,
-                 controller: str | None = None, layout: str = "separate") -> tuple[int, Path]:
+                 controller: str | None = None, layout: str = "separate",
+                 here: str | None = None, peers: tuple[str, ...] = ()) -> tuple[int, Path]:
     """Launch a scenario, record it and report; returns (exit code, run directory).
     ``seed`` replaces the scenario's plant seed and ``controller`` its controller (the same
     trip under another controller: ``rig compare``); ``layout`` groups nodes into processes
-    (drill_core.ros.graph.LAYOUTS)."""
+    (drill_core.ros.graph.LAYOUTS). ``here`` (node and group names,
+    drill_core.ros.graph.host_nodes) launches only that share of the graph, reaching the
+    others' on ``peers`` (docs/multihost.md); the report is made where the recorder runs."""
     kind = scenario_kind(path)
     if kind == "drilling":
         scenario, own_controller = _drilling_scenario(path, realtime, controller), "none"
@@ -70,7 +74,6 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
         controller if controller != own_controller else None,
         f"seed{seed}" if seed is not None else None) if tag)
     run_dir = (runs_dir or ROOT / "runs") / f"{scenario.name}{tags}-{stamp}-{os.getpid()}"
-    run_dir.mkdir(parents=True, exist_ok=True)
     mcap_path = run_dir / f"{scenario.name}.mcap"
     mode = "realtime" if realtime else "fast"
     common = {"config_dir": str(ROOT / "config"), "scenario": str(path), "mode": mode}
@@ -78,7 +81,14 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
                            kind=kind)
     if seed is not None:
         nodes[-1].params["seed"] = seed
-    launch = launcher.Launch(nodes, run_dir, domain_id or launcher.default_domain_id(), layout)
+    names = {n.name for n in nodes}
+    if here is not None:
+        names = {n.name for n in graph_decl.host_nodes(
+            here, [graph_decl.BY_NAME[n.name] for n in nodes])}
+    domain_id = launcher.default_domain_id() if domain_id is None else domain_id
+    launch = launcher.Launch(nodes, run_dir, domain_id, layout,
+                             None if here is None else names, peers)
+    run_dir.mkdir(parents=True, exist_ok=True)
     say = (lambda *_: None) if quiet else (lambda text: print(text, flush=True))
     say(f"[rig] {scenario.name}: {scenario.description} ({mode} mode, logs in {run_dir / 'logs'})")
     started = time.monotonic()
@@ -86,7 +96,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     if realtime:
         say(f"[rig] ROS_DOMAIN_ID {launch.env['ROS_DOMAIN_ID']} (operator CLI: "
             f"python -m drill_bringup.operator_cli --domain {launch.env['ROS_DOMAIN_ID']} watch)")
-        say(f"[rig] console: {console_url(run_dir / 'logs' / 'console.log')}")
+        if "console" in names:
+            say(f"[rig] console: {console_url(run_dir / 'logs' / 'console.log')}")
     limit = timeout_s or (scenario.duration_s * 1.5 + 120 if realtime else 900.0)
     try:
         ok, message = launch.watch(limit)
@@ -97,13 +108,17 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     (run_dir / "launch.json").write_text(json.dumps(
         {"ok": ok, "message": message, "wall_time_s": wall, "exit_codes": codes,
          "scenario": str(path), "mode": mode, "controller": controller, "seed": seed,
-         "layout": layout},
+         "layout": layout, "nodes": sorted(names), "peers": list(peers)},
         indent=2))
     if not ok:
         print(f"[rig] FAILED: {message}", file=sys.stderr, flush=True)
         return 1, run_dir
     say(f"[rig] finished in {wall:.1f} s wall for {scenario.duration_s:.0f} s simulated "
         f"(real-time factor {wall / scenario.duration_s:.3f})")
+    if "recorder" not in names:
+        say(f"[rig] this host's share ({', '.join(sorted(names))}) finished; the recording "
+            "and the report are on the host that runs the recorder")
+        return 0, run_dir
     summary, plots, table = report.write_report(mcap_path, run_dir, scenario.name)
     say(table)
     say(f"[rig] MCAP: {mcap_path}")

@@ -163,6 +163,45 @@ LAYOUTS = {
 }
 
 
+class SelectionError(ValueError):
+    """A split run's share (``rig run --nodes``) that cannot be launched: the reason."""
+
+
+# A host's share of a split run (``rig run --nodes``, docs/multihost.md) is named by node
+# names and these groups; each group stands for its members that are in the run.
+HOST_GROUPS = {
+    "actuators": _ACTUATORS,
+    "controller": (*(n.name for n in NODES if n.controller), "driller"),
+}
+
+
+def host_nodes(selection: str, nodes: list[Node]) -> list[Node]:
+    """The nodes of the run ``nodes`` that ``selection`` (a comma list of node names and
+    HOST_GROUPS) picks, in run order. A name that is neither, or a node that this run does
+    not hold, is an error naming what is allowed."""
+    names = [part.strip() for part in selection.split(",") if part.strip()]
+    if not names:
+        raise SelectionError(f"--nodes {selection!r}: no node named")
+    in_run = {n.name for n in nodes}
+    allowed = (*HOST_GROUPS, *(n.name for n in nodes))
+    picked = set()
+    for name in names:
+        if name in HOST_GROUPS:
+            picked |= in_run & set(HOST_GROUPS[name])
+        elif name in in_run:
+            picked.add(name)
+        elif name in BY_NAME:
+            raise SelectionError(f"--nodes: node {name!r} is not in this run; allowed: "
+                                 f"{', '.join(allowed)}")
+        else:
+            raise SelectionError(f"--nodes: unknown node or group {name!r}; allowed: "
+                                 f"{', '.join(allowed)}")
+    if not picked:
+        raise SelectionError(f"--nodes {selection!r}: no node of this run; allowed: "
+                             f"{', '.join(allowed)}")
+    return [n for n in nodes if n.name in picked]
+
+
 def process_groups(layout: str, nodes: list[Node]) -> list[tuple[str, list[Node]]]:
     """The processes of a run in ``layout``: (process name, its nodes) in the order of
     ``nodes``, a group where its first member stands; a group with one node of this run

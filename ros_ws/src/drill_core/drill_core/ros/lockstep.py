@@ -12,6 +12,7 @@ from rclpy.duration import Duration
 from drill_core.ros import topics
 
 START_POLL_S = 0.05
+WAITING_LOG_S = 10.0      # how often the plant says what it still waits for before t_0
 STALL_POLL_S = 1.0
 FLUSH_TIMEOUT_S = 5.0
 
@@ -26,18 +27,20 @@ def flush(publishers, timeout_s: float = FLUSH_TIMEOUT_S) -> bool:
                for p in publishers)
 
 
-def graph_ready(node, wait_for) -> bool:
-    """Whether every ``sub@topic:N`` / ``pub@topic:N`` (bare ``topic:N``: sub) of
-    ``wait_for`` has at least N subscriptions / publishers in the graph."""
+def missing_endpoints(node, wait_for) -> list[str]:
+    """The ``sub@topic:N`` / ``pub@topic:N`` (bare ``topic:N``: sub) of ``wait_for`` that
+    have fewer than N subscriptions / publishers in the graph, each with the count seen."""
+    out = []
     for spec in wait_for:
         if not spec:
             continue
         topic, _, count = spec.rpartition(":")
         kind, topic = topic.split("@", 1) if "@" in topic else ("sub", topic)
         counter = node.count_subscribers if kind == "sub" else node.count_publishers
-        if counter(topic) < int(count):
-            return False
-    return True
+        seen = counter(topic)
+        if seen < int(count):
+            out.append(f"{spec} (seen {seen})")
+    return out
 
 
 class LockstepStart:
@@ -53,13 +56,18 @@ class LockstepStart:
         self._stall_timeout_s, self._stalled = stall_timeout_s, stalled
         self._ready_since: float | None = None
         self._progress: tuple[int, float] | None = None
+        self._logged_at = time.monotonic()
         self._timer = node.create_timer(START_POLL_S, self._poll_graph)
 
     def _poll_graph(self) -> None:
-        if not graph_ready(self._node, self._wait_for):
-            self._ready_since = None
-            return
         now = time.monotonic()
+        missing = missing_endpoints(self._node, self._wait_for)
+        if missing:
+            self._ready_since = None
+            if now - self._logged_at >= WAITING_LOG_S:
+                self._logged_at = now
+                self._node.get_logger().info(f"waiting for the graph: {', '.join(missing)}")
+            return
         if self._ready_since is None:
             self._ready_since = now
         if now - self._ready_since >= topics.MATCH_SETTLE_S:
