@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from rig_testing import assert_same_recorded_data
 
 from drill_bringup import cli, launcher, mcap_io, report
 from drill_core.config import load_rig
@@ -19,7 +20,6 @@ from drill_core.ros import topics
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]
 SCENARIO = cli.ROOT / "config" / "scenarios" / "short_trip.yaml"
-COMPARED = (topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.COMMAND, topics.MACHINE_COMMAND)
 
 
 @pytest.fixture(scope="module")
@@ -111,25 +111,7 @@ def test_recording_complete_and_read_by_independent_reader(two_runs):
 
 
 def test_same_seed_reproduces_recorded_data_across_process_layouts(two_runs):
-    a = list(mcap_io.decoded_messages(_mcap(two_runs[0]), COMPARED))
-    b = list(mcap_io.decoded_messages(_mcap(two_runs[1]), COMPARED))
-    key = lambda pair: (pair[0].topic, pair[0].publish_time_ns)
-    a.sort(key=key)
-    b.sort(key=key)
-    assert len(a) == len(b) and len(a) > 1000
-    for (ra, ma), (rb, mb) in zip(a, b):
-        assert ra.topic == rb.topic and ra.publish_time_ns == rb.publish_time_ns
-        fields = [f for f in ma.__slots__ if f != "header"] if hasattr(ma, "__slots__") else None
-        for name in fields or [f for f in dir(ma) if not f.startswith("_") and f != "header"]:
-            va, vb = getattr(ma, name), getattr(mb, name)
-            if callable(va):
-                continue
-            if isinstance(va, float) and math.isnan(va):
-                assert math.isnan(vb)
-            elif name == "solve_time_s":
-                continue
-            else:
-                assert np.array_equal(np.asarray(va), np.asarray(vb)), (ra.topic, name)
+    assert assert_same_recorded_data(_mcap(two_runs[0]), _mcap(two_runs[1])) > 1000
 
 
 def test_killed_node_fails_launch_and_leaves_readable_recording(tmp_path):

@@ -1,13 +1,24 @@
-"""Helpers shared by the DDS tests: a node spinning in its own context, and polling."""
+"""Helpers shared by the DDS tests: a node spinning in its own context, polling, and the
+comparison of two runs' recorded data."""
 from __future__ import annotations
 
+import math
 import threading
 import time
 from contextlib import contextmanager
+from pathlib import Path
 
+import numpy as np
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
+
+from drill_bringup import mcap_io
+from drill_core.ros import topics
+
+# what a fast-mode run's scenario and seed alone decide: the lockstep's data
+DETERMINISTIC_TOPICS = (topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.COMMAND,
+                        topics.MACHINE_COMMAND)
 
 
 @contextmanager
@@ -36,3 +47,30 @@ def wait_for(predicate, timeout_s: float, what: str) -> None:
     while not predicate():
         assert time.monotonic() < deadline_s, f"timed out waiting for {what}"
         time.sleep(0.02)
+
+
+def assert_same_recorded_data(path_a: Path, path_b: Path,
+                              compared=DETERMINISTIC_TOPICS) -> int:
+    """Assert that two recordings hold the same messages on the ``compared`` topics, at the
+    same publish times and field by field (NaN equals NaN; the NMPC's solve time, a
+    wall-clock figure, is left out); returns the number of messages compared."""
+    a = list(mcap_io.decoded_messages(path_a, compared))
+    b = list(mcap_io.decoded_messages(path_b, compared))
+    key = lambda pair: (pair[0].topic, pair[0].publish_time_ns)
+    a.sort(key=key)
+    b.sort(key=key)
+    assert len(a) == len(b), (len(a), len(b))
+    for (ra, ma), (rb, mb) in zip(a, b):
+        assert ra.topic == rb.topic and ra.publish_time_ns == rb.publish_time_ns
+        fields = [f for f in ma.__slots__ if f != "header"] if hasattr(ma, "__slots__") else None
+        for name in fields or [f for f in dir(ma) if not f.startswith("_") and f != "header"]:
+            va, vb = getattr(ma, name), getattr(mb, name)
+            if callable(va):
+                continue
+            if isinstance(va, float) and math.isnan(va):
+                assert math.isnan(vb)
+            elif name == "solve_time_s":
+                continue
+            else:
+                assert np.array_equal(np.asarray(va), np.asarray(vb)), (ra.topic, name)
+    return len(a)
