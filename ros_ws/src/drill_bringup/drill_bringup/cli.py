@@ -3,12 +3,15 @@
   rig demo                         Case 2 trip in fast mode, with summary and plots
   rig run SCENARIO [--realtime] [--seed N] [--controller NAME] [--layout LAYOUT]
           [--nodes NAMES --domain N --peers ADDR[,ADDR]] [--runs-dir DIR]
+          [--foxglove [PORT]] [--opcua [ENDPOINT]]
                                    any scenario (name under config/scenarios or a path),
                                    optionally under another controller than its own, with
                                    nodes grouped into processes (separate, actuators, plant,
                                    two); a drilling scenario (drilling_*) runs the drilling
                                    graph, fast mode only; --nodes: this host's share of a
-                                   run split across hosts (docs/multihost.md)
+                                   run split across hosts (docs/multihost.md); --foxglove /
+                                   --opcua add the live Foxglove bridge / the OPC-UA gateway
+                                   (docs/gateways.md)
   rig report RUN_DIR               re-make the summary and plots of a run
   rig replay FILE [options]        republish a recording (see rig replay --help)
   rig reestimate RUN_DIR [--config-dir DIR] [--rate R]
@@ -88,6 +91,13 @@ def main(argv=None) -> int:
                                      "localhost")
     run.add_argument("--runs-dir", type=Path, help="where the run directory goes "
                                                    "(default: runs/)")
+    run.add_argument("--foxglove", nargs="?", type=int, const=0, metavar="PORT",
+                     help="stream the run's topics to Foxglove on ws://127.0.0.1:PORT (the "
+                          "bridge's default port, 8765, without PORT)")
+    run.add_argument("--opcua", nargs="?", const="", metavar="ENDPOINT",
+                     help="serve the OPC-UA gateway on ENDPOINT (without it the gateway's "
+                          "default, opc.tcp://127.0.0.1:4840/drill-rig: this machine only; "
+                          "read docs/gateways.md before binding elsewhere)")
     rep = sub.add_parser("report", help="summary and plots of a run directory")
     rep.add_argument("run_dir", type=Path)
     sub.add_parser("replay", help="republish a recording", add_help=False)
@@ -120,10 +130,15 @@ def main(argv=None) -> int:
             return run_scenario(scenario_path("case2"))[0]
         if args.command == "run":
             peers = split_options(args.nodes, args.domain, args.peers)
+            extras = {}
+            if args.foxglove is not None:
+                extras["foxglove_bridge"] = {"port": args.foxglove} if args.foxglove else {}
+            if args.opcua is not None:
+                extras["opcua_gateway"] = {"endpoint": args.opcua} if args.opcua else {}
             return run_scenario(scenario_path(args.scenario), args.realtime, args.runs_dir,
                                 seed=args.seed, domain_id=args.domain,
                                 controller=args.controller, layout=args.layout,
-                                here=args.nodes, peers=peers)[0]
+                                here=args.nodes, peers=peers, extras=extras)[0]
         if args.command == "report":
             mcap = next(args.run_dir.glob("*.mcap"))
             _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name)

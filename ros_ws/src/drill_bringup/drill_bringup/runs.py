@@ -27,14 +27,15 @@ def scenario_path(name: str) -> Path:
     return candidate
 
 
-def console_url(log_path: Path, timeout_s: float = 10.0) -> str:
-    """The console's address, as it prints it once it serves (CONSOLE_URL <url>)."""
+def console_url(log_path: Path, timeout_s: float = 10.0, key: str = "CONSOLE_URL") -> str:
+    """The console's address, as it prints it once it serves (CONSOLE_URL <url>); with
+    ``key``, another server's (the gateways print FOXGLOVE_URL and OPCUA_URL)."""
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         if log_path.exists():
             for line in log_path.read_text(errors="replace").splitlines():
-                if "CONSOLE_URL" in line:
-                    return line.split("CONSOLE_URL", 1)[1].strip()
+                if key in line:
+                    return line.split(key, 1)[1].strip()
         time.sleep(0.2)
     return f"not reported yet (see {log_path})"
 
@@ -55,13 +56,15 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
                  seed: int | None = None, domain_id: int | None = None,
                  timeout_s: float | None = None, quiet: bool = False,
                  controller: str | None = None, layout: str = "separate",
-                 here: str | None = None, peers: tuple[str, ...] = ()) -> tuple[int, Path]:
+                 here: str | None = None, peers: tuple[str, ...] = (),
+                 extras: dict[str, dict] | None = None) -> tuple[int, Path]:
     """Launch a scenario, record it and report; returns (exit code, run directory).
     ``seed`` replaces the scenario's plant seed and ``controller`` its controller (the same
     trip under another controller: ``rig compare``); ``layout`` groups nodes into processes
     (drill_core.ros.graph.LAYOUTS). ``here`` (node and group names,
     drill_core.ros.graph.host_nodes) launches only that share of the graph, reaching the
-    others' on ``peers`` (docs/multihost.md); the report is made where the recorder runs."""
+    others' on ``peers`` (docs/multihost.md); the report is made where the recorder runs.
+    ``extras`` adds optional nodes (the gateways), name -> parameters."""
     kind = scenario_kind(path)
     if kind == "drilling":
         scenario, own_controller = _drilling_scenario(path, realtime, controller), "none"
@@ -78,7 +81,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     mode = "realtime" if realtime else "fast"
     common = {"config_dir": str(ROOT / "config"), "scenario": str(path), "mode": mode}
     nodes = launcher.graph(controller, common, mcap_path, fast=not realtime, layout=layout,
-                           kind=kind)
+                           kind=kind, extras=extras)
     if seed is not None:
         nodes[-1].params["seed"] = seed
     names = {n.name for n in nodes}
@@ -98,6 +101,9 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
             f"python -m drill_bringup.operator_cli --domain {launch.env['ROS_DOMAIN_ID']} watch)")
         if "console" in names:
             say(f"[rig] console: {console_url(run_dir / 'logs' / 'console.log')}")
+    for name, key in (("foxglove_bridge", "FOXGLOVE_URL"), ("opcua_gateway", "OPCUA_URL")):
+        if name in (extras or {}) and name in names:
+            say(f"[rig] {name}: {console_url(run_dir / 'logs' / f'{name}.log', key=key)}")
     limit = timeout_s or (scenario.duration_s * 1.5 + 120 if realtime else 900.0)
     try:
         ok, message = launch.watch(limit)

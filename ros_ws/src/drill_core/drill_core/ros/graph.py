@@ -77,6 +77,7 @@ class Node:
     kinds: tuple[str, ...] = ("tripping",)   # the scenario kinds whose runs hold it
     plant: bool = False              # the run's clock: starts the lockstep once the graph is
                                      # connected (wait_for) and ends the run
+    optional: bool = False           # in a run only when asked for (run_nodes' ``extras``)
 
     @property
     def status_topic(self) -> str:
@@ -127,6 +128,15 @@ NODES = (
           topics.EMERGENCY_STOP, topics.LEVEL_IN_FORCE, topics.ESTOP_IN_FORCE, topics.RIG_EVENTS,
           *FRAMES),
          realtime_only=True),
+    # Optional observers (``rig run --foxglove`` / ``--opcua``; drill_gateway): their
+    # subscriptions are best-effort keep-last (latched topics: depth 1), so they never hold
+    # up a writer; the plant waits for them at the start like for every other reader.
+    Node("foxglove_bridge", "drill_gateway.foxglove_node", "FoxgloveBridgeNode", (),
+         (EVERY_TOPIC,), kinds=SCENARIO_KINDS, optional=True),
+    Node("opcua_gateway", "drill_gateway.opcua_node", "OpcuaGatewayNode",
+         (topics.OPERATOR_EVENTS, topics.AUTOMATION_LEVEL),
+         (topics.MEASUREMENT, topics.ESTIMATE, topics.SETPOINTS, topics.LEVEL_IN_FORCE),
+         optional=True),
     Node("plant", "drill_plant.plant_node", "PlantNode",
          (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, CLOCK), FRAMES, plant=True),
     Node("driller", "drill_string.ros.driller_node", "DrillerNode", (topics.DRILLING_COMMAND,),
@@ -138,6 +148,7 @@ NODES = (
 )
 BY_NAME = {n.name: n for n in NODES}
 CONTROLLERS = tuple(n.controller for n in NODES if n.controller)
+OPTIONAL = tuple(n.name for n in NODES if n.optional)
 # The plant starts frame 0 once these are matched: everything the lockstep passes on, and
 # the scenario events the recorder must not miss.
 LOCKSTEP_TOPICS = (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, topics.ESTIMATE, CLOCK,
@@ -252,15 +263,23 @@ def _middleware_readers(topic: str, nodes: list[Node], local: dict) -> int:
     return sum(n.subscribes_to(topic) and topic not in local.get(n.name, ()) for n in nodes)
 
 
-def run_nodes(controller: str, fast: bool, kind: str = "tripping") -> list[Node]:
+def run_nodes(controller: str, fast: bool, kind: str = "tripping",
+              extras: tuple[str, ...] = ()) -> list[Node]:
     """The nodes of a run of a ``kind`` scenario under ``controller``, recorder first and
     plant last. Tripping: the actuators, the estimator, the controller's advisor with the
     process protection, the console in realtime mode. Drilling (controller ``none``): the
-    driller, the top drive, the block feed and the drilling plant."""
+    driller, the top drive, the block feed and the drilling plant. ``extras``: the
+    optional nodes (OPTIONAL) this run holds too."""
     if kind not in SCENARIO_KINDS:
         raise ValueError(f"scenario kind {kind!r} is not one of {', '.join(SCENARIO_KINDS)}")
     if controller not in CONTROLLERS + ("none",):
         raise ValueError(f"controller {controller!r} is not one of {', '.join(CONTROLLERS)}, none")
+    for name in extras:
+        if name not in OPTIONAL:
+            raise ValueError(f"optional node {name!r} is not one of {', '.join(OPTIONAL)}")
+        if kind not in BY_NAME[name].kinds:
+            raise ValueError(f"{name} does not run in a {kind} scenario (only "
+                             f"{', '.join(BY_NAME[name].kinds)})")
     advisor = [n for n in NODES if n.controller == controller]
     out = []
     for node in NODES:
@@ -268,7 +287,7 @@ def run_nodes(controller: str, fast: bool, kind: str = "tripping") -> list[Node]
             continue
         if node.name == "protection" and not advisor:
             continue
-        if node.realtime_only and fast:
+        if (node.realtime_only and fast) or (node.optional and node.name not in extras):
             continue
         out.append(node)
     return out
@@ -323,8 +342,10 @@ def _frames_of(node: Node) -> str:
 
 def markdown_table() -> str:
     """docs/architecture.md's topic table: who publishes and who subscribes, per topic
-    (the recorder takes every topic; ``<name>`` stands for each actuator)."""
-    rows = ["| topic | type | publishers | subscribers (besides the recorder) | QoS |",
+    (the recorder, and the Foxglove bridge when asked for, take every topic; ``<name>``
+    stands for each actuator)."""
+    every = ", ".join(n.name for n in NODES if EVERY_TOPIC in n.subscribes)
+    rows = [f"| topic | type | publishers | subscribers (besides {every}) | QoS |",
             "| --- | --- | --- | --- | --- |"]
     frame = topics.actuator_frame("<name>")
     seen = set()

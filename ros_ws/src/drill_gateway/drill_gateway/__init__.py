@@ -1,0 +1,1 @@
+"""Gateways out of the rig: the Foxglove live view and the OPC-UA server (docs/gateways.md)."""

@@ -1,0 +1,208 @@
+"""The OPC-UA server (asyncua) of the gateway, without ROS: the address space of
+drill_gateway.opcua_names, values pushed in from any thread, and writes of the writable
+variables handed to the caller's validating functions before anything is stored.
+
+The server runs its own asyncio loop in a thread. ``update(source, values)`` may be
+called from any thread (the ROS callbacks): the newest values of each source are kept
+and written into the address space by the loop (a burst coalesces; subscribers see the
+changes). A client's write of a setpoint or of the automation level goes first to
+``on_setpoint(variable, value)`` / ``on_level(value)`` (blocking, run in a worker thread
+so the server keeps serving), which answer a drill_gateway.opcua_writes.Outcome: a Good
+one lets the value in, a Bad one is the write's status and the variable keeps its value.
+Either way the outcome and its reason go to ``Rig/LastWriteResult`` and out as an
+OPC-UA event (BaseEventType from the Server object, the reason in Message).
+"""
+from __future__ import annotations
+
+import asyncio
+import math
+import threading
+from collections.abc import Callable
+from functools import partial
+from urllib.parse import urlparse
+
+from asyncua import Server, ua
+from asyncua.server.address_space import AttributeService
+
+from drill_gateway.opcua_names import (LAST_WRITE_RESULT, NAMESPACE_URI, ROOT, UNECE_NAMESPACE,
+                                       UNITS, VARIABLES, Unit, Variable, by_source)
+from drill_gateway.opcua_writes import BAD_TYPE_MISMATCH, Outcome
+
+DEFAULT_ENDPOINT = "opc.tcp://127.0.0.1:4840/drill-rig"   # this machine only (docs/gateways.md)
+SERVER_NAME = "Drill rig OPC-UA gateway"
+VARIANT = {"float": ua.VariantType.Double, "bool": ua.VariantType.Boolean,
+           "text": ua.VariantType.String}
+INITIAL = {"float": math.nan, "bool": False, "text": ""}
+START_TIMEOUT_S = 30.0
+
+
+def check_endpoint(endpoint: str) -> str:
+    """``endpoint`` if it is an ``opc.tcp://host:port/path`` URL; ValueError otherwise."""
+    url = urlparse(endpoint)
+    try:
+        port = url.port
+    except ValueError:
+        port = None
+    if url.scheme != "opc.tcp" or not url.hostname or port is None:
+        raise ValueError(f"OPC-UA endpoint {endpoint!r}: expected opc.tcp://HOST:PORT/PATH, "
+                         f"e.g. {DEFAULT_ENDPOINT}")
+    return endpoint
+
+
+def eu_information(unit: Unit) -> ua.EUInformation:
+    """OPC UA Part 8 EngineeringUnits of ``unit`` (UNECE common code)."""
+    return ua.EUInformation(NamespaceUri=UNECE_NAMESPACE, UnitId=unit.unit_id,
+                            DisplayName=ua.LocalizedText(unit.symbol),
+                            Description=ua.LocalizedText(unit.name))
+
+
+class _GatedAttributeService(AttributeService):
+    """asyncua's attribute service with a gate in front of each write: the gate answers a
+    StatusCode to refuse it, None to let it through."""
+
+    def __init__(self, aspace, gate):
+        super().__init__(aspace)
+        self._gate = gate
+
+    async def write(self, params: ua.WriteParameters, user=None) -> list[ua.StatusCode]:
+        results = []
+        for item in params.NodesToWrite:
+            refused = await self._gate(item)
+            if refused is not None:
+                results.append(refused)
+                continue
+            one = ua.WriteParameters(NodesToWrite=[item])
+            results += await (super().write(one, user=user) if user is not None else super().write(one))
+        return results
+
+
+class Gateway:
+    """The server on ``endpoint``; ``start`` it, feed it with ``update``, ``stop`` it."""
+
+    def __init__(self, endpoint: str = DEFAULT_ENDPOINT,
+                 on_setpoint: Callable[[Variable, object], Outcome] | None = None,
+                 on_level: Callable[[object], Outcome] | None = None):
+        self.endpoint = check_endpoint(endpoint)
+        self._on_setpoint = on_setpoint or (lambda v, value: Outcome("BadNotWritable", "read only"))
+        self._on_level = on_level or (lambda value: Outcome("BadNotWritable", "read only"))
+        self._lock = threading.Lock()
+        self._pending: dict[str, dict] = {}
+        self._flush_due = False
+        self._nodes: dict[tuple[str, str], ua.NodeId] = {}
+        self._writable: dict[ua.NodeId, Variable] = {}
+        self._ready = threading.Event()
+        self._stopped: asyncio.Event | None = None      # set by stop(): the loop ends
+        self._error: BaseException | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._thread: threading.Thread | None = None
+        self.writes = {"accepted": 0, "refused": 0}
+
+    # ------------------------------------------------------------------ life cycle
+    def start(self) -> None:
+        """Serve; returns once clients can connect, raises what kept the server from it."""
+        self._thread = threading.Thread(target=self._run, name="opcua-gateway", daemon=True)
+        self._thread.start()
+        if not self._ready.wait(START_TIMEOUT_S):
+            raise RuntimeError(f"the OPC-UA server on {self.endpoint} did not start within "
+                               f"{START_TIMEOUT_S:g} s")
+        if self._error is not None:
+            raise self._error
+
+    def stop(self) -> None:
+        if self._loop is not None and self._loop.is_running():
+            asyncio.run_coroutine_threadsafe(self._shutdown(), self._loop).result(START_TIMEOUT_S)
+        if self._thread is not None:
+            self._thread.join(START_TIMEOUT_S)
+
+    def _run(self) -> None:
+        self._loop = asyncio.new_event_loop()
+        try:
+            self._stopped = asyncio.Event()
+            self._loop.run_until_complete(self._build())
+        except BaseException as err:   # reported to start()'s caller
+            self._error = err
+            self._ready.set()
+            return
+        self._ready.set()
+        self._loop.run_until_complete(self._stopped.wait())
+        self._loop.close()
+
+    async def _shutdown(self) -> None:
+        await self._server.stop()
+        self._stopped.set()
+
+    async def _build(self) -> None:
+        server = self._server = Server()
+        await server.init()
+        server.set_endpoint(self.endpoint)
+        server.set_server_name(SERVER_NAME)
+        server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
+        idx = await server.register_namespace(NAMESPACE_URI)
+        rig = await server.nodes.objects.add_object(idx, ROOT)
+        folders = {}
+        for variable in VARIABLES:
+            parent = rig
+            if variable.folder:
+                if variable.folder not in folders:
+                    folders[variable.folder] = await rig.add_folder(idx, variable.folder)
+                parent = folders[variable.folder]
+            node = await parent.add_variable(idx, variable.name, INITIAL[variable.kind],
+                                             varianttype=VARIANT[variable.kind])
+            if variable.unit:
+                await node.add_property(ua.NodeId("/".join((*variable.path, "EngineeringUnits")), idx),
+                                        ua.QualifiedName("EngineeringUnits", 0),
+                                        eu_information(UNITS[variable.unit]))
+            if variable.writable:
+                await node.set_writable()
+                self._writable[node.nodeid] = variable
+            self._nodes[(variable.source, variable.field)] = node.nodeid
+        self._last_result = (await rig.add_variable(idx, LAST_WRITE_RESULT, "",
+                                                    varianttype=ua.VariantType.String)).nodeid
+        self._events = await server.get_event_generator()
+        server.iserver.attribute_service = _GatedAttributeService(server.iserver.aspace, self._gate)
+        await server.start()
+
+    # ------------------------------------------------------------------ values in
+    def update(self, source: str, values: dict) -> None:
+        """The newest ``values`` (message field -> SI value) of ``source``; any thread."""
+        by_source(source)            # an unknown source is an error here, not in the loop
+        with self._lock:
+            self._pending[source] = values
+            if self._flush_due or self._loop is None or not self._ready.is_set():
+                return
+            self._flush_due = True
+        self._loop.call_soon_threadsafe(lambda: self._loop.create_task(self._flush()))
+
+    async def _flush(self) -> None:
+        with self._lock:
+            pending, self._pending, self._flush_due = self._pending, {}, False
+        for source, values in pending.items():
+            for variable in by_source(source):
+                if variable.field in values:
+                    await self._set(self._nodes[(source, variable.field)], variable.kind,
+                                    values[variable.field])
+
+    async def _set(self, nodeid: ua.NodeId, kind: str, value) -> None:
+        value = {"float": float, "bool": bool, "text": str}[kind](value)
+        await self._server.write_attribute_value(
+            nodeid, ua.DataValue(ua.Variant(value, VARIANT[kind])))
+
+    # ------------------------------------------------------------------ writes from clients
+    async def _gate(self, item: ua.WriteValue) -> ua.StatusCode | None:
+        variable = self._writable.get(item.NodeId)
+        if variable is None or item.AttributeId != ua.AttributeIds.Value:
+            return None
+        variant = item.Value.Value if item.Value is not None else None
+        if variant is None or variant.VariantType != VARIANT[variable.kind]:
+            got = variant.VariantType.name if variant is not None else "nothing"
+            outcome = Outcome(BAD_TYPE_MISMATCH, f"expected {VARIANT[variable.kind].name}, got {got}")
+        else:
+            handler = self._on_level if variable.source == "level" \
+                else partial(self._on_setpoint, variable)
+            outcome = await asyncio.get_running_loop().run_in_executor(None, handler, variant.Value)
+        value = variant.Value if variant is not None else None
+        text = outcome.describe(f"{'/'.join(variable.path)} = {value!r}")
+        self.writes["accepted" if outcome.good else "refused"] += 1
+        await self._set(self._last_result, "text", text)
+        await self._events.trigger(message=text)
+        return None if outcome.good else ua.StatusCode(getattr(ua.StatusCodes, outcome.status))

@@ -1,0 +1,100 @@
+"""OPC-UA gateway node: the rig's measurements, estimates, setpoints and automation level
+on an OPC-UA server with D-WIS-style names (``rig run ... --opcua [ENDPOINT]``;
+docs/gateways.md).
+
+    python -m drill_gateway.opcua_node --ros-args -p endpoint:=opc.tcp://127.0.0.1:4840/drill-rig
+
+Parameters: ``endpoint`` (opc.tcp://127.0.0.1:4840/drill-rig: this machine only),
+``service_timeout_s`` (5 s). Setpoint writes go through the supervisor's validating
+/set_setpoints service and the automation level out on /operator/automation_level, both
+through the console's operator link (drill_bringup.console.OperatorLink: the same
+requests, the same recorded operator events, source "opcua"). Display subscriptions are
+best-effort keep-last (latched topics: as published), so the gateway never holds up the
+graph. Prints ``OPCUA_URL <endpoint>`` once it serves.
+"""
+from __future__ import annotations
+
+import logging
+import sys
+import threading
+
+from drill_msgs.msg import RigMeasurement, Setpoints, StateEstimate
+from std_msgs.msg import String
+
+from drill_bringup import console
+from drill_core.ros import topics
+from drill_core.ros.node import RigNode
+from drill_core.ros.runner import run
+from drill_core.ros.status import StatusReporter
+from drill_gateway import opcua_writes
+from drill_gateway.opcua_gateway import DEFAULT_ENDPOINT, Gateway
+from drill_gateway.opcua_names import by_source
+
+
+def source_topics() -> dict[str, str]:
+    """The topic each source of drill_gateway.opcua_names.SOURCES is read from."""
+    return {"measurement": topics.MEASUREMENT, "estimate": topics.ESTIMATE,
+            "setpoints": topics.SETPOINTS, "level": topics.LEVEL_IN_FORCE}
+
+
+def fields(msg, source: str) -> dict:
+    """The gateway's fields of a message of ``source``: field -> value."""
+    return {v.field: getattr(msg, v.field) for v in by_source(source)}
+
+
+class OpcuaGatewayNode(RigNode):
+    def __init__(self, **node_options):
+        super().__init__("opcua_gateway", **node_options)
+        endpoint = self.declare_parameter("endpoint", DEFAULT_ENDPOINT).value or DEFAULT_ENDPOINT
+        timeout_s = float(self.declare_parameter("service_timeout_s", 5.0).value)
+        mode = self.declare_parameter("mode", "fast").value
+        logging.getLogger("asyncua").setLevel(logging.WARNING)
+        self.link = console.OperatorLink(self, timeout_s, source="opcua")
+        self.status = StatusReporter(self, mode)
+        self._active: dict | None = None           # the setpoints in force (latched /setpoints)
+        self._lock = threading.Lock()
+        self.gateway = Gateway(endpoint, self._write_setpoint, self._write_level)
+        self.gateway.start()
+
+        where = source_topics()
+        sub = self.create_subscription
+        sub(RigMeasurement, where["measurement"],
+            lambda m: self.gateway.update("measurement", fields(m, "measurement")), console.DISPLAY)
+        sub(StateEstimate, where["estimate"],
+            lambda m: self.gateway.update("estimate", fields(m, "estimate")), console.DISPLAY)
+        sub(Setpoints, where["setpoints"], self._on_setpoints, topics.LATCHED)
+        sub(String, where["level"], lambda m: self.gateway.update("level", fields(m, "level")),
+            topics.LATCHED)
+        self.create_timer(1.0, self._tick)
+        self.get_logger().info(f"OPC-UA gateway on {endpoint}")
+        print(f"OPCUA_URL {endpoint}", flush=True)
+
+    def _on_setpoints(self, msg: Setpoints) -> None:
+        with self._lock:
+            self._active = console.setpoints_to_dict(msg)
+        self.gateway.update("setpoints", fields(msg, "setpoints"))
+
+    # called by the gateway in a worker thread, while this node spins
+    def _write_setpoint(self, variable, value) -> opcua_writes.Outcome:
+        with self._lock:
+            active = dict(self._active) if self._active is not None else None
+        return opcua_writes.write_setpoint(variable, value, active, self.link.request_setpoints)
+
+    def _write_level(self, value) -> opcua_writes.Outcome:
+        return opcua_writes.write_level(value, self.link.set_level)
+
+    def _tick(self) -> None:
+        self.status.values = {f"writes_{k}": float(v) for k, v in self.gateway.writes.items()}
+        self.status.tick(self.get_clock().now().nanoseconds)
+
+    def destroy_node(self):
+        self.gateway.stop()
+        return super().destroy_node()
+
+
+def main(args=None) -> None:
+    sys.exit(run(OpcuaGatewayNode, args))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,63 @@
+"""The Foxglove bridge's server: channels with the recorder's ros2msg schemas, CDR bytes
+forwarded as they are, decoded by a client speaking the Foxglove WebSocket protocol."""
+import asyncio
+
+import pytest
+from drill_msgs.msg import RigMeasurement
+from foxglove_client import FoxgloveClient
+from rclpy.serialization import deserialize_message, serialize_message
+
+from drill_bringup import mcap_io
+from drill_gateway.foxglove_bridge import Bridge
+
+TOPIC, TYPE = "/rig/measurement", "drill_msgs/msg/RigMeasurement"
+
+
+@pytest.fixture
+def bridge():
+    b = Bridge(port=0)
+    yield b
+    b.close()
+
+
+def test_a_client_gets_the_schema_and_decodes_a_forwarded_message(bridge):
+    bridge.add(TOPIC, TYPE)
+    sent = RigMeasurement(bhp_pa=6.85e7, choke_dp_pa=2.0e6, block_position_m=1.5)
+    sent.header.stamp.sec = 12
+
+    async def session():
+        async with FoxgloveClient(bridge.url) as client:
+            await client.wait_for_channels([TOPIC], 10.0)
+            await client.subscribe(TOPIC)
+            for _ in range(200):        # until the server has taken the subscription
+                bridge.forward(TOPIC, serialize_message(sent))
+                try:
+                    return client, await client.next_message(0.05)
+                except TimeoutError:
+                    continue
+            raise AssertionError("no message reached the client")
+
+    client, (topic, _, payload) = asyncio.run(session())
+    channel = client.channels[TOPIC]
+    assert client.server_info["name"] == "drill-rig"
+    assert (channel["encoding"], channel["schemaEncoding"], channel["schemaName"]) == \
+        ("cdr", "ros2msg", TYPE)
+    assert channel["schema"] == mcap_io.message_definition(TYPE)    # as in the MCAP
+    got = deserialize_message(payload, RigMeasurement)
+    assert topic == TOPIC
+    assert (got.bhp_pa, got.choke_dp_pa, got.block_position_m, got.header.stamp.sec) == \
+        (6.85e7, 2.0e6, 1.5, 12)
+
+
+def test_the_clock_and_ros_log_topics_and_repeats_are_not_streamed(bridge):
+    assert not bridge.wants("/clock") and not bridge.wants("/rosout")
+    assert bridge.wants(TOPIC)
+    bridge.add(TOPIC, TYPE)
+    assert not bridge.wants(TOPIC) and bridge.topics == [TOPIC]
+
+
+def test_an_unknown_type_is_refused_with_its_name(bridge):
+    with pytest.raises((OSError, ValueError, LookupError)):
+        bridge.add("/x", "no_such_pkg/msg/Nothing")
+    with pytest.raises(ValueError, match="port 70000"):
+        Bridge(port=70000)

@@ -1,0 +1,108 @@
+"""The OPC-UA server without ROS: browse by name, engineering units, values pushed from
+another thread reaching a subscription, and writes gated by the validating function (a
+refusal is a Bad status, its reason in Rig/LastWriteResult, the value unchanged)."""
+import asyncio
+import socket
+import threading
+
+import pytest
+from asyncua import Client, ua
+
+from drill_gateway import opcua_names as names
+from drill_gateway.opcua_gateway import Gateway, check_endpoint
+from drill_gateway.opcua_writes import BAD_NOT_ALLOWED, Outcome
+
+TIMEOUT_S = 20.0
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def served():
+    writes = []
+
+    def on_setpoint(variable, value):
+        writes.append((variable.name, value))
+        return Outcome(None) if value < 7.0e7 else Outcome(BAD_NOT_ALLOWED, "above the fracture pressure")
+
+    gateway = Gateway(f"opc.tcp://127.0.0.1:{free_port()}/drill-rig", on_setpoint,
+                      lambda level: Outcome(None))
+    gateway.start()
+    yield gateway, writes
+    gateway.stop()
+
+
+async def child(client, *path):
+    idx = await client.get_namespace_index(names.NAMESPACE_URI)
+    return await client.nodes.objects.get_child([f"{idx}:{p}" for p in path])
+
+
+async def until(read, predicate, what):
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + TIMEOUT_S
+    while not predicate(value := await read()):
+        assert loop.time() < deadline, f"timed out waiting for {what}"
+        await asyncio.sleep(0.02)
+    return value
+
+
+def test_browse_read_subscribe_and_gated_writes(served):
+    gateway, writes = served
+
+    class Changes:
+        def __init__(self):
+            self.values = []
+
+        def datachange_notification(self, node, value, data):
+            self.values.append(value)
+
+    async def session():
+        async with Client(gateway.endpoint) as client:
+            bhp = await child(client, "Rig", "Measurements", "BottomHolePressure")
+            unit = await (await bhp.get_child(["0:EngineeringUnits"])).read_value()
+            assert (unit.UnitId, unit.DisplayName.Text) == (names.UNITS["Pa"].unit_id, "Pa")
+            changes = Changes()
+            subscription = await client.create_subscription(50, changes)
+            await subscription.subscribe_data_change(bhp)
+            threading.Thread(target=gateway.update,
+                             args=("measurement", {"bhp_pa": 6.85e7, "choke_dp_pa": 2e6})).start()
+            assert await until(bhp.read_value, lambda v: v == 6.85e7, "BHP 685 bar") == 6.85e7
+            async def notified():
+                return list(changes.values)
+            await until(notified, lambda v: 6.85e7 in v, "the change notified")
+            gateway.update("setpoints", {"bhp_ref_pa": 6.85e7})
+            setpoint = await child(client, "Rig", "Setpoints", "BottomHolePressureSetpoint")
+            await until(setpoint.read_value, lambda v: v == 6.85e7, "the setpoint in force")
+
+            await setpoint.write_value(6.88e7)
+            assert await setpoint.read_value() == 6.88e7
+            with pytest.raises(ua.UaStatusCodeError) as refused:
+                await setpoint.write_value(7.2e7)
+            assert refused.value.code == ua.StatusCodes.BadRequestNotAllowed
+            assert await setpoint.read_value() == 6.88e7                 # unchanged
+            result = await (await child(client, "Rig", "LastWriteResult")).read_value()
+            assert "refused" in result and "above the fracture pressure" in result
+            with pytest.raises(ua.UaStatusCodeError) as mistyped:
+                await setpoint.write_value(ua.Variant(5, ua.VariantType.Int32))
+            assert mistyped.value.code == ua.StatusCodes.BadTypeMismatch
+            with pytest.raises(ua.UaStatusCodeError) as read_only:
+                await bhp.write_value(1.0)
+            assert read_only.value.code == ua.StatusCodes.BadUserAccessDenied
+            await subscription.delete()
+
+    asyncio.run(session())
+    assert writes == [("BottomHolePressureSetpoint", 6.88e7), ("BottomHolePressureSetpoint", 7.2e7)]
+    assert gateway.writes == {"accepted": 1, "refused": 2}
+
+
+def test_an_endpoint_that_is_not_opc_tcp_host_port_is_refused_with_the_form():
+    assert check_endpoint("opc.tcp://0.0.0.0:4840/drill-rig")
+    for bad in ("http://127.0.0.1:4840/", "opc.tcp://127.0.0.1/drill-rig", "127.0.0.1:4840"):
+        with pytest.raises(ValueError, match="expected opc.tcp://HOST:PORT/PATH"):
+            check_endpoint(bad)
+    with pytest.raises(ValueError, match="source 'truth'"):
+        Gateway().update("truth", {})

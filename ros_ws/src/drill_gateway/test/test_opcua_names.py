@@ -1,0 +1,44 @@
+"""The OPC-UA name map: every name bound to a real field of its message, units by their
+UNECE codes, writable exactly where the console can write, and the documented table."""
+from pathlib import Path
+
+from drill_bringup import console_state as cs
+from drill_bringup import mcap_io
+from drill_gateway import opcua_names as names
+from drill_gateway.opcua_node import source_topics
+
+ROOT = Path(__file__).resolve().parents[4]
+
+
+def test_every_variable_reads_an_existing_field_of_its_source():
+    for v in names.VARIABLES:
+        fields = mcap_io.message_class(names.SOURCES[v.source]).get_fields_and_field_types()
+        assert v.field in fields, f"{'/'.join(v.path)}: {v.field} not in {names.SOURCES[v.source]}"
+        expected = {"float": "double", "bool": "boolean", "text": "string"}[v.kind]
+        assert fields[v.field] == expected, v.path
+
+
+def test_browse_paths_are_unique_and_units_are_given_for_every_number():
+    paths = [v.path for v in names.VARIABLES]
+    assert len(set(paths)) == len(paths)
+    assert all((v.unit is not None) == (v.kind == "float") for v in names.VARIABLES)
+
+
+def test_unit_ids_are_the_unece_codes_as_opc_ua_part_8_packs_them():
+    assert names.UNITS["Pa"].unit_id == 0x50414C         # "PAL"
+    assert names.UNITS["m"].unit_id == 5067858           # "MTR" = 0x4D5452
+    assert {u.code for u in names.UNITS.values()} == {"PAL", "MTR", "MTS", "MQS", "MTQ"}
+
+
+def test_the_writable_variables_are_the_setpoints_and_the_automation_level():
+    writable = {v.field for v in names.VARIABLES if v.writable and v.source == "setpoints"}
+    form = {spec.setpoint for spec in cs.FORM_FIELDS.values()} | set(cs.BOOL_FIELDS)
+    assert writable == form                   # what the console lets an operator change
+    assert [v.name for v in names.VARIABLES if v.source == "level"] == ["AutomationLevel"]
+    assert not any(v.writable for v in names.VARIABLES if v.source in ("measurement", "estimate"))
+
+
+def test_the_documented_table_is_the_map():
+    doc = (ROOT / "docs" / "gateways.md").read_text(encoding="utf-8")
+    assert names.markdown_table(source_topics()) in doc, \
+        "regenerate it: python -m drill_gateway.opcua_names"
