@@ -17,7 +17,6 @@ import asyncio
 import math
 import re
 import socket
-import threading
 
 import pytest
 from asyncua import Client, ua

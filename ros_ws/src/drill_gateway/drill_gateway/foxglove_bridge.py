@@ -36,8 +36,12 @@ class Bridge:
             raise ValueError(f"port {port}: expected 0..65535 (0: a free port)")
         self.host = host
         self._context = foxglove.Context()
-        self._server = foxglove.start_server(name=SERVER_NAME, host=host, port=port,
-                                             context=self._context)
+        try:
+            self._server = foxglove.start_server(name=SERVER_NAME, host=host, port=port,
+                                                 context=self._context)
+        except RuntimeError as err:      # the SDK's FoxgloveError: port in use, bad host
+            raise RuntimeError(f"Foxglove server on {host}:{port}: {err} (--foxglove PORT "
+                               "takes another port)") from err
         self._channels: dict[str, foxglove.Channel] = {}
 
     @property

@@ -106,7 +106,8 @@ class Gateway:
             raise RuntimeError(f"the OPC-UA server on {self.endpoint} did not start within "
                                f"{START_TIMEOUT_S:g} s")
         if self._error is not None:
-            raise self._error
+            raise RuntimeError(f"the OPC-UA server on {self.endpoint} could not start: "
+                               f"{self._error}") from self._error
 
     def stop(self) -> None:
         if self._loop is not None and self._loop.is_running():
@@ -121,6 +122,7 @@ class Gateway:
             self._loop.run_until_complete(self._build())
         except BaseException as err:   # reported to start()'s caller
             self._error = err
+            self._loop.close()
             self._ready.set()
             return
         self._ready.set()
@@ -168,10 +170,14 @@ class Gateway:
         by_source(source)            # an unknown source is an error here, not in the loop
         with self._lock:
             self._pending[source] = values
-            if self._flush_due or self._loop is None or not self._ready.is_set():
+            loop = self._loop
+            if self._flush_due or loop is None or not self._ready.is_set() or loop.is_closed():
                 return
             self._flush_due = True
-        self._loop.call_soon_threadsafe(lambda: self._loop.create_task(self._flush()))
+        try:
+            loop.call_soon_threadsafe(lambda: loop.create_task(self._flush()))
+        except RuntimeError:       # the loop closed in between: the server has stopped
+            pass
 
     async def _flush(self) -> None:
         with self._lock:

@@ -61,3 +61,5 @@ def test_an_unknown_type_is_refused_with_its_name(bridge):
         bridge.add("/x", "no_such_pkg/msg/Nothing")
     with pytest.raises(ValueError, match="port 70000"):
         Bridge(port=70000)
+    with pytest.raises(RuntimeError, match=f"127.0.0.1:{bridge.port}: .*in use"):
+        Bridge(port=bridge.port)

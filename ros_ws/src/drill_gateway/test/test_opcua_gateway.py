@@ -106,3 +106,9 @@ def test_an_endpoint_that_is_not_opc_tcp_host_port_is_refused_with_the_form():
             check_endpoint(bad)
     with pytest.raises(ValueError, match="source 'truth'"):
         Gateway().update("truth", {})
+
+
+def test_a_taken_port_fails_the_start_naming_the_endpoint(served):
+    gateway, _ = served
+    with pytest.raises(RuntimeError, match=f"server on {gateway.endpoint} could not start"):
+        Gateway(gateway.endpoint).start()
