@@ -35,6 +35,7 @@ pytestmark = [pytest.mark.dds, pytest.mark.slow,
 DOMAIN_ID = 41
 SCENARIO = cli.ROOT / "config" / "scenarios" / "short_trip.yaml"
 TIMEOUT_S = 60.0
+START_TIMEOUT_S = 240.0               # the whole graph up, on a machine that may be busy
 PHYSICAL_BHP_PA = (5.0e7, 8.0e7)      # the reference well's BHP is ~685 bar
 
 
@@ -70,9 +71,9 @@ def live(tmp_path_factory):
                                  topics.RELIABLE)
         try:
             launch.start()
-            wait_for(lambda: reported(launch, "foxglove_bridge", "FOXGLOVE_URL"), TIMEOUT_S,
+            wait_for(lambda: reported(launch, "foxglove_bridge", "FOXGLOVE_URL"), START_TIMEOUT_S,
                      "the bridge's URL")
-            wait_for(lambda: reported(launch, "opcua_gateway", "OPCUA_URL"), TIMEOUT_S,
+            wait_for(lambda: reported(launch, "opcua_gateway", "OPCUA_URL"), START_TIMEOUT_S,
                      "the gateway's endpoint")
             yield {"launch": launch, "seen": seen, "endpoint": endpoint,
                    "foxglove": reported(launch, "foxglove_bridge", "FOXGLOVE_URL")}

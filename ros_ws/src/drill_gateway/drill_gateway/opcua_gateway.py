@@ -33,7 +33,7 @@ SERVER_NAME = "Drill rig OPC-UA gateway"
 VARIANT = {"float": ua.VariantType.Double, "bool": ua.VariantType.Boolean,
            "text": ua.VariantType.String}
 INITIAL = {"float": math.nan, "bool": False, "text": ""}
-START_TIMEOUT_S = 30.0
+START_TIMEOUT_S = 120.0     # asyncua builds the standard address space: seconds on a busy machine
 
 
 def check_endpoint(endpoint: str) -> str:

@@ -54,7 +54,6 @@ class OpcuaGatewayNode(RigNode):
         self._active: dict | None = None           # the setpoints in force (latched /setpoints)
         self._lock = threading.Lock()
         self.gateway = Gateway(endpoint, self._write_setpoint, self._write_level)
-        self.gateway.start()
 
         where = source_topics()
         sub = self.create_subscription
@@ -66,6 +65,7 @@ class OpcuaGatewayNode(RigNode):
         sub(String, where["level"], lambda m: self.gateway.update("level", fields(m, "level")),
             topics.LATCHED)
         self.create_timer(1.0, self._tick)
+        self.gateway.start()         # the subscriptions are in the graph while it starts
         self.get_logger().info(f"OPC-UA gateway on {endpoint}")
         print(f"OPCUA_URL {endpoint}", flush=True)
 
