@@ -55,10 +55,13 @@ def test_browse_read_subscribe_and_gated_writes(served):
 
     class Changes:
         def __init__(self):
-            self.values = []
+            self.values, self.events = [], []
 
         def datachange_notification(self, node, value, data):
             self.values.append(value)
+
+        def event_notification(self, event):
+            self.events.append(event.Message.Text)
 
     async def session():
         async with Client(gateway.endpoint) as client:
@@ -68,6 +71,7 @@ def test_browse_read_subscribe_and_gated_writes(served):
             changes = Changes()
             subscription = await client.create_subscription(50, changes)
             await subscription.subscribe_data_change(bhp)
+            await subscription.subscribe_events()          # the Server object's events
             threading.Thread(target=gateway.update,
                              args=("measurement", {"bhp_pa": 6.85e7, "choke_dp_pa": 2e6})).start()
             assert await until(bhp.read_value, lambda v: v == 6.85e7, "BHP 685 bar") == 6.85e7
@@ -86,6 +90,10 @@ def test_browse_read_subscribe_and_gated_writes(served):
             assert await setpoint.read_value() == 6.88e7                 # unchanged
             result = await (await child(client, "Rig", "LastWriteResult")).read_value()
             assert "refused" in result and "above the fracture pressure" in result
+
+            async def events():
+                return list(changes.events)
+            assert result in await until(events, lambda e: result in e, "the refusal's event")
             with pytest.raises(ua.UaStatusCodeError) as mistyped:
                 await setpoint.write_value(ua.Variant(5, ua.VariantType.Int32))
             assert mistyped.value.code == ua.StatusCodes.BadTypeMismatch
