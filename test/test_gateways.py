@@ -10,6 +10,8 @@ OPC-UA gateway (``rig run short_trip --realtime --foxglove --opcua``), on ROS do
   fracture pressure comes back Bad with the supervisor's reason and changes nothing;
   both are on /operator/events as the console's are; the automation level written goes
   through the process protection.
+
+At the end every process of the run, the gateways' too, stops with exit code 0.
 """
 from __future__ import annotations
 
@@ -80,6 +82,8 @@ def live(tmp_path_factory):
         finally:
             codes = launch.stop()
             print(f"[gateway test] exit codes {codes}; logs in {launch.logs}", flush=True)
+    stopped_badly = {name: code for name, code in codes.items() if code != 0}
+    assert not stopped_badly, "\n".join(launch.failure(n, c) for n, c in stopped_badly.items())
 
 
 def test_a_foxglove_client_decodes_live_measurements(live):

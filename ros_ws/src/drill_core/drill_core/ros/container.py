@@ -12,9 +12,9 @@ middleware; the loop delivers its queue between spins of the executor.
 When every node here that finishes a run has finished (RigNode.finish) the container
 creates the file <marker> and goes on spinning, so the other nodes here still act on
 what is in flight (the NMPC's last command after the estimator's last estimate), until
-the launcher stops it (SIGINT/SIGTERM), as it stops a process of one node. A node that
-finishes with a non-zero exit code (a stalled lockstep, a diverged plant) ends the
-process at once with that code.
+the launcher stops it (SIGINT/SIGTERM: drill_core.ros.stopping), as it stops a process
+of one node. A node that finishes with a non-zero exit code (a stalled lockstep, a
+diverged plant) ends the process at once with that code.
 """
 from __future__ import annotations
 
@@ -25,11 +25,13 @@ from pathlib import Path
 
 import rclpy
 from rclpy.executors import ExternalShutdownException
+from rclpy.signals import SignalHandlerOptions
 
 from drill_core.ros.budget import ProcessClock
 from drill_core.ros.executors import SPIN_TIMEOUT_S, create_executor
 from drill_core.ros.local_bus import LocalBus
 from drill_core.ros.node import CONTAINED
+from drill_core.ros.stopping import PROCESS
 
 
 def create_nodes(specs: list[dict]) -> list:
@@ -44,7 +46,8 @@ def create_nodes(specs: list[dict]) -> list:
 def spin(executor, bus: LocalBus, nodes, finishing, marker: Path) -> None:
     """Spin until stopped or a node fails; mark the finish of the finishing nodes."""
     marked = False
-    while rclpy.ok():
+    PROCESS.spinning = True
+    while rclpy.ok() and not PROCESS.requested:
         bus.deliver()
         executor.spin_once(timeout_sec=0.0 if bus.pending else SPIN_TIMEOUT_S)
         if any(getattr(node, "exit_code", 0) for node in nodes):
@@ -58,7 +61,8 @@ def main(argv: list[str]) -> int:
     process, specs, marker = argv[1], json.loads(argv[2]), Path(argv[3])
     bus = LocalBus(json.loads(argv[4]))
     CONTAINED.update(active=True, bus=bus)
-    rclpy.init(args=argv)
+    PROCESS.install()
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     nodes, code = [], 0
     executor = create_executor()
     clock = ProcessClock()

@@ -31,6 +31,7 @@ from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallba
 from rclpy.node import Node
 
 from drill_core.ros.budget import NodeBudget
+from drill_core.ros.stopping import PROCESS
 
 MATCH_TIMEOUT_S = 30.0      # a first publish waits at most this long for its readers
 # set by drill_core.ros.container: whether nodes share a process, and its local bus
@@ -89,6 +90,8 @@ class RigNode(Node):
     def _wait_for_matches(self, publisher, expected: int) -> None:
         deadline = time.monotonic() + MATCH_TIMEOUT_S
         while publisher.get_subscription_count() < expected and time.monotonic() < deadline:
+            if PROCESS.requested:         # stopping: no reader will come now
+                return
             time.sleep(0.005)
         if publisher.get_subscription_count() < expected:
             self.get_logger().warning(

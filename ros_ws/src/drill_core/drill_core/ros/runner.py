@@ -1,19 +1,23 @@
-"""Run a node alone in its process until shutdown; SIGINT/SIGTERM give a clean exit. The
-process's time budget is written at the end (drill_core.ros.budget)."""
+"""Run a node alone in its process until shutdown; SIGINT/SIGTERM give a clean exit
+(drill_core.ros.stopping). The process's time budget is written at the end
+(drill_core.ros.budget)."""
 from __future__ import annotations
 
 import sys
 
 import rclpy
 from rclpy.executors import ExternalShutdownException
+from rclpy.signals import SignalHandlerOptions
 
 from drill_core.ros.budget import ProcessClock
 from drill_core.ros.executors import SPIN_TIMEOUT_S, create_executor
+from drill_core.ros.stopping import PROCESS
 
 
 def run(node_factory, args=None) -> int:
     """Create the node with ``node_factory`` and spin it; returns the process exit code."""
-    rclpy.init(args=args)   # rclpy's own handlers turn SIGINT and SIGTERM into a shutdown
+    stop = PROCESS.install()
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node, executor = None, None
     code = 0
     clock = ProcessClock()
@@ -22,7 +26,8 @@ def run(node_factory, args=None) -> int:
         clock.spinning()
         executor = create_executor()
         executor.add_node(node)
-        while rclpy.ok():
+        stop.spinning = True
+        while rclpy.ok() and not stop.requested:
             executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
         code = getattr(node, "exit_code", 0)
     except (KeyboardInterrupt, ExternalShutdownException):
