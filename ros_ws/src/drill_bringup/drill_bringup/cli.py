@@ -47,6 +47,11 @@ from drill_core.config import ConfigError
 from drill_core.ros.graph import CONTROLLERS, HOST_GROUPS, LAYOUTS, SelectionError
 
 
+# --foxglove / --opcua without a value: the gateway's own default (not a str: argparse would
+# convert one with the option's type)
+GATEWAY_DEFAULT = object()
+
+
 def _stability(args) -> int:
     from drill_string.parameters import SECTIONS
     from drill_string.stability_command import run
@@ -65,6 +70,13 @@ def _stability(args) -> int:
     for path in paths:
         print(f"[rig] plot: {path}")
     return 0
+
+
+def _gateways(args) -> dict[str, dict]:
+    """The gateways ``rig run`` was asked for, name -> the parameter given (none: theirs)."""
+    asked = {"foxglove_bridge": ("port", args.foxglove), "opcua_gateway": ("endpoint", args.opcua)}
+    return {name: {} if value is GATEWAY_DEFAULT else {parameter: value}
+            for name, (parameter, value) in asked.items() if value is not None}
 
 
 def main(argv=None) -> int:
@@ -91,13 +103,13 @@ def main(argv=None) -> int:
                                      "localhost")
     run.add_argument("--runs-dir", type=Path, help="where the run directory goes "
                                                    "(default: runs/)")
-    run.add_argument("--foxglove", nargs="?", type=int, const=0, metavar="PORT",
-                     help="stream the run's topics to Foxglove on ws://127.0.0.1:PORT (the "
-                          "bridge's default port, 8765, without PORT)")
-    run.add_argument("--opcua", nargs="?", const="", metavar="ENDPOINT",
+    run.add_argument("--foxglove", nargs="?", type=int, const=GATEWAY_DEFAULT, metavar="PORT",
+                     help="stream the run's topics to Foxglove on ws://127.0.0.1:PORT (0: a "
+                          "free port; without PORT the bridge's default, docs/gateways.md)")
+    run.add_argument("--opcua", nargs="?", const=GATEWAY_DEFAULT, metavar="ENDPOINT",
                      help="serve the OPC-UA gateway on ENDPOINT (without it the gateway's "
-                          "default, opc.tcp://127.0.0.1:4840/drill-rig: this machine only; "
-                          "read docs/gateways.md before binding elsewhere)")
+                          "default, on this machine only; read docs/gateways.md before "
+                          "binding elsewhere)")
     rep = sub.add_parser("report", help="summary and plots of a run directory")
     rep.add_argument("run_dir", type=Path)
     sub.add_parser("replay", help="republish a recording", add_help=False)
@@ -130,15 +142,10 @@ def main(argv=None) -> int:
             return run_scenario(scenario_path("case2"))[0]
         if args.command == "run":
             peers = split_options(args.nodes, args.domain, args.peers)
-            extras = {}
-            if args.foxglove is not None:
-                extras["foxglove_bridge"] = {"port": args.foxglove} if args.foxglove else {}
-            if args.opcua is not None:
-                extras["opcua_gateway"] = {"endpoint": args.opcua} if args.opcua else {}
             return run_scenario(scenario_path(args.scenario), args.realtime, args.runs_dir,
                                 seed=args.seed, domain_id=args.domain,
                                 controller=args.controller, layout=args.layout,
-                                here=args.nodes, peers=peers, extras=extras)[0]
+                                here=args.nodes, peers=peers, extras=_gateways(args))[0]
         if args.command == "report":
             mcap = next(args.run_dir.glob("*.mcap"))
             _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name)

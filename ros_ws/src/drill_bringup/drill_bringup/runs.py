@@ -27,9 +27,9 @@ def scenario_path(name: str) -> Path:
     return candidate
 
 
-def console_url(log_path: Path, timeout_s: float = 10.0, key: str = "CONSOLE_URL") -> str:
-    """The console's address, as it prints it once it serves (CONSOLE_URL <url>); with
-    ``key``, another server's (the gateways print FOXGLOVE_URL and OPCUA_URL)."""
+def reported_url(log_path: Path, key: str, timeout_s: float = 10.0) -> str:
+    """A server's address, as its node prints it once it serves (``key`` <url>: the console
+    CONSOLE_URL, the gateways FOXGLOVE_URL and OPCUA_URL)."""
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         if log_path.exists():
@@ -100,10 +100,10 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
         say(f"[rig] ROS_DOMAIN_ID {launch.env['ROS_DOMAIN_ID']} (operator CLI: "
             f"python -m drill_bringup.operator_cli --domain {launch.env['ROS_DOMAIN_ID']} watch)")
         if "console" in names:
-            say(f"[rig] console: {console_url(run_dir / 'logs' / 'console.log')}")
+            say(f"[rig] console: {reported_url(run_dir / 'logs' / 'console.log', 'CONSOLE_URL')}")
     for name, key in (("foxglove_bridge", "FOXGLOVE_URL"), ("opcua_gateway", "OPCUA_URL")):
         if name in (extras or {}) and name in names:
-            say(f"[rig] {name}: {console_url(run_dir / 'logs' / f'{name}.log', key=key)}")
+            say(f"[rig] {name}: {reported_url(run_dir / 'logs' / f'{name}.log', key)}")
     limit = timeout_s or (scenario.duration_s * 1.5 + 120 if realtime else 900.0)
     try:
         ok, message = launch.watch(limit)

@@ -61,8 +61,9 @@ class Bridge:
         return topic not in EXCLUDED_TOPICS and topic not in self._channels
 
     def add(self, topic: str, type_name: str) -> None:
-        """Advertise ``topic`` of ROS type ``type_name``; raises OSError / ValueError (from
-        the schema) when its definition cannot be found."""
+        """Advertise ``topic`` of ROS type ``type_name``; raises LookupError (an unknown
+        package), OSError or ValueError (from the schema) when its definition cannot be
+        found."""
         self._channels[topic] = foxglove.Channel(
             topic, schema=schema(type_name), message_encoding=mcap_io.MESSAGE_ENCODING,
             context=self._context)

@@ -74,7 +74,8 @@ class FoxgloveBridgeNode(RigNode):
         self.forwarded += 1
 
     def _tick(self) -> None:
-        self.status.values = {"port": float(self.bridge.port), "topics": float(len(self.bridge.topics)),
+        self.status.values = {"port": float(self.bridge.port),
+                              "topics": float(len(self.bridge.topics)),
                               "messages_forwarded": float(self.forwarded)}
         self.status.tick(self.get_clock().now().nanoseconds)
 

@@ -72,7 +72,8 @@ class _GatedAttributeService(AttributeService):
                 results.append(refused)
                 continue
             one = ua.WriteParameters(NodesToWrite=[item])
-            results += await (super().write(one, user=user) if user is not None else super().write(one))
+            results += await (super().write(one, user=user) if user is not None
+                              else super().write(one))
         return results
 
 
@@ -150,9 +151,11 @@ class Gateway:
                 parent = folders[variable.folder]
             node = await parent.add_variable(idx, variable.name, INITIAL[variable.kind],
                                              varianttype=VARIANT[variable.kind])
+            await node.write_attribute(ua.AttributeIds.Description, ua.DataValue(ua.Variant(
+                ua.LocalizedText(variable.description), ua.VariantType.LocalizedText)))
             if variable.unit:
-                await node.add_property(ua.NodeId("/".join((*variable.path, "EngineeringUnits")), idx),
-                                        ua.QualifiedName("EngineeringUnits", 0),
+                units_id = ua.NodeId("/".join((*variable.path, "EngineeringUnits")), idx)
+                await node.add_property(units_id, ua.QualifiedName("EngineeringUnits", 0),
                                         eu_information(UNITS[variable.unit]))
             if variable.writable:
                 await node.set_writable()
@@ -201,7 +204,8 @@ class Gateway:
         variant = item.Value.Value if item.Value is not None else None
         if variant is None or variant.VariantType != VARIANT[variable.kind]:
             got = variant.VariantType.name if variant is not None else "nothing"
-            outcome = Outcome(BAD_TYPE_MISMATCH, f"expected {VARIANT[variable.kind].name}, got {got}")
+            outcome = Outcome(BAD_TYPE_MISMATCH,
+                              f"expected {VARIANT[variable.kind].name}, got {got}")
         else:
             handler = self._on_level if variable.source == "level" \
                 else partial(self._on_setpoint, variable)

@@ -15,11 +15,9 @@ NAMESPACE_URI = "urn:drill-rig:gateway"     # the rig's namespace; clients look 
 ROOT = "Rig"                                # the object under Objects holding everything
 UNECE_NAMESPACE = "http://www.opcfoundation.org/UA/units/un/cefact"
 
-# message sources the gateway reads: key -> ROS type (the node binds each to its topic)
-SOURCES = {"measurement": "drill_msgs/msg/RigMeasurement",
-           "estimate": "drill_msgs/msg/StateEstimate",
-           "setpoints": "drill_msgs/msg/Setpoints",
-           "level": "std_msgs/msg/String"}
+# the messages the gateway reads (drill_gateway.opcua_node.source_topics binds each to its
+# topic; the topic's type is the graph's)
+SOURCES = ("measurement", "estimate", "setpoints", "level")
 
 
 @dataclass(frozen=True)
@@ -55,7 +53,7 @@ class Variable:
     unit: str | None   # key of UNITS; None for flags and text
     kind: str          # "float", "bool" or "text"
     writable: bool = False
-    description: str = ""
+    description: str = ""  # the node's Description attribute
 
     @property
     def path(self) -> tuple[str, ...]:
@@ -76,7 +74,8 @@ def _s(name, field, unit, text, kind="float"):
 
 
 VARIABLES = (
-    _m("BottomHolePressure", "bhp_pa", "Pa", "bottom-hole pressure, gauge, at the reference depth"),
+    _m("BottomHolePressure", "bhp_pa", "Pa",
+       "bottom-hole pressure, gauge, at the reference depth"),
     _m("ChokeDifferentialPressure", "choke_dp_pa", "Pa", "pressure across the MPD choke"),
     _m("HookPosition", "block_position_m", "m", "drill-string position, positive up, 0 at start"),
     _m("FlowRateIn", "string_flow_m3s", "m3/s", "flow into the drill string (NaN: pump off)"),
@@ -92,7 +91,8 @@ VARIABLES = (
     _s("ChokeDifferentialPressureSetpoint", "choke_dp_ref_pa", "Pa", "choke pressure target"),
     _s("ChokeDifferentialPressureBand", "choke_dp_band_pa", "Pa",
        "width of the choke pressure band below its target"),
-    _s("TripTargetPosition", "block_position_target_m", "m", "trip plan: target string position, up"),
+    _s("TripTargetPosition", "block_position_target_m", "m",
+       "trip plan: target string position, up"),
     _s("TripSpeedLimit", "trip_speed_limit_mps", "m/s", "trip plan: largest string speed"),
     _s("ControllerEnabled", "controller_enabled", None, "false hands back to manual", "bool"),
     _s("MudPumpOn", "mud_pump_on", None, "false stops circulation (connection)", "bool"),

@@ -32,7 +32,8 @@ from drill_gateway.opcua_names import by_source
 
 
 def source_topics() -> dict[str, str]:
-    """The topic each source of drill_gateway.opcua_names.SOURCES is read from."""
+    """The topic each source of drill_gateway.opcua_names.SOURCES is read from (the
+    gateway's subscriptions in drill_core.ros.graph)."""
     return {"measurement": topics.MEASUREMENT, "estimate": topics.ESTIMATE,
             "setpoints": topics.SETPOINTS, "level": topics.LEVEL_IN_FORCE}
 

@@ -34,7 +34,9 @@ class Outcome:
         return self.status is None
 
     def describe(self, what: str) -> str:
-        return f"accepted: {what}" if self.good else f"refused ({self.status}): {what}: {self.reason}"
+        if self.good:
+            return f"accepted: {what}"
+        return f"refused ({self.status}): {what}: {self.reason}"
 
 
 class WrongType(cs.FormError):

@@ -57,7 +57,7 @@ def test_the_clock_and_ros_log_topics_and_repeats_are_not_streamed(bridge):
 
 
 def test_an_unknown_type_is_refused_with_its_name(bridge):
-    with pytest.raises((OSError, ValueError, LookupError)):
+    with pytest.raises((OSError, ValueError, LookupError), match="no_such_pkg"):
         bridge.add("/x", "no_such_pkg/msg/Nothing")
     with pytest.raises(ValueError, match="port 70000"):
         Bridge(port=70000)

@@ -49,6 +49,7 @@ def test_no_gateway_feeds_a_controller():
 @pytest.mark.parametrize("argv, extras", [
     ([], {}),
     (["--foxglove"], {"foxglove_bridge": {}}),
+    (["--foxglove", "0"], {"foxglove_bridge": {"port": 0}}),             # a free port
     (["--foxglove", "9001", "--opcua"], {"foxglove_bridge": {"port": 9001}, "opcua_gateway": {}}),
     (["--opcua", "opc.tcp://0.0.0.0:4840/drill-rig"],
      {"opcua_gateway": {"endpoint": "opc.tcp://0.0.0.0:4840/drill-rig"}}),

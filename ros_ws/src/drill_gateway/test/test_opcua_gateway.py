@@ -68,6 +68,9 @@ def test_browse_read_subscribe_and_gated_writes(served):
             bhp = await child(client, "Rig", "Measurements", "BottomHolePressure")
             unit = await (await bhp.get_child(["0:EngineeringUnits"])).read_value()
             assert (unit.UnitId, unit.DisplayName.Text) == (names.UNITS["Pa"].unit_id, "Pa")
+            described = next(v for v in names.VARIABLES
+                             if v.path == ("Rig", "Measurements", "BottomHolePressure"))
+            assert (await bhp.read_description()).Text == described.description
             changes = Changes()
             subscription = await client.create_subscription(50, changes)
             await subscription.subscribe_data_change(bhp)

@@ -1,9 +1,11 @@
 """The OPC-UA name map: every name bound to a real field of its message, units by their
-UNECE codes, writable exactly where the console can write, and the documented table."""
+UNECE codes, writable exactly where the console can write, the sources read from the
+topics the graph declares for the gateway, and the documented table."""
 from pathlib import Path
 
 from drill_bringup import console_state as cs
 from drill_bringup import mcap_io
+from drill_core.ros import graph
 from drill_gateway import opcua_names as names
 from drill_gateway.opcua_node import source_topics
 
@@ -12,8 +14,9 @@ ROOT = Path(__file__).resolve().parents[4]
 
 def test_every_variable_reads_an_existing_field_of_its_source():
     for v in names.VARIABLES:
-        fields = mcap_io.message_class(names.SOURCES[v.source]).get_fields_and_field_types()
-        assert v.field in fields, f"{'/'.join(v.path)}: {v.field} not in {names.SOURCES[v.source]}"
+        msg_type = graph.BY_TOPIC[source_topics()[v.source]].type
+        fields = mcap_io.message_class(msg_type).get_fields_and_field_types()
+        assert v.field in fields, f"{'/'.join(v.path)}: {v.field} not in {msg_type}"
         expected = {"float": "double", "bool": "boolean", "text": "string"}[v.kind]
         assert fields[v.field] == expected, v.path
 
@@ -36,6 +39,11 @@ def test_the_writable_variables_are_the_setpoints_and_the_automation_level():
     assert writable == form                   # what the console lets an operator change
     assert [v.name for v in names.VARIABLES if v.source == "level"] == ["AutomationLevel"]
     assert not any(v.writable for v in names.VARIABLES if v.source in ("measurement", "estimate"))
+
+
+def test_the_sources_are_the_topics_the_graph_declares_for_the_gateway():
+    assert set(source_topics()) == set(names.SOURCES)
+    assert set(source_topics().values()) == set(graph.BY_NAME["opcua_gateway"].subscribes)
 
 
 def test_the_documented_table_is_the_map():
