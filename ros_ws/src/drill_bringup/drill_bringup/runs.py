@@ -64,7 +64,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     (drill_core.ros.graph.LAYOUTS). ``here`` (node and group names,
     drill_core.ros.graph.host_nodes) launches only that share of the graph, reaching the
     others' on ``peers`` (docs/multihost.md); the report is made where the recorder runs.
-    ``extras`` adds optional nodes (the gateways), name -> parameters."""
+    ``extras`` adds optional nodes (the gateways), name -> parameters; in a share they run
+    on this host."""
     kind = scenario_kind(path)
     if kind == "drilling":
         scenario, own_controller = _drilling_scenario(path, realtime, controller), "none"
@@ -87,7 +88,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     names = {n.name for n in nodes}
     if here is not None:
         names = {n.name for n in graph_decl.host_nodes(
-            here, [graph_decl.BY_NAME[n.name] for n in nodes])}
+            here, [graph_decl.BY_NAME[n.name] for n in nodes])} | set(extras or {})
     domain_id = launcher.default_domain_id() if domain_id is None else domain_id
     launch = launcher.Launch(nodes, run_dir, domain_id, layout,
                              None if here is None else names, peers)

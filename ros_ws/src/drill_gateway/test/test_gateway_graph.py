@@ -46,6 +46,24 @@ def test_no_gateway_feeds_a_controller():
     assert topics.COMMAND not in gateway.publishes and topics.MACHINE_COMMAND not in gateway.publishes
 
 
+def test_in_a_split_run_a_gateway_runs_on_the_host_that_asks_for_it(monkeypatch, tmp_path):
+    from drill_bringup import cli, runs
+    started = {}
+
+    class Started(Exception):
+        pass
+
+    def launch(nodes, run_dir, domain_id, layout, here, peers):
+        started.update(here=here)
+        raise Started
+
+    monkeypatch.setattr(runs.launcher, "Launch", launch)
+    with pytest.raises(Started):
+        cli.main(["run", "short_trip", "--runs-dir", str(tmp_path), "--nodes", "plant",
+                  "--domain", "77", "--foxglove"])
+    assert started["here"] == {"plant", "foxglove_bridge"}   # the plant waits for its readers
+
+
 @pytest.mark.parametrize("argv, extras", [
     ([], {}),
     (["--foxglove"], {"foxglove_bridge": {}}),
