@@ -1,7 +1,8 @@
 """Integration over DDS: the rig under faults and a kick (issue: a rig that misbehaves like
 a real one). A BHP dropout, a frozen choke gauge, a NaN and a spike must not poison the
 estimate or any command; the estimator reports staleness and the frozen channel; a kick
-zone 7 bar over the BHP reference is detected from the surface flows and stops the trip;
+zone 7 bar over the BHP reference is detected from the surface flows and stops the trip,
+and the window the protection narrows is handed to the NMPC with a reference inside it;
 every event is on /rig/events in the recording. A mud-pump trip during a pull-out: the
 protection finds the lost circulation from the command and the string-flow meter and keeps
 BHP inside the pore/fracture window under the NMPC."""
@@ -87,6 +88,32 @@ def test_the_kick_is_detected_and_the_trip_stopped(run_mcap):
     _, position = series.get("position")
     assert position[-1] < 28.0 - 5.0                             # the stand was not finished
     assert summary["influx_volume_m3"] > kick["volume_at_detection_m3"]
+
+
+def _by_stamp(path, topic):
+    return {m.header.stamp.sec + m.header.stamp.nanosec * 1e-9: m for m in _messages(path, topic)}
+
+
+def test_the_kick_answer_hands_its_target_to_the_advisor(run_mcap):
+    """Each time the kick answer narrows the window past the NMPC's reference the protection
+    holds the choke at its target inside it for one sample; the NMPC takes that target at
+    its next sample, and the protection then passes its choke again."""
+    advisor = _by_stamp(run_mcap, topics.COMMAND)
+    machine = _by_stamp(run_mcap, topics.MACHINE_COMMAND)
+    assert sorted(advisor) == sorted(machine)
+    held = [t for t in sorted(machine) if machine[t].bhp_ref_pa != advisor[t].bhp_ref_pa]
+    assert held and held[0] > 30.0                      # the kick zone starts at 30 s
+    for t in held:
+        m, taken = machine[t], advisor[round(t + 1.0, 6)]
+        assert m.choke_pressure_control and m.bhp_window_low_pa < m.bhp_ref_pa
+        assert taken.bhp_ref_pa == m.bhp_ref_pa
+        assert (taken.bhp_window_low_pa, taken.bhp_window_high_pa) == \
+            (m.bhp_window_low_pa, m.bhp_window_high_pa)
+        passed = machine[round(t + 1.0, 6)]
+        assert passed.bhp_ref_pa == taken.bhp_ref_pa and not passed.choke_pressure_control
+    setpoints = _messages(run_mcap, topics.SETPOINTS)
+    assert setpoints[-1].source == "protection"
+    assert setpoints[-1].bhp_ref_pa == machine[held[-1]].bhp_ref_pa
 
 
 def test_a_pump_trip_is_answered_and_bhp_stays_in_the_window(pump_trip_mcap):

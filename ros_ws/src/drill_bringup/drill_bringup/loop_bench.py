@@ -6,8 +6,8 @@ A bench, not a product path: the ``truth`` state source reads the truth plant's 
 (an oracle); ``ukf`` runs the estimator on the noisy measurements as the graph does.
 The scenario's events act as in the graph (sensor faults and formation changes on the
 plant, a pump trip or a stuck actuator on its actuator). The process protection
-(drill_protection.protection, with the kick detector's trip hold) is in the loop with
-``--protection``; without it the controllers' commands go to the actuators as they are
+(drill_protection.protection, with the kick detector's trip hold and the well-control
+window whose target the advisor's setpoint book takes) is in the loop with ``--protection``; without it the controllers' commands go to the actuators as they are
 (they respect its limits on the normal cases).
 
     python -m drill_bringup.loop_bench case2 --controller automated_mpd --state ukf --seeds 1 2 3
@@ -31,14 +31,16 @@ from drill_core.config import RigConfig, parse_settings
 from drill_core.estimation_model import (BLOCK_INTEGRAL, MEASUREMENT_NAMES, build_estimation_model,
                                          fitted_friction_parameters)
 from drill_core.events import of_owner
-from drill_core.scenario import initial_setpoints, load_scenario_config, setpoints_at
-from drill_core.units import PA_PER_BAR
+from drill_core.scenario import initial_setpoints, load_scenario_config
+from drill_core.units import L_PER_M3, PA_PER_BAR
 from drill_core.channel_watch import ChannelWatch
 from drill_estimator.model_inputs import ModelInputs, frame_inputs
 from drill_estimator.ukf import RigUkf
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.baseline import Baseline
 from drill_nmpc.inputs import choke_command, choke_input
+from drill_nmpc.setpoint_book import SetpointBook
+from drill_nmpc.setpoint_validation import Envelope
 from drill_nmpc.supervisor import Supervisor
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
 from drill_plant.plant_model import EVENT_PARAMETERS, PARAMETER_NAMES, PlantLayout, steady_state
@@ -262,6 +264,7 @@ class Protection:
                                      config.pressure_window_pa)
         self.window = WindowResponse(config.protection.well_control, config.pressure_window_pa)
         self.flow_threshold_m3s = config.protection.kick_detection.flow_threshold_m3s
+        self.answer = None          # (window Pa, BHP reference in force Pa, the advisor's Pa)
 
     def measurement(self, m, t: float) -> None:
         reading = self.detector.update(FlowSample(
@@ -275,7 +278,7 @@ class Protection:
         if narrowed:
             self.alarms.append((t, narrowed))
         self.protection.window_pa = self.window.window_pa
-        self.protection.well_control = self.window.choke_dp_setpoint()
+        self.protection.well_control = self.window.hold()
         alarm = self.trip.observe(t, m.string_flow_valid, m.choke_dp_pa, m.bhp_pa)
         if alarm:
             self.alarms.append((t, alarm))
@@ -296,8 +299,10 @@ class Protection:
             [cmd.block_ref_m, cmd.choke_flow_m3s, cmd.bpp_m3s, cmd.spp_pa], m.block_position_m,
             velocity, m.bhp_pa, max(circulation, 0.0), self.speed_limit, None,
             (cmd.dp_ref_pa, cmd.dp_rate_pa_s) if pressure else None,
-            surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s), trip_action=self.trip.action(t))
+            surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s), trip_action=self.trip.action(t),
+            advisor_bhp_ref_pa=sp.bhp_ref_pa)
         self.clamps += [(t, text) for text in d.clamps]
+        self.answer = (self.protection.window_pa, d.bhp_ref_pa, sp.bhp_ref_pa)
         dp = d.choke_dp_setpoint
         c = d.command
         return Command(float(c[0]), float(c[1]), float(c[2]), float(c[3]),
@@ -320,7 +325,8 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
     rig = Rig(config, scenario, scenario.seed if seed is None else seed)
     em = build_estimation_model(config)
     source = TruthState(rig, em) if state == "truth" else UkfState(config, rig)
-    start = initial_setpoints(config, scenario)
+    book = SetpointBook(scenario, initial_setpoints(config, scenario),
+                        Envelope.from_config(config, rig.sim.wm.geometry))
     u_b, opening, bpp, spp = (float(v) for v in rig.op.inputs)
     mpd = AutomatedMpd(config, em, bpp, spp) if controller == "automated_mpd" else None
     nmpc = NmpcController(config, rig, scenario.initial, block_integral_from_drawworks) \
@@ -336,28 +342,27 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
                            "choke_dp", "choke_dp_ref", "opening", "block_ref", "pore",
                            "fracture", "choke_flow_ref", "bpp", "spp", "return_flow")}
     inputs = np.repeat(rig.op.inputs[:, None], rig.steps, axis=1)
-    bhp_ref = math.nan
     for k in range(frames):
         t = k * config.plant.sensor_period_s
         m = rig.measure(t)
         view, x_hat = source.observe(m, inputs, t)
         if guard is not None:
             guard.measurement(m, t)
-        sp = setpoints_at(scenario, t, start)
-        if math.isnan(bhp_ref):
-            bhp_ref = sp.bhp_ref_pa if math.isfinite(sp.bhp_ref_pa) else view.bhp_pa
-        if k % per_sample == 0:
-            if math.isfinite(sp.bhp_ref_pa):
-                bhp_ref = sp.bhp_ref_pa
+        if k % per_sample == 0:         # the advisor's sample, as advisor_node runs it
+            if guard is not None and guard.answer is not None:
+                book.follow_protection(*guard.answer)
+            book.advance(t)
+            book.resolve_bhp(view.bhp_pa)
+            sp = book.active
             if nmpc is not None:
                 cmd = nmpc.step(x_hat, sp, inputs, t, bool(m.string_flow_valid))
             elif baseline is not None:
-                baseline.step(m.block_position_m, m.bhp_pa, sp.block_position_target_m, bhp_ref,
-                              sp.controller_enabled)
+                baseline.step(m.block_position_m, m.bhp_pa, sp.block_position_target_m,
+                              sp.bhp_ref_pa, sp.controller_enabled)
                 cmd = Command(baseline.block_ref_m, baseline.choke_ref_m3s,
                               float(scenario.initial.bpp_flow_m3s), spp, stamp_s=t)
             else:
-                c = mpd.step(view, sp, bhp_ref)
+                c = mpd.step(view, sp, sp.bhp_ref_pa)
                 cmd = Command(c.block_position_ref_m, c.choke_flow_feedforward_m3s,
                               c.bpp_flow_m3s, c.spp_pa, c.choke_dp_ref_pa,
                               c.choke_dp_ref_rate_pa_s, t)
@@ -368,7 +373,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
         log["t"].append(t)
         log["bhp"].append(truth[rig.layout.pressure(em.n)])
         log["pos"].append(truth[rig.layout.position])
-        log["ref"].append(bhp_ref)
+        log["ref"].append(sp.bhp_ref_pa)
         log["band"].append(sp.bhp_band_pa)
         log["target"].append(sp.block_position_target_m)
         log["bhp_est"].append(view.bhp_pa)
@@ -393,6 +398,8 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
     out["worst_over_fracture_pa"] = float(max(np.max(a["bhp"] - a["fracture"]), 0.0))
     out["bhp_estimate_rmse_pa"] = float(np.sqrt(np.mean((a["bhp_est"] - a["bhp"]) ** 2)))
     out["max_string_speed_mps"] = float(np.max(np.abs(a["velocity"])))
+    out["influx_volume_m3"] = float(rig.sim.state[rig.layout.influx_volume])
+    out["loss_volume_m3"] = float(rig.sim.state[rig.layout.loss_volume])
     out["trace"] = a
     if nmpc is not None:
         out["solve_time_median_s"] = float(np.median(nmpc.solve_times))
@@ -425,6 +432,7 @@ def main(argv=None) -> int:
               f"under pore {r['bhp_under_pore_s']:.1f} s (worst "
               f"{r['worst_underbalance_pa'] / PA_PER_BAR:.2f} bar), over fracture "
               f"{r['bhp_over_fracture_s']:.1f} s (worst {r['worst_over_fracture_pa'] / PA_PER_BAR:.2f} bar), "
+              f"influx {r['influx_volume_m3'] * L_PER_M3:.0f} L, lost {r['loss_volume_m3'] * L_PER_M3:.0f} L, "
               f"legs {format_legs(r['trip_legs'])}, estimate RMSE "
               f"{r['bhp_estimate_rmse_pa'] / PA_PER_BAR:.2f} bar" + (
                   f", solve median {r['solve_time_median_s'] * 1e3:.1f} ms, p99 "

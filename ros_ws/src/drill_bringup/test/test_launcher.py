@@ -98,4 +98,5 @@ def test_a_container_takes_what_only_it_publishes_on_its_local_bus():
     assert f"sub@{topics.ESTIMATE}:1" in wait_two            # the recorder; nmpc is local
     processes = {p.name: p for p in launcher.processes(two, "two")}
     local = json.loads(processes["control"].command_line(Path("/m"))[6])
-    assert local == sorted([topics.ESTIMATE, topics.COMMAND])  # setpoints are latched: DDS
+    # setpoints are latched: DDS; the machine command reaches the actuators by DDS as well
+    assert local == sorted([topics.ESTIMATE, topics.MACHINE_COMMAND, topics.COMMAND])

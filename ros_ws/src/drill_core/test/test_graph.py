@@ -28,7 +28,7 @@ def test_the_nmpc_lockstep_waits_for_every_endpoint_of_the_protocol():
         "sub@/estimator/estimate:2", "pub@/estimator/estimate:1",      # nmpc, recorder
         "sub@/clock:1",                      # recorder
         "sub@/supervisor/command:2", "pub@/supervisor/command:1",      # protection, recorder
-        "sub@/rig/command:5", "pub@/rig/command:1",                    # 4 actuators, recorder
+        "sub@/rig/command:6", "pub@/rig/command:1",            # 4 actuators, nmpc, recorder
         "sub@/actuators/choke/frame:3",      # plant, estimator, recorder
         *(f"sub@/actuators/{n}/frame:4" for n in ("drawworks", "bpp", "mud_pump")),  # and nmpc
         *(f"pub@{f}:1" for f in FRAMES),

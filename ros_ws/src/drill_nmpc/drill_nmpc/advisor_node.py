@@ -1,8 +1,17 @@
 """The skeleton the advisor nodes share (``nmpc``, ``automated_mpd``, ``baseline``): the
 node context, the sample gate, the status reporter, the setpoint book and its publishing
-(the latched /setpoints, /operator/events) and the command publisher. A subclass decides
-what to command; docs/design.md §6 and §10."""
+(the latched /setpoints, /operator/events), the command publisher, and the protection's
+answer. A subclass decides what to command; docs/design.md §6 and §10.
+
+A sample runs once its inputs are in: the subclass's own (``inputs_ready``) and, in fast
+mode, the protection's machine command answering this advisor's last command. That
+answer carries the BHP window and reference in force; when a kick or losses answer
+narrowed the window past the advisor's reference, the book takes the protection's target
+(drill_protection.well_control) before the sample's schedule entries. Realtime: the
+latest machine command."""
 from __future__ import annotations
+
+from collections import deque
 
 from drill_msgs.msg import OperatorEvent, RigCommand, Setpoints
 
@@ -10,12 +19,14 @@ from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.node import RigNode
 from drill_core.ros.sampling import SampleGate
-from drill_core.ros.stamps import from_ns, seconds_to_ns
+from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
 from drill_core.scenario import initial_setpoints
 from drill_nmpc.setpoint_book import Event, SetpointBook
 from drill_nmpc.setpoint_messages import to_msg
 from drill_nmpc.setpoint_validation import Envelope
+
+SENT_KEPT = 10          # commands whose BHP reference is remembered (realtime answers lag)
 
 
 class AdvisorNode(RigNode):
@@ -31,6 +42,61 @@ class AdvisorNode(RigNode):
         self.cmd_pub = self.create_publisher(RigCommand, topics.COMMAND, topics.RELIABLE)
         self.sp_pub = self.create_publisher(Setpoints, topics.SETPOINTS, topics.LATCHED)
         self.event_pub = self.create_publisher(OperatorEvent, topics.OPERATOR_EVENTS, topics.RELIABLE)
+        self.sent_ns: int | None = None          # stamp of this advisor's last command
+        self.sent_bhp_ref_pa: dict[int, float] = {}  # BHP reference [Pa] of recent commands
+        self.machine: dict[int, RigCommand] = {}     # the protection's commands by stamp
+        self.pending: deque = deque()           # (input, stamp) of the samples waiting, in order
+        self.create_subscription(RigCommand, topics.MACHINE_COMMAND, self._on_machine_command,
+                                 topics.RELIABLE)
+
+    def act(self, msg, stamp_ns: int) -> None:
+        """Run the sample stamped ``stamp_ns`` whose input is ``msg`` (the subclass's)."""
+        raise NotImplementedError
+
+    def inputs_ready(self, stamp_ns: int) -> bool:
+        """The subclass's other inputs for the sample stamped ``stamp_ns`` are in."""
+        return True
+
+    def offer(self, msg, stamp_ns: int) -> None:
+        """An admitted sample: run it now or once its inputs are in."""
+        self.pending.append((msg, stamp_ns))
+        self.try_pending()
+
+    def try_pending(self) -> None:
+        """Run the waiting samples, oldest first, while their inputs are in."""
+        while self.pending and self._run_first():
+            pass
+
+    def _run_first(self) -> bool:
+        msg, stamp = self.pending[0]
+        answer = self._protection_answer()
+        if self.ctx.fast and self.sent_ns is not None and answer is None:
+            return False
+        if not self.inputs_ready(stamp):
+            return False
+        self.pending.popleft()
+        if answer is not None:
+            window = (answer.bhp_window_low_pa, answer.bhp_window_high_pa)
+            sent = self.sent_bhp_ref_pa.get(to_ns(answer.header.stamp), answer.bhp_ref_pa)
+            self.publish_events(self.book.follow_protection(window, answer.bhp_ref_pa, sent),
+                                stamp, "protection")
+        self.act(msg, stamp)
+        return True
+
+    def _protection_answer(self) -> RigCommand | None:
+        """The protection's answer to our last command (fast), its latest (realtime)."""
+        if not self.machine:
+            return None
+        if not self.ctx.fast:
+            return self.machine[max(self.machine)]
+        return self.machine.get(self.sent_ns)
+
+    def _on_machine_command(self, msg: RigCommand) -> None:
+        stamp = to_ns(msg.header.stamp)
+        self.machine[stamp] = msg
+        for old in [k for k in self.machine if k < stamp]:
+            del self.machine[old]
+        self.try_pending()
 
     def follow_schedule(self, stamp_ns: int) -> None:
         """Apply the schedule entries due at this stamp; a refused entry is a node error."""
@@ -51,5 +117,14 @@ class AdvisorNode(RigNode):
             self.book.changed = False
 
     def publish_command(self, cmd: RigCommand, stamp_ns: int) -> None:
+        """``cmd`` stamped ``stamp_ns`` with the book's BHP reference (NaN until resolved)
+        and the window it keeps to."""
         cmd.header.stamp = from_ns(stamp_ns)
+        cmd.bhp_ref_pa = float(self.book.active.bhp_ref_pa) if self.book.bhp_resolved \
+            else float("nan")
+        cmd.bhp_window_low_pa, cmd.bhp_window_high_pa = self.book.window_pa
         self.cmd_pub.publish(cmd)
+        self.sent_ns = stamp_ns
+        self.sent_bhp_ref_pa[stamp_ns] = cmd.bhp_ref_pa
+        for old in sorted(self.sent_bhp_ref_pa)[:-SENT_KEPT]:
+            del self.sent_bhp_ref_pa[old]

@@ -5,9 +5,11 @@ conventional baseline the NMPC is measured against.
     python -m drill_nmpc.automated_mpd_node --ros-args -p config_dir:=... -p scenario:=... \
         -p mode:=fast -p use_sim_time:=true
 
-Subscribes /estimator/estimate only (never /rig/truth); on the estimate stamped t_k with
-t_k a multiple of the sample time (fast mode; realtime: the first estimate of each new
-sample period) it publishes drill_msgs/RigCommand stamped t_k with the choke in pressure
+Subscribes /estimator/estimate (never /rig/truth) and /rig/command (the protection's
+answer: the BHP window and reference in force, drill_nmpc.advisor_node); on the estimate
+stamped t_k with t_k a multiple of the sample time (fast mode, once the protection's answer
+to the last command is in; realtime: the first estimate of each new sample period) it
+publishes drill_msgs/RigCommand stamped t_k with the choke in pressure
 control: block reference, choke-dp set-point and its ramp, the flow feedforward, and the
 pumps held at the scenario's initial operating point (design knowledge of the well:
 drill_core.operating_point). The setpoints are the advisors' setpoint book
@@ -51,8 +53,10 @@ class AutomatedMpdNode(AdvisorNode):
 
     def _on_estimate(self, msg: StateEstimate) -> None:
         stamp = to_ns(msg.header.stamp)
-        if not self.gate.admit(stamp):
-            return
+        if self.gate.admit(stamp):
+            self.offer(msg, stamp)
+
+    def act(self, msg: StateEstimate, stamp: int) -> None:
         view = self._view(msg)
         self.follow_schedule(stamp)
         self.publish_events(self.book.resolve_bhp(view.bhp_pa), stamp)

@@ -4,9 +4,11 @@ and a PI choke on the measured BHP; the comparison the NMPC's value is shown aga
     python -m drill_nmpc.baseline_node --ros-args -p config_dir:=... -p scenario:=... \
         -p mode:=fast -p use_sim_time:=true
 
-Subscribes /rig/measurement only; on the measurement stamped t_k with t_k a multiple of the
-sample time t_s (fast mode; realtime: the first measurement of each new sample period) it
-publishes drill_msgs/RigCommand stamped t_k:
+Subscribes /rig/measurement and /rig/command (the protection's answer: the BHP window and
+reference in force, drill_nmpc.advisor_node); on the measurement stamped t_k with t_k a
+multiple of the sample time t_s (fast mode, once the protection's answer to the last
+command is in; realtime: the first measurement of each new sample period) it publishes
+drill_msgs/RigCommand stamped t_k:
 
 * block reference: moves toward the scenario's block target at the fixed
   ``baseline_trip_speed_mps`` (a ramp of speed * t_s per sample, stopping on the target);
@@ -53,8 +55,10 @@ class BaselineNode(AdvisorNode):
 
     def _on_measurement(self, msg: RigMeasurement) -> None:
         stamp = to_ns(msg.header.stamp)
-        if not self.gate.admit(stamp):
-            return
+        if self.gate.admit(stamp):
+            self.offer(msg, stamp)
+
+    def act(self, msg: RigMeasurement, stamp: int) -> None:
         position, bhp = float(msg.block_position_m), float(msg.bhp_pa)
         self.follow_schedule(stamp)
         self.publish_events(self.book.resolve_bhp(bhp), stamp)

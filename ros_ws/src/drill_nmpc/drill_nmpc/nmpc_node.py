@@ -5,9 +5,11 @@
 
 Subscribes /estimator/estimate (never /rig/truth) and the frames of the drawworks, the
 back-pressure pump and the mud pump (/actuators/<name>/frame: block position, bpp flow,
-stand-pipe pressure, the initial states of the actuator lags in the prediction model).
-On the estimate stamped t_k with t_k a multiple of the
-sample time t_s (fast mode: once the frames stamped t_k - t_m are in as well; realtime:
+stand-pipe pressure, the initial states of the actuator lags in the prediction model),
+and /rig/command (the protection's answer: the BHP window and reference in force,
+drill_nmpc.advisor_node). On the estimate stamped t_k with t_k a multiple of the
+sample time t_s (fast mode: once the frames stamped t_k - t_m and the protection's answer
+to the last command are in as well; realtime:
 the first estimate of each new sample period, with the latest frames) it solves the OCP and publishes drill_msgs/RigCommand stamped t_k (acts
 from t_k) and drill_msgs/NmpcStatus. Every due estimate is answered with a command, also
 when the solve fails (the last input is held) or the estimate is unusable, so the fast-mode
@@ -72,7 +74,6 @@ class NmpcNode(AdvisorNode):
                   "mud_pump": ("spp_pa", model.pump)}
         self.frame_keys = {name: key for name, (key, index) in wanted.items() if index is not None}
         self.frames: dict[str, dict[int, dict]] = {name: {} for name in self.frame_keys}
-        self.pending: StateEstimate | None = None
         self.u_prev: np.ndarray | None = None
         self.last_estimate_ns: int | None = None
         self.commands = 0
@@ -134,8 +135,7 @@ class NmpcNode(AdvisorNode):
         self.last_estimate_ns = stamp
         if not self.gate.admit(stamp):
             return          # not a sample time (fast) or not a new sample period (realtime)
-        self.pending = msg
-        self._process_pending()
+        self.offer(msg, stamp)
 
     def _on_frame(self, name: str, msg: ActuatorFrame) -> None:
         if name in self.frame_keys and len(msg.output):
@@ -148,7 +148,7 @@ class NmpcNode(AdvisorNode):
             slot[stamp] = values
             for old in [k for k in slot if k < stamp - 10 * self.frame_ns]:
                 del slot[old]
-        self._process_pending()
+        self.try_pending()
 
     def _actuators(self, stamp: int):
         """(ready, measured actuator outputs) for the estimate stamped ``stamp``."""
@@ -168,17 +168,11 @@ class NmpcNode(AdvisorNode):
                     out.update(slot[latest])
         return True, out
 
-    def _process_pending(self) -> None:
-        if self.pending is None:
-            return
-        stamp = to_ns(self.pending.header.stamp)
-        ready, actuators = self._actuators(stamp)
-        if not ready:
-            return
-        msg, self.pending = self.pending, None
-        self._act(msg, stamp, actuators)
+    def inputs_ready(self, stamp_ns: int) -> bool:
+        return self._actuators(stamp_ns)[0]
 
-    def _act(self, msg: StateEstimate, stamp: int, actuators=None) -> None:
+    def act(self, msg: StateEstimate, stamp: int) -> None:
+        actuators = self._actuators(stamp)[1]
         x = self._state(msg)
         self.follow_schedule(stamp)
         if x is None:

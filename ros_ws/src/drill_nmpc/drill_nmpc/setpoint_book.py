@@ -4,7 +4,9 @@ book, plain Python.
 The scenario's schedule applies by time, each entry once, over the setpoints in force;
 an operator request (the /set_setpoints service) merges over them the same way. Both are
 validated against the envelope (setpoint_validation) once the BHP target is known; a
-refusal changes nothing and says why. A NaN BHP target means "the BHP of the first
+refusal changes nothing and says why. The process protection's answer narrows the
+envelope's pressure window after a kick or losses, and its BHP target replaces the
+reference when the protection holds the well at it (``follow_protection``). A NaN BHP target means "the BHP of the first
 estimate" and is resolved by the first finite one. Every change and refusal comes back
 as an ``Event`` for the node to publish (drill_msgs/OperatorEvent), and ``changed`` tells
 it to re-publish the latched /setpoints.
@@ -43,6 +45,38 @@ class SetpointBook:
         self.bhp_resolved = False          # the BHP target is known (given, or estimated)
         self.changed = False               # since the node last published the setpoints
         self._next_entry = 0
+
+    @property
+    def window_pa(self) -> tuple[float, float]:
+        """The BHP window the setpoints keep to [Pa]."""
+        return self.envelope.pore_pressure_pa, self.envelope.fracture_pressure_pa
+
+    def follow_protection(self, window_pa: tuple[float, float], bhp_ref_pa: float,
+                          sent_bhp_ref_pa: float) -> list[Event]:
+        """The protection's answer to a command that carried ``sent_bhp_ref_pa``: its window
+        in force (a finite, ordered pair; else ignored) bounds the setpoints from now on;
+        its BHP reference, when it is not that echo, is the target it holds the well at,
+        taken as the reference with the band narrowed to fit in the window."""
+        low, high = (float(v) for v in window_pa)
+        if math.isfinite(low) and math.isfinite(high) and low < high:
+            self.envelope = dataclasses.replace(self.envelope, pore_pressure_pa=low,
+                                                fracture_pressure_pa=high)
+        if not math.isfinite(bhp_ref_pa) or bhp_ref_pa in (sent_bhp_ref_pa, self.active.bhp_ref_pa):
+            return []
+        low, high = self.window_pa
+        band = min(self.active.bhp_band_pa, bhp_ref_pa - low, high - bhp_ref_pa)
+        candidate = dataclasses.replace(self.active, bhp_ref_pa=float(bhp_ref_pa),
+                                        bhp_band_pa=band)
+        ok, reason = validate_setpoints(candidate, self.envelope)
+        window = f"window {low / 1e5:.1f}-{high / 1e5:.1f} bar"
+        if not ok:
+            return [Event("refusal", f"protection: well-control target refused ({window}): "
+                                     f"{reason}", False)]
+        self.active = candidate
+        self.bhp_resolved = True
+        self.changed = True
+        return [Event("setpoint", f"protection: well control ({window}): "
+                                  f"{describe(candidate)}", True)]
 
     def advance(self, t_s: float) -> list[Event]:
         """Apply every schedule entry due by scenario time ``t_s``, in order."""

@@ -3,10 +3,12 @@
 The node runs as a child process in fast mode; this test plays the estimator (an rclpy node
 with its own context on an isolated ROS_DOMAIN_ID, localhost discovery) that publishes
 /clock and StateEstimate messages, records RigCommand / NmpcStatus / OperatorEvent, and
-calls /set_setpoints.
+calls /set_setpoints; and the protection, answering each command on /rig/command (an echo,
+or a narrowed window with a well-control target that the node must take).
 """
 from __future__ import annotations
 
+import copy
 import math
 import os
 import signal
@@ -83,13 +85,25 @@ class Estimator:
         self.pub_frames = {name: self.node.create_publisher(ActuatorFrame, topics.actuator_frame(name),
                                                             topics.RELIABLE)
                            for name in ("drawworks", "bpp", "mud_pump")}
-        self.sub_cmd = self.node.create_subscription(RigCommand, topics.COMMAND, self.commands.append,
+        self.answer = None         # (BHP reference, window low, high) [Pa]; None: echo
+        self.pub_machine = self.node.create_publisher(RigCommand, topics.MACHINE_COMMAND,
+                                                      topics.RELIABLE)
+        self.sub_cmd = self.node.create_subscription(RigCommand, topics.COMMAND, self._protect,
                                                      topics.RELIABLE)
         self.node.create_subscription(NmpcStatus, topics.NMPC_STATUS, self.statuses.append,
                                       topics.RELIABLE)
         self.node.create_subscription(OperatorEvent, topics.OPERATOR_EVENTS, self.events.append,
                                       topics.RELIABLE)
         self.client = self.node.create_client(SetSetpoints, topics.SET_SETPOINTS)
+
+    def _protect(self, cmd):
+        """Record the advisor's command and answer it as the protection would."""
+        self.commands.append(cmd)
+        out = copy.copy(cmd)
+        out.source = f"protection<{cmd.source}>"
+        if self.answer is not None:
+            out.bhp_ref_pa, out.bhp_window_low_pa, out.bhp_window_high_pa = self.answer
+        self.pub_machine.publish(out)
 
     def close(self):
         self.executor.shutdown()
@@ -154,6 +168,7 @@ def test_lockstep_commands_status_and_setpoint_service(nmpc_process, monkeypatch
     est = Estimator(monkeypatch)
     try:
         assert est.spin_until(lambda: est.pub_estimate.get_subscription_count() >= 1
+                              and est.pub_machine.get_subscription_count() >= 1
                               and all(p.get_subscription_count() >= 1 for p in est.pub_frames.values())
                               and est.sub_cmd.get_publisher_count() >= 1, TIMEOUT_S, nmpc_process), \
             "nmpc node did not connect"
@@ -231,5 +246,28 @@ def test_lockstep_commands_status_and_setpoint_service(nmpc_process, monkeypatch
         assert est.spin_until(lambda: len(est.statuses) >= 5, TIMEOUT_S, nmpc_process)
         assert est.statuses[-1].block_position_ref_m == 10.0
         assert est.statuses[-1].predicted_block_position_m[-1] > 0.1     # heading for 10 m
+        assert est.commands[-1].bhp_ref_pa == bhp + 1.0
+        assert (est.commands[-1].bhp_window_low_pa, est.commands[-1].bhp_window_high_pa) \
+            == config.pressure_window_pa
+
+        # a kick answered: the protection narrows the window past our reference and holds
+        # the well at its target; the next sample takes the target, fitted band and all
+        target, low, high = bhp + 4.0e5, bhp + 2.75e5, config.pressure_window_pa[1]
+        est.answer = (target, low, high)
+        est.frames(5 * SAMPLE_NS - SAMPLE_NS // 10, outputs)
+        est.estimate(5 * SAMPLE_NS, list(em.names), x)
+        assert est.spin_until(lambda: len(est.commands) >= 6, TIMEOUT_S, nmpc_process)
+        est.answer = None
+        est.frames(6 * SAMPLE_NS - SAMPLE_NS // 10, outputs)
+        est.estimate(6 * SAMPLE_NS, list(em.names), x)
+        assert est.spin_until(lambda: len(est.commands) >= 7, TIMEOUT_S, nmpc_process)
+        last = est.commands[-1]
+        assert last.bhp_ref_pa == target
+        assert (last.bhp_window_low_pa, last.bhp_window_high_pa) == (low, high)
+        assert est.spin_until(lambda: any("protection: well control" in e.text and e.accepted
+                                          for e in est.events), 10.0, nmpc_process)
+        latched = est.latched_setpoints(nmpc_process)
+        assert latched.bhp_ref_pa == target and latched.bhp_band_pa == pytest.approx(target - low)
+        assert latched.source == "protection"
     finally:
         est.close()

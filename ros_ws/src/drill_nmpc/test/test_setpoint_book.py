@@ -1,5 +1,6 @@
 """The advisors' setpoint book: the schedule by time and validated, a NaN BHP target
-resolved once, operator requests validated; every change and refusal an event."""
+resolved once, operator requests validated, the protection's narrowed window and
+well-control target followed; every change and refusal an event."""
 import dataclasses
 import math
 from pathlib import Path
@@ -61,3 +62,34 @@ def test_an_operator_request_is_validated(book):
     assert ok and event.accepted and book.active.bhp_ref_pa == 6.9e7 and book.bhp_resolved
     ok, reason, event = book.request(dataclasses.replace(book.active, bhp_ref_pa=9.9e7), "console")
     assert not ok and book.active.bhp_ref_pa == 6.9e7 and "refused" in event.text
+
+
+def test_the_protections_window_and_target_are_followed(book):
+    """An echo of our reference changes nothing; a narrowed window bounds later requests;
+    the protection's own target becomes the reference, its band fitted into the window,
+    and a later schedule entry merges over it."""
+    book.resolve_bhp(BHP_PA)
+    configured = book.window_pa
+    assert book.follow_protection(configured, BHP_PA, BHP_PA) == []
+    assert book.active.bhp_ref_pa == BHP_PA and book.window_pa == configured
+    window = (6.892e7, configured[1])                       # a kick: low edge raised
+    book.changed = False
+    events = book.follow_protection(window, 6.9045e7, BHP_PA)
+    assert book.window_pa == window and book.changed
+    assert book.active.bhp_ref_pa == 6.9045e7
+    assert book.active.bhp_band_pa == pytest.approx(6.9045e7 - 6.892e7)   # 1.25 bar, not 2
+    assert [(e.kind, e.accepted) for e in events] == [("setpoint", True)]
+    assert "protection: well control (window 689.2-705.0 bar)" in events[0].text
+    assert book.follow_protection(window, 6.9045e7, BHP_PA) == []     # taken once
+    ok, reason, _ = book.request(dataclasses.replace(book.active, bhp_ref_pa=BHP_PA), "console")
+    assert not ok and "pore" in reason and book.active.bhp_ref_pa == 6.9045e7
+    events = book.advance(7.0)                               # the run-in entry still applies
+    assert book.active.block_position_target_m == 0.0 and book.active.bhp_ref_pa == 6.9045e7
+
+
+def test_a_target_outside_the_window_is_refused_with_the_reason(book):
+    book.resolve_bhp(BHP_PA)
+    events = book.follow_protection((6.892e7, 7.05e7), 7.5e7, BHP_PA)
+    assert [(e.kind, e.accepted) for e in events] == [("refusal", False)]
+    assert "well-control target refused" in events[0].text
+    assert book.active.bhp_ref_pa == BHP_PA

@@ -13,9 +13,11 @@ machines respects the most conservative of
   (unless the advisor asks for more of that), the other way round under the pore
   pressure plus the margin (the choke on its flow loop while it acts). Starting from the
   measured flows, not the last commands, it cannot wind up behind the pumps' lags,
-* a confirmed kick or loss (drill_protection.well_control): the choke held on its
-  pressure loop at the set-point that puts BHP into the window that answer narrowed,
-  whatever the advisor asks for the choke, and the trip-speed limits kept to that window,
+* a confirmed kick or loss (drill_protection.well_control): while the advisor's BHP
+  reference is outside the window that answer narrowed, the choke held on its pressure
+  loop at the set-point that puts BHP at the target inside it, whatever the advisor asks
+  for the choke, and that target handed to the advisor as the reference in force; the
+  trip-speed limits kept to the narrowed window,
 * an unplanned loss of circulation (drill_protection.pump_trip): the back-pressure pump
   kept at a flow the choke can hold back-pressure with, and once the choke held shut
   while the BHP the well will have without the annular friction is under the window.
@@ -37,6 +39,7 @@ from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
 from drill_core.units import PA_PER_BAR
 from drill_protection.pump_trip import TripAction
+from drill_protection.well_control import Hold
 
 INPUTS = ("block_position_ref_m", "choke_flow_ref_m3s", "bpp_flow_m3s", "spp_pa")
 _SPEED_GRID_POINTS = 61
@@ -51,6 +54,8 @@ class Decision:
     manual_choke_opening: float | None = None   # choke in manual at this opening [1]; None: PI
     choke_dp_setpoint: tuple[float, float] | None = None  # pressure loop: (dp set-point Pa,
                                                           # its ramp Pa/s); None: not in force
+    bhp_ref_pa: float = float("nan")    # the BHP reference in force: the advisor's, or the
+                                        # well-control target while the protection holds [Pa]
 
 
 def surge_swab_pa(wm: hy.WellModel, speeds_mps: np.ndarray, circulation_m3s: float) -> np.ndarray:
@@ -79,9 +84,9 @@ class ProcessProtection:
         self.automation_level = "closed_loop"
         self.trip_hold = ""          # why the trip is stopped (a well-control alarm), "" if not
         # a kick or losses answered (drill_protection.well_control): the window the trip
-        # speed limits keep to, and the choke-dp set-point the choke holds [Pa] (None: none)
+        # speed limits keep to, and the hold while the advisor aims outside it (None: none)
         self.window_pa = config.pressure_window_pa
-        self.well_control: tuple[float, str] | None = None
+        self.well_control: Hold | None = None
         a, n = config.actuators, config.nmpc
         self.lower = np.array([a.drawworks.minimum, 0.0, a.bpp.minimum, a.mud_pump.minimum])
         self.upper = np.array([a.drawworks.maximum, n.input_max.choke_flow_m3s, a.bpp.maximum,
@@ -133,13 +138,15 @@ class ProcessProtection:
               manual_choke_opening: float | None = None,
               choke_dp_setpoint: tuple[float, float] | None = None,
               surface_flows: tuple[float, float] | None = None,
-              trip_action: TripAction | None = None) -> Decision:
+              trip_action: TripAction | None = None,
+              advisor_bhp_ref_pa: float = float("nan")) -> Decision:
         """Limit ``request`` [u_r, q_c, q_bpp, p_spp], the requested manual choke opening and
         choke-dp set-point (dp Pa, ramp Pa/s) (both None: the choke on its PI flow
         controller; a manual opening wins); ``surface_flows`` are the measured return and
         back-pressure pump flows [m^3/s] the window guard starts from; ``trip_action`` the
         answer to a lost circulation (drill_protection.pump_trip), None when there is
-        none. Returns the command to send and why."""
+        none; ``advisor_bhp_ref_pa`` the BHP the advisor aims at (NaN: none). Returns the
+        command to send and why."""
         p = self.config.protection
         period = p.command_period_s
         request = np.asarray(request, dtype=float)
@@ -168,12 +175,16 @@ class ProcessProtection:
         if manual_choke_opening is not None:
             choke_dp_setpoint = None
 
-        if self.well_control is not None and not not_applied:
-            dp_pa, why = self.well_control
-            manual_choke_opening, choke_dp_setpoint = None, (dp_pa, 0.0)
+        bhp_ref_pa = advisor_bhp_ref_pa
+        low, high = self.window_pa
+        aims_inside = bool(low <= advisor_bhp_ref_pa <= high)      # False for NaN
+        if self.well_control is not None and not not_applied and not aims_inside:
+            hold = self.well_control
+            manual_choke_opening, choke_dp_setpoint = None, (hold.choke_dp_pa, 0.0)
             flowing = (surface_flows or (np.nan,))[0]      # the pressure loop's feed-forward
             command[1] = flowing if np.isfinite(flowing) else self.previous[1]
-            clamps.append(why)
+            clamps.append(hold.reason)
+            bhp_ref_pa = hold.target_bhp_pa
         guard = self._window_guard(bhp_pa, clamps)
         trip = None if not_applied else trip_action
         shut = trip is not None and trip.choke_flow_m3s is not None
@@ -214,7 +225,7 @@ class ProcessProtection:
         self.previous_manual_opening = manual_choke_opening
         self.previous_dp_setpoint = choke_dp_setpoint
         return Decision(command, tuple(clamps), (down, up), manual_choke_opening,
-                        choke_dp_setpoint)
+                        choke_dp_setpoint, float(bhp_ref_pa))
 
     def _answer_trip(self, trip: TripAction, guard: int, command: np.ndarray,
                      clamps: list[str]) -> None:

@@ -147,7 +147,7 @@ class ProtectionNode(RigNode):
             self.alarm_count += 1
             self._event("alarm", narrowed, stamp)
         self.protection.window_pa = self.window.window_pa
-        self.protection.well_control = self.window.choke_dp_setpoint()
+        self.protection.well_control = self.window.hold()
         change = self.circulation.observe(stamp * 1e-9, m.string_flow_valid, m.choke_dp_pa, m.bhp_pa)
         if change:
             self.alarm_count += self.circulation.lost
@@ -188,7 +188,7 @@ class ProtectionNode(RigNode):
             (request.choke_dp_ref_pa, request.choke_dp_ref_rate_pa_s)
             if request.choke_pressure_control else None,
             surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s),
-            trip_action=self.circulation.action(stamp * 1e-9))
+            trip_action=self.circulation.action(stamp * 1e-9), advisor_bhp_ref_pa=request.bhp_ref_pa)
         manual = decision.manual_choke_opening
         dp_setpoint = decision.choke_dp_setpoint
         out = RigCommand(block_position_ref_m=float(decision.command[0]),
@@ -199,6 +199,9 @@ class ProtectionNode(RigNode):
                          choke_pressure_control=dp_setpoint is not None,
                          choke_dp_ref_pa=float(dp_setpoint[0]) if dp_setpoint else 0.0,
                          choke_dp_ref_rate_pa_s=float(dp_setpoint[1]) if dp_setpoint else 0.0,
+                         bhp_ref_pa=decision.bhp_ref_pa,
+                         bhp_window_low_pa=float(self.protection.window_pa[0]),
+                         bhp_window_high_pa=float(self.protection.window_pa[1]),
                          source=f"protection<{request.source}")
         out.header.stamp = request.header.stamp
         self.pub_command.publish(out)

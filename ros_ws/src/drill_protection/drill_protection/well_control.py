@@ -11,28 +11,43 @@ an MPD crew gives by hand, in steps:
 * on a losses alarm the high edge comes down the same way while the well still takes mud;
 * never closer to the other edge than ``gap_pa``, never beyond the configured window.
 
-From the first step on the choke is the protection's (drill_protection.protection): it
-holds the choke on its pressure loop at the set-point that puts BHP at the target, half a
-step inside the moved edge (the middle of the window once both edges moved):
-dp_set = target - (BHP - dp), where BHP - dp (the annulus column and friction between the
-gauges) is low-passed over ``offset_time_constant_s`` (taken sample by sample it carries
-the pressure waves the choke's own moves make, and the set-point chases them: a 10 s
-oscillation of ±15 bar in the kick scenario); with the measured return flow as the loop's
-flow feed-forward, whatever the advisor asks for the choke. The trip-speed limits keep
-to the narrowed window. Neither is given back during the run: the formation's pressure
-is still there; handing the choke back, with a BHP reference inside the new window, is
-the operator's decision.
+From the first step on the protection holds BHP at a target half a step inside the moved
+edge (the middle of the window once both edges moved) until the advisor aims there. Every
+machine command (/rig/command) carries the window and the BHP reference in force, the
+target while the advisor's reference is outside the window; the advisor takes the target
+as its reference at its next sample (drill_nmpc.setpoint_book) and its command's
+reference is inside the window from then on: the choke is the advisor's again, the window
+still the protection's (the trip-speed limits keep to it). Both travel on lockstepped
+topics, so the handover happens at the same sample in every run.
+
+While the protection holds, it holds the choke on its pressure loop at the set-point
+that puts BHP at the target: dp_set = target - (BHP - dp), where BHP - dp (the annulus
+column and friction between the gauges) is low-passed over ``offset_time_constant_s``
+(taken sample by sample it carries the pressure waves the choke's own moves make, and
+the set-point chases them: a 10 s oscillation of ±15 bar in the kick scenario); with the
+measured return flow as the loop's flow feed-forward, whatever the advisor asks for the
+choke. The window is not given back during the run: the formation's pressure is still
+there.
 """
 from __future__ import annotations
 
 import math
 import statistics
 from collections import deque
+from dataclasses import dataclass
 
 from drill_core.config import WellControl
 from drill_core.units import PA_PER_BAR
 
 BHP_MEDIAN_S = 1.0          # the BHP the first step starts from: the median of this long
+
+
+@dataclass(frozen=True)
+class Hold:
+    """The protection holding BHP at a target in the narrowed window."""
+    choke_dp_pa: float        # the choke's pressure-loop set-point [Pa]
+    target_bhp_pa: float      # the BHP it puts the well at [Pa]
+    reason: str
 
 
 class WindowResponse:
@@ -68,16 +83,17 @@ class WindowResponse:
             return max(self.high_pa - half, 0.5 * (self.low_pa + self.high_pa))
         return math.nan
 
-    def choke_dp_setpoint(self) -> tuple[float, str] | None:
-        """The choke-dp set-point [Pa] that puts BHP at the target, and why; None while the
+    def hold(self) -> Hold | None:
+        """The choke-dp set-point that puts BHP at the target, and why; None while the
         window is as configured or before a finite pair of pressures."""
         if not self.narrowed or not math.isfinite(self.offset_pa):
             return None
         target = self.target_bhp_pa
         setpoint = max(target - self.offset_pa, 0.0)
-        return setpoint, (f"well control: choke held at {setpoint / PA_PER_BAR:.1f} bar dp for "
-                          f"BHP {target / PA_PER_BAR:.1f} bar (window {self.low_pa / PA_PER_BAR:.1f}"
-                          f"-{self.high_pa / PA_PER_BAR:.1f} bar)")
+        return Hold(setpoint, target,
+                    f"well control: choke held at {setpoint / PA_PER_BAR:.1f} bar dp for BHP "
+                    f"{target / PA_PER_BAR:.1f} bar (window {self.low_pa / PA_PER_BAR:.1f}-"
+                    f"{self.high_pa / PA_PER_BAR:.1f} bar)")
 
     def observe(self, time_s: float, bhp_pa: float, choke_dp_pa: float, alarm: str,
                 excess_flow_m3s: float, flow_threshold_m3s: float) -> str:

@@ -10,7 +10,7 @@ import pytest
 from drill_core import hydraulics as hy
 from drill_core.config import WellControl, load_rig
 from drill_protection.protection import ProcessProtection
-from drill_protection.well_control import WindowResponse
+from drill_protection.well_control import Hold, WindowResponse
 
 CONFIG = Path(__file__).resolve().parents[4] / "config"
 WINDOW_PA = (6.65e7, 7.05e7)
@@ -78,38 +78,47 @@ def test_the_choke_is_held_at_the_setpoint_that_puts_bhp_at_the_target():
     """BHP - dp low-passed: a step in the pressures moves the set-point only by the
     filter's share; the target is half a step inside the moved edge."""
     r = WindowResponse(STEP, WINDOW_PA)
-    assert r.choke_dp_setpoint() is None
+    assert r.hold() is None
     feed(r, 0.0, 30.0, 6.85e7, "", 0.0)                     # BHP - dp = 665 bar
-    assert r.choke_dp_setpoint() is None                    # window as configured
+    assert r.hold() is None                                 # window as configured
     r.observe(30.0, 6.85e7, 2.0e6, "kick", 2 * THRESHOLD_M3S, THRESHOLD_M3S)
-    setpoint, why = r.choke_dp_setpoint()
-    assert r.target_bhp_pa == pytest.approx(6.85e7 + 1.5 * STEP.step_pa)
-    assert setpoint == pytest.approx(r.target_bhp_pa - (6.85e7 - 2.0e6))
-    assert "well control: choke held" in why
+    hold = r.hold()
+    assert hold.target_bhp_pa == r.target_bhp_pa == pytest.approx(6.85e7 + 1.5 * STEP.step_pa)
+    assert hold.choke_dp_pa == pytest.approx(r.target_bhp_pa - (6.85e7 - 2.0e6))
+    assert "well control: choke held" in hold.reason
     r.observe(30.1, 6.95e7, 2.0e6, "kick", 2 * THRESHOLD_M3S, THRESHOLD_M3S)  # a 10 bar wave
-    moved = setpoint - r.choke_dp_setpoint()[0]
+    moved = hold.choke_dp_pa - r.hold().choke_dp_pa
     assert moved == pytest.approx(1.0e6 * 0.1 / STEP.offset_time_constant_s)
 
 
-def test_the_limiter_holds_the_choke_on_its_pressure_loop_whatever_the_advisor_asks():
-    """With a well-control set-point the choke goes on its pressure loop at it, with the
-    measured return flow as feed-forward; the trip-speed limits keep to the narrowed window;
-    outside closed loop nothing is applied."""
+def test_the_limiter_holds_the_choke_until_the_advisor_aims_inside_the_window():
+    """With a well-control hold and the advisor's reference outside the narrowed window the
+    choke goes on its pressure loop at the hold's set-point, with the measured return flow
+    as feed-forward, and the reference in force is the hold's target; once the advisor aims
+    inside the window its choke passes; the trip-speed limits keep to the narrowed window
+    either way; outside closed loop nothing is applied."""
     config = load_rig(CONFIG)
     wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                              config.plant.choke_regularisation_pa)
     start = np.array([0.0, 0.0167, 0.0, 1.06e7])
     protection = ProcessProtection(config, wm, start)
     request = [0.0, 0.0167, 0.0, 1.06e7]
-    free = protection.apply(request, 0.0, 0.0, 6.85e7, 0.0167, 0.6, surface_flows=(0.016, 0.0))
-    assert free.choke_dp_setpoint is None
-    protection.well_control = (3.0e6, "well control: test")
+    free = protection.apply(request, 0.0, 0.0, 6.85e7, 0.0167, 0.6, surface_flows=(0.016, 0.0),
+                            advisor_bhp_ref_pa=6.85e7)
+    assert free.choke_dp_setpoint is None and free.bhp_ref_pa == 6.85e7
+    protection.well_control = Hold(3.0e6, 6.8825e7, "well control: test")
     protection.window_pa = (6.87e7, config.pressure_window_pa[1])
-    held = protection.apply(request, 0.0, 0.0, 6.85e7, 0.0167, 0.6, surface_flows=(0.016, 0.0))
+    held = protection.apply(request, 0.0, 0.0, 6.85e7, 0.0167, 0.6, surface_flows=(0.016, 0.0),
+                            advisor_bhp_ref_pa=6.85e7)
     assert held.choke_dp_setpoint == (3.0e6, 0.0)
     assert held.command[1] == pytest.approx(0.016)
-    assert "well control: test" in held.clamps
-    # a BHP 2 bar over the raised edge: pulling out (swab) is limited, running in is not
+    assert "well control: test" in held.clamps and held.bhp_ref_pa == 6.8825e7
+    handed = protection.apply(request, 0.0, 0.0, 6.85e7, 0.0167, 0.6,
+                              surface_flows=(0.016, 0.0), advisor_bhp_ref_pa=6.8825e7)
+    assert handed.choke_dp_setpoint is None and handed.bhp_ref_pa == 6.8825e7
+    assert handed.command[1] == pytest.approx(0.0167) and "well control: test" not in handed.clamps
+    assert handed.trip_speed_limits_mps == held.trip_speed_limits_mps
+    # a BHP 2 bar under the raised edge: pulling out (swab) is limited, running in is not
     assert held.trip_speed_limits_mps[1] < free.trip_speed_limits_mps[1]
     protection.automation_level = "advisory"
     manual = protection.apply(request, 0.0, 0.0, 6.85e7, 0.0167, 0.6, surface_flows=(0.016, 0.0))
