@@ -311,7 +311,11 @@ def main(cases, output: Path, seeds: int = len(SEED_OFFSETS),
     if table.exists():        # keep the rows of the cases not run this time
         rows = [r for r in json.loads(table.read_text()) if r["case"] not in cases] + rows
     table.write_text(json.dumps([{k: v for k, v in r.items()} for r in rows], indent=1))
-    picture = plot_trips(rows, "case2", output.with_name(output.stem + "-case2.png"))
+    picture = output.with_name(output.stem + "-case2.png")
+    if "case2" in cases:
+        picture = plot_trips(rows, "case2", picture)
+    elif not picture.exists():      # kept rows: their recordings may be gone, their plot stays
+        picture = None
     output.write_text(markdown(rows, picture.name if picture else None))
     print(f"[compare] wrote {output}")
     return 0

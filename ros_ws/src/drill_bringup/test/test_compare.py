@@ -99,7 +99,14 @@ def test_a_partial_compare_keeps_the_other_cases_rows(tmp_path, monkeypatch):
     monkeypatch.setattr(compare, "run_all",
                         lambda items: [_row(c, k, s, _summary(0.4, 0.0, solves=600))
                                        for c, k, s in items])
-    monkeypatch.setattr(compare, "plot_trips", lambda rows, case, out: None)
+    picture = tmp_path / "results-case2.png"
+    picture.write_bytes(b"the plot of the run that made the case2 rows")
+
+    def no_replot(rows, case, out):     # the kept rows' recordings may be gone (a fresh clone)
+        raise AssertionError("case2 was not run this time: its plot must be kept")
+    monkeypatch.setattr(compare, "plot_trips", no_replot)
     compare.main(["kick"], output, seeds=1, controllers=("nmpc",))
     rows = json.loads(output.with_suffix(".json").read_text())
     assert [(r["case"], r["summary"]["bhp_rmse_pa"]) for r in rows] == [("case2", 0.3e5), ("kick", 0.4e5)]
+    assert picture.read_bytes() == b"the plot of the run that made the case2 rows"
+    assert "results-case2.png" in output.read_text()
