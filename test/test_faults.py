@@ -5,7 +5,9 @@ zone 7 bar over the BHP reference is detected from the surface flows and stops t
 and the window the protection narrows is handed to the NMPC with a reference inside it;
 every event is on /rig/events in the recording. A mud-pump trip during a pull-out: the
 protection finds the lost circulation from the command and the string-flow meter and keeps
-BHP inside the pore/fracture window under the NMPC."""
+BHP inside the pore/fracture window under the NMPC (and after the pull-out under the
+conventional controllers). Losses across a weak zone: the alarm, the window's high edge
+lowered and handed to the NMPC."""
 import math
 from pathlib import Path
 
@@ -35,6 +37,23 @@ def run_mcap(tmp_path_factory):
 @pytest.fixture(scope="module")
 def pump_trip_mcap(tmp_path_factory):
     return _run(tmp_path_factory, "pump_trip_short", 93)
+
+
+@pytest.fixture(scope="module", params=("automated_mpd", "baseline"))
+def conventional_pump_trip_mcap(tmp_path_factory, request):
+    """config/scenarios/pump_trip.yaml (the pump stops after the pull-out) under the
+    conventional controllers; the NMPC's case is the harder short trip above."""
+    code, run_dir = cli.run_scenario(cli.ROOT / "config" / "scenarios" / "pump_trip.yaml",
+                                     runs_dir=tmp_path_factory.mktemp("pump_trip"),
+                                     domain_id=93, timeout_s=600, quiet=True,
+                                     controller=request.param)
+    assert code == 0, (run_dir / "launch.json").read_text()
+    return next(run_dir.glob("*.mcap"))
+
+
+@pytest.fixture(scope="module")
+def losses_mcap(tmp_path_factory):
+    return _run(tmp_path_factory, "losses_short", 93)
 
 
 def _messages(path, topic):
@@ -90,6 +109,28 @@ def test_the_kick_is_detected_and_the_trip_stopped(run_mcap):
     assert summary["influx_volume_m3"] > kick["volume_at_detection_m3"]
 
 
+def test_losses_are_answered_and_the_lowered_window_is_the_advisors(losses_mcap):
+    """A weak zone 2 bar under the reference: the losses alarm, the window's high edge
+    lowered from the measured BHP, the NMPC's reference moved under it at its next sample,
+    and BHP back under the fracture pressure with the losses stopped before the end."""
+    series = report.load_series(losses_mcap)
+    summary = report.summarise(series)
+    losses = summary["detection"]["losses"]
+    assert losses["false_alarms"] == 0 and losses["onset_s"] >= 10.0
+    assert losses["delay_s"] is not None and losses["delay_s"] < 30.0
+    lowered = [e for e in series.events if e[1] == "protection" and "high edge lowered" in e[3]]
+    assert lowered
+    machine = _by_stamp(losses_mcap, topics.MACHINE_COMMAND)
+    advisor = _by_stamp(losses_mcap, topics.COMMAND)
+    last = machine[max(machine)]
+    assert last.bhp_window_high_pa < 6.83e7 + 1.0e5           # within a bar of the fracture
+    assert advisor[max(advisor)].bhp_ref_pa < last.bhp_window_high_pa
+    assert advisor[max(advisor)].bhp_ref_pa == last.bhp_ref_pa   # the advisor's, handed over
+    t, lost = series.get("loss_volume")
+    late = lost[-1] - np.interp(t[-1] - 20.0, t, lost)
+    assert late < 0.25 * summary["loss_volume_m3"]      # the losses mostly stopped
+
+
 def _by_stamp(path, topic):
     return {m.header.stamp.sec + m.header.stamp.nanosec * 1e-9: m for m in _messages(path, topic)}
 
@@ -129,3 +170,16 @@ def test_a_pump_trip_is_answered_and_bhp_stays_in_the_window(pump_trip_mcap):
     assert any("choke held shut" in c for c in clamps)
     tb, bpp = series.get("bpp")
     assert bpp[tb < 8.0].max() < 1.0e-5 and bpp[-1] > 0.005     # the back-pressure pump runs
+
+
+def test_the_conventional_controllers_keep_bhp_in_the_window_through_a_pump_trip(
+        conventional_pump_trip_mcap):
+    series = report.load_series(conventional_pump_trip_mcap)
+    _, bhp = series.get("bhp")
+    _, pore = series.get("pore")
+    _, fracture = series.get("fracture")
+    assert np.all((bhp > pore) & (bhp < fracture)), (bhp.min(), bhp.max())
+    assert any(e[3].startswith("circulation lost") for e in series.events
+               if e[1] == "protection")
+    legs = report.summarise(series)["trip_legs"]
+    assert len(legs) == 2 and all(t is not None for _, t in legs)    # and the trip is done

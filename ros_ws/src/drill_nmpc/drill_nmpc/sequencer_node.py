@@ -14,6 +14,7 @@ operating point, the point the actuators and protection start from.
 """
 from __future__ import annotations
 
+import math
 import sys
 
 from drill_msgs.msg import RigCommand, RigMeasurement
@@ -49,11 +50,13 @@ class SequencerNode(RigNode):
         if not self.gate.admit(stamp):
             return
         c = self.plan.command_at(self.gate.scenario_time_s(stamp))
+        low, high = self.ctx.config.pressure_window_pa
         cmd = RigCommand(block_position_ref_m=c.block_position_ref_m,
                          choke_flow_ref_m3s=c.choke_flow_ref_m3s, bpp_flow_m3s=c.bpp_flow_m3s,
                          spp_pa=c.spp_pa, mud_pump_on=c.mud_pump_on, choke_manual=c.choke_manual,
                          choke_opening_ref=c.choke_opening if c.choke_manual else 0.0,
-                         source="sequencer")
+                         bhp_ref_pa=math.nan, bhp_window_low_pa=low, bhp_window_high_pa=high,
+                         source="sequencer")          # open loop: no BHP reference
         cmd.header.stamp = from_ns(stamp)
         self.pub.publish(cmd)
         self.status.mode = f"{self.ctx.mode}/open_loop"
