@@ -7,7 +7,8 @@ A bench, not a product path: the ``truth`` state source reads the truth plant's 
 The scenario's events act as in the graph (sensor faults and formation changes on the
 plant, a pump trip or a stuck actuator on its actuator). The process protection
 (drill_protection.protection, with the kick detector's trip hold and the well-control
-window whose target the advisor's setpoint book takes) is in the loop with ``--protection``; without it the controllers' commands go to the actuators as they are
+window whose target the advisor's setpoint book takes) is in the loop with
+``--protection``; without it the controllers' commands go to the actuators as they are
 (they respect its limits on the normal cases).
 
     python -m drill_bringup.loop_bench case2 --controller automated_mpd --state ukf --seeds 1 2 3
@@ -432,7 +433,8 @@ def main(argv=None) -> int:
               f"under pore {r['bhp_under_pore_s']:.1f} s (worst "
               f"{r['worst_underbalance_pa'] / PA_PER_BAR:.2f} bar), over fracture "
               f"{r['bhp_over_fracture_s']:.1f} s (worst {r['worst_over_fracture_pa'] / PA_PER_BAR:.2f} bar), "
-              f"influx {r['influx_volume_m3'] * L_PER_M3:.0f} L, lost {r['loss_volume_m3'] * L_PER_M3:.0f} L, "
+              f"influx {r['influx_volume_m3'] * L_PER_M3:.0f} L, "
+              f"lost {r['loss_volume_m3'] * L_PER_M3:.0f} L, "
               f"legs {format_legs(r['trip_legs'])}, estimate RMSE "
               f"{r['bhp_estimate_rmse_pa'] / PA_PER_BAR:.2f} bar" + (
                   f", solve median {r['solve_time_median_s'] * 1e3:.1f} ms, p99 "

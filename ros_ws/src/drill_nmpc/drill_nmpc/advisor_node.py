@@ -42,10 +42,10 @@ class AdvisorNode(RigNode):
         self.cmd_pub = self.create_publisher(RigCommand, topics.COMMAND, topics.RELIABLE)
         self.sp_pub = self.create_publisher(Setpoints, topics.SETPOINTS, topics.LATCHED)
         self.event_pub = self.create_publisher(OperatorEvent, topics.OPERATOR_EVENTS, topics.RELIABLE)
-        self.sent_ns: int | None = None          # stamp of this advisor's last command
-        self.sent_bhp_ref_pa: dict[int, float] = {}  # BHP reference [Pa] of recent commands
+        self.sent_bhp_ref_pa: dict[int, float] = {}  # BHP reference [Pa] of our recent
+                                                     # commands, by stamp
         self.machine: dict[int, RigCommand] = {}     # the protection's commands by stamp
-        self.pending: deque = deque()           # (input, stamp) of the samples waiting, in order
+        self.pending: deque = deque()     # (input, stamp) of the samples waiting, in order
         self.create_subscription(RigCommand, topics.MACHINE_COMMAND, self._on_machine_command,
                                  topics.RELIABLE)
 
@@ -70,7 +70,7 @@ class AdvisorNode(RigNode):
     def _run_first(self) -> bool:
         msg, stamp = self.pending[0]
         answer = self._protection_answer()
-        if self.ctx.fast and self.sent_ns is not None and answer is None:
+        if self.ctx.fast and self.sent_bhp_ref_pa and answer is None:
             return False
         if not self.inputs_ready(stamp):
             return False
@@ -89,7 +89,7 @@ class AdvisorNode(RigNode):
             return None
         if not self.ctx.fast:
             return self.machine[max(self.machine)]
-        return self.machine.get(self.sent_ns)
+        return self.machine.get(max(self.sent_bhp_ref_pa, default=None))
 
     def _on_machine_command(self, msg: RigCommand) -> None:
         stamp = to_ns(msg.header.stamp)
@@ -124,7 +124,6 @@ class AdvisorNode(RigNode):
             else float("nan")
         cmd.bhp_window_low_pa, cmd.bhp_window_high_pa = self.book.window_pa
         self.cmd_pub.publish(cmd)
-        self.sent_ns = stamp_ns
         self.sent_bhp_ref_pa[stamp_ns] = cmd.bhp_ref_pa
         for old in sorted(self.sent_bhp_ref_pa)[:-SENT_KEPT]:
             del self.sent_bhp_ref_pa[old]

@@ -6,8 +6,8 @@ an operator request (the /set_setpoints service) merges over them the same way. 
 validated against the envelope (setpoint_validation) once the BHP target is known; a
 refusal changes nothing and says why. The process protection's answer narrows the
 envelope's pressure window after a kick or losses, and its BHP target replaces the
-reference when the protection holds the well at it (``follow_protection``). A NaN BHP target means "the BHP of the first
-estimate" and is resolved by the first finite one. Every change and refusal comes back
+reference when the protection holds the well at it (``follow_protection``). A NaN BHP
+target means "the BHP of the first estimate" and is resolved by the first finite one. Every change and refusal comes back
 as an ``Event`` for the node to publish (drill_msgs/OperatorEvent), and ``changed`` tells
 it to re-publish the latched /setpoints.
 """
@@ -61,7 +61,8 @@ class SetpointBook:
         if math.isfinite(low) and math.isfinite(high) and low < high:
             self.envelope = dataclasses.replace(self.envelope, pore_pressure_pa=low,
                                                 fracture_pressure_pa=high)
-        if not math.isfinite(bhp_ref_pa) or bhp_ref_pa in (sent_bhp_ref_pa, self.active.bhp_ref_pa):
+        echo = bhp_ref_pa in (sent_bhp_ref_pa, self.active.bhp_ref_pa)
+        if not math.isfinite(bhp_ref_pa) or echo:
             return []
         low, high = self.window_pa
         band = min(self.active.bhp_band_pa, bhp_ref_pa - low, high - bhp_ref_pa)

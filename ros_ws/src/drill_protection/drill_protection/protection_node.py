@@ -188,7 +188,8 @@ class ProtectionNode(RigNode):
             (request.choke_dp_ref_pa, request.choke_dp_ref_rate_pa_s)
             if request.choke_pressure_control else None,
             surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s),
-            trip_action=self.circulation.action(stamp * 1e-9), advisor_bhp_ref_pa=request.bhp_ref_pa)
+            trip_action=self.circulation.action(stamp * 1e-9),
+            advisor_bhp_ref_pa=request.bhp_ref_pa)
         manual = decision.manual_choke_opening
         dp_setpoint = decision.choke_dp_setpoint
         out = RigCommand(block_position_ref_m=float(decision.command[0]),
