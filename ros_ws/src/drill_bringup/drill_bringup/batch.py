@@ -10,6 +10,7 @@ fails comes back as a row with ``ok`` false and the launcher's message; the othe
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import multiprocessing
 import threading
@@ -33,6 +34,7 @@ class RunSpec:
     controller: str
     seed: int
     runs_dir: str | None = None
+    alone: bool = True          # no other graph runs at once (launcher.cpu_sets may pin)
 
     @property
     def label(self) -> str:
@@ -69,7 +71,8 @@ def run_one(spec: RunSpec) -> dict:
     try:
         _, run_dir = runs.run_scenario(
             Path(spec.scenario), runs_dir=Path(spec.runs_dir) if spec.runs_dir else None,
-            seed=spec.seed, domain_id=worker_domain(), quiet=True, controller=spec.controller)
+            seed=spec.seed, domain_id=worker_domain(), quiet=True, controller=spec.controller,
+            pin_cpus=spec.alone)
     except Exception as err:           # noqa: BLE001 - a run's failure is its row's message
         return result_row(spec, None, f"{type(err).__name__}: {err}")
     return result_row(spec, run_dir)
@@ -86,6 +89,8 @@ def execute(specs: Sequence[RunSpec], run: Callable[[RunSpec], dict] = run_one,
         raise ValueError(f"--workers: value {workers} must be at least 1")
     done = on_done or (lambda row: None)
     rows: list[dict | None] = [None] * len(specs)
+    if cluster or (workers > 1 and len(specs) > 1):
+        specs = [dataclasses.replace(spec, alone=False) for spec in specs]
     if cluster:
         from distributed import Client
         from distributed import as_completed as dask_completed

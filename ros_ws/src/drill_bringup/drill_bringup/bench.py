@@ -1,7 +1,9 @@
 """Benchmarks (scripts/bench): plant step cost, estimator and NMPC timings, the real-time
 factor of the graph in fast mode per process layout with its time budget, and the realtime
 plant's frame lateness. Results go to docs/benchmarks.md; all
-ratios in one file come from one run on one machine."""
+ratios in one file come from one run on one machine. Each whole-graph figure is the
+median of ``REPEATS`` runs with their range: this machine's speed drifts between runs
+(the same run's CPU time varied by up to 15 %)."""
 from __future__ import annotations
 
 import argparse
@@ -30,6 +32,19 @@ from drill_plant.plant_model import steady_state
 from drill_plant.simulator import PlantSimulator
 
 PAPER_SOLVE_S = 16.4
+REPEATS = 3
+
+
+def median_run(measure, repeats: int = REPEATS) -> dict:
+    """The run of median wall time of ``repeats`` calls of ``measure``, with every wall
+    time (``walls_s``, sorted)."""
+    done = sorted((measure() for _ in range(repeats)), key=lambda r: r["wall_s"])
+    return {**done[len(done) // 2], "walls_s": [r["wall_s"] for r in done]}
+
+
+def _walls(r: dict) -> str:
+    """'median s (min-max)' of a median_run."""
+    return f"{r['wall_s']:.1f} s ({r['walls_s'][0]:.1f}-{r['walls_s'][-1]:.1f})"
 
 
 def plant_frame_cost(repetitions: int = 2000) -> dict:
@@ -175,7 +190,7 @@ def write_doc(results: dict, path: Path) -> None:
         "",
         f"Measured by `scripts/bench` on {datetime.now():%Y-%m-%d %H:%M} "
         f"({platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-        f"Python {platform.python_version()}). One run; all ratios below come from it.",
+        f"Python {platform.python_version()}). One bench run; all ratios below come from it.",
         "",
         "## Plant",
         "",
@@ -186,8 +201,8 @@ def write_doc(results: dict, path: Path) -> None:
         f"| one 0.01 s plant step | {results['plant']['plant_step_median_s'] * 1e6:.1f} us |",
         f"| plant core alone, real-time factor | {results['plant']['plant_core_rtf']:.4f} |",
         *(f"| plant + 4 actuators, 600 s Case 2 (fast mode), layout {r['layout']}, "
-          f"{r['executor']} executor | "
-          f"{r['wall_s']:.1f} s wall, RTF {r['rtf']:.3f} (target: <= 6 s) |"
+          f"{r['executor']} executor, median of {len(r['walls_s'])} (range) | "
+          f"{_walls(r)} wall, RTF {r['rtf']:.3f} (target: <= 6 s) |"
           for r in results["plant_actuators"]),
         "",
     ]
@@ -202,10 +217,12 @@ def write_doc(results: dict, path: Path) -> None:
         lines += ["## Whole graph by process layout", "",
                   "Case 2 (600 s) through the graph over DDS in fast mode, from process start to "
                   "the recording closed (target: <= 30 s wall, RTF <= 0.05), in each process "
-                  "layout (`scripts/rig run --layout`; drill_core.ros.graph.LAYOUTS):", "",
+                  "layout (`scripts/rig run --layout`; drill_core.ros.graph.LAYOUTS), median "
+                  f"of {len(first['walls_s'])} runs with their range; the time budget is the "
+                  "median run's:", "",
                   "| layout | executor | wall | real-time factor | vs the first row | report afterwards |",
                   "| --- | --- | --- | --- | --- | --- |"]
-        lines += [f"| {g['layout']} | {g['executor']} | {g['wall_s']:.1f} s | {g['rtf']:.3f} | "
+        lines += [f"| {g['layout']} | {g['executor']} | {_walls(g)} | {g['rtf']:.3f} | "
                   f"{g['wall_s'] / first['wall_s']:.2f} | {g['report_s']:.1f} s |"
                   for g in results["graph"]]
         lines.append("")
@@ -247,12 +264,12 @@ def main(argv=None) -> int:
     domain = launcher.default_domain_id()
     results = {"plant": plant_frame_cost()}
     print(f"[bench] plant frame {results['plant']['plant_frame_median_s'] * 1e3:.3f} ms", flush=True)
-    results["plant_actuators"] = [plant_actuators_rtf(domain, layout, executor) for
-                                  layout, executor in (("separate", "single_threaded"),
-                                                       ("separate", DEFAULT_EXECUTOR),
-                                                       ("plant", DEFAULT_EXECUTOR))]
+    results["plant_actuators"] = [
+        median_run(lambda: plant_actuators_rtf(domain, layout, executor))
+        for layout, executor in (("separate", "single_threaded"), ("separate", DEFAULT_EXECUTOR),
+                                 ("plant", DEFAULT_EXECUTOR))]
     for r in results["plant_actuators"]:
-        print(f"[bench] plant + actuators ({r['layout']}, {r['executor']}): {r['wall_s']:.1f} s",
+        print(f"[bench] plant + actuators ({r['layout']}, {r['executor']}): {_walls(r)}",
               flush=True)
     from drill_estimator import bench as estimator_bench
     results["estimator"] = estimator_bench.run_benchmark()
@@ -263,9 +280,10 @@ def main(argv=None) -> int:
     if not args.skip_graph:
         results["graph"] = []
         for layout, executor in GRAPH_CONFIGURATIONS:
-            results["graph"].append(graph_rtf("case2", domain, layout, executor))
-            print(f"[bench] case2 graph ({layout}, {executor}): "
-                  f"{results['graph'][-1]['wall_s']:.1f} s", flush=True)
+            results["graph"].append(
+                median_run(lambda: graph_rtf("case2", domain, layout, executor)))
+            print(f"[bench] case2 graph ({layout}, {executor}): {_walls(results['graph'][-1])}",
+                  flush=True)
         results["drilling"] = [drilling_speed(name, domain) for name in DRILLING_SCENARIOS]
         for d in results["drilling"]:
             print(f"[bench] {d['scenario']}: model {d['model_cpu_s']:.2f} s CPU, graph "

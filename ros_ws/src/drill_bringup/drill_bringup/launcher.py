@@ -9,6 +9,9 @@ the plant starts the lockstep once every subscription the graph needs is
 connected, and exits when the scenario ends (so does the estimator, once it has
 estimated the last sample); the launcher then stops the rest.
 A node that dies makes the launch fail with its name, exit code and last log lines.
+In fast mode on a machine with two or more CPUs, the processes of the estimator and the
+controller chain get one CPU to themselves and the other processes the rest
+(``cpu_sets``), unless the caller runs several graphs at once (``pin_cpus`` False).
 A split run (docs/multihost.md) launches only this host's share of the graph (``here``)
 with static discovery peers; a share ends when its own finishing nodes have exited and
 those on other hosts are seen gone (drill_bringup.finish_watch).
@@ -175,6 +178,25 @@ def processes(nodes: list[NodeSpec], layout: str = "separate",
     return out
 
 
+# The nodes whose processes get a CPU of their own in fast mode: the lockstep's longest
+# chain per sample (estimate, solve, protection) runs there without being preempted by the
+# plant's process or the recorder (Case 2, layout two: 27.4-32.8 s against 29.9-36.0 s
+# wall in three interleaved pairs, docs/benchmarks.md).
+CONTROL_CHAIN = frozenset({"estimator", "protection", "driller",
+                           *(n.name for n in graph_decl.NODES if n.controller)})
+
+
+def cpu_sets(processes: list[ProcessSpec], cpus: list[int]) -> dict[str, set[int]]:
+    """Process name -> the CPUs it runs on: with two or more ``cpus`` and a process of the
+    control chain in the run, those processes get the first CPU, every other process the
+    rest; otherwise no process is pinned (empty dict)."""
+    control = {p.name for p in processes
+               if any(n.name in CONTROL_CHAIN for n in getattr(p, "nodes", ()))}
+    if len(cpus) < 2 or not control:
+        return {}
+    return {p.name: {cpus[0]} if p.name in control else set(cpus[1:]) for p in processes}
+
+
 def isolated_env(domain_id: int, peers: tuple[str, ...] = ()) -> dict:
     """The processes' environment: ``domain_id``, discovery on this host only, and with
     ``peers`` (a split run) unicast discovery of those hosts as well (ROS_STATIC_PEERS:
@@ -223,7 +245,7 @@ class Launch:
 
     def __init__(self, nodes: list[NodeSpec], run_dir: Path, domain_id: int,
                  layout: str = "separate", here: set[str] | None = None,
-                 peers: tuple[str, ...] = ()):
+                 peers: tuple[str, ...] = (), pin_cpus: bool = True):
         names = [n.name for n in nodes]
         repeated = sorted({n for n in names if names.count(n) > 1})
         if repeated:      # processes are tracked by name: a repeat could never be stopped
@@ -238,15 +260,23 @@ class Launch:
         self.env = isolated_env(domain_id, peers)
         self.env[BUDGET_DIR_ENV] = str(run_dir / "budget")
         self.procs: dict[str, subprocess.Popen] = {}
+        fast = all(n.params.get("mode", "fast") == "fast" for n in nodes)
+        self.cpus = cpu_sets(self.processes, sorted(os.sched_getaffinity(0))) \
+            if pin_cpus and fast else {}
 
     def start(self) -> None:
         self.logs.mkdir(parents=True, exist_ok=True)
         for spec in self.processes:
             log = open(self.logs / f"{spec.name}.log", "w", encoding="utf-8")
-            self.procs[spec.name] = subprocess.Popen(
+            proc = self.procs[spec.name] = subprocess.Popen(
                 spec.command_line(self.finished_marker(spec.name)), stdout=log,
                 stderr=subprocess.STDOUT, env=self.env, start_new_session=True)
             log.close()
+            if spec.name in self.cpus:      # before its interpreter has started a thread
+                try:
+                    os.sched_setaffinity(proc.pid, self.cpus[spec.name])
+                except ProcessLookupError:  # already gone: watch() reports its exit
+                    pass
 
     def finished_marker(self, name: str) -> Path:
         """The file a container creates once its finishing nodes have finished."""
@@ -285,9 +315,8 @@ class Launch:
         """SIGINT every node (recorder last), escalate to SIGKILL after ``grace_s``."""
         order = [n for n in self.procs if n != "recorder"] + ["recorder"]
         for name in order:
-            if name == "recorder":
+            if name == "recorder":       # it drains what is in flight once signalled
                 self._wait([n for n in order if n != "recorder"], grace_s)
-                time.sleep(0.5)
             proc = self.procs.get(name)
             if proc is not None and proc.poll() is None:
                 proc.send_signal(signal.SIGINT)

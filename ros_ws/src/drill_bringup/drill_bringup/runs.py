@@ -57,7 +57,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
                  timeout_s: float | None = None, quiet: bool = False,
                  controller: str | None = None, layout: str = "separate",
                  here: str | None = None, peers: tuple[str, ...] = (),
-                 extras: dict[str, dict] | None = None) -> tuple[int, Path]:
+                 extras: dict[str, dict] | None = None,
+                 pin_cpus: bool = True) -> tuple[int, Path]:
     """Launch a scenario, record it and report; returns (exit code, run directory).
     ``seed`` replaces the scenario's plant seed and ``controller`` its controller (the same
     trip under another controller: ``rig compare``); ``layout`` groups nodes into processes
@@ -65,7 +66,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     drill_core.ros.graph.host_nodes) launches only that share of the graph, reaching the
     others' on ``peers`` (docs/multihost.md); the report is made where the recorder runs.
     ``extras`` adds optional nodes (the gateways), name -> parameters; in a share they run
-    on this host."""
+    on this host. ``pin_cpus`` False leaves the processes on every CPU (several graphs
+    running at once: launcher.cpu_sets would put their control chains on one CPU)."""
     kind = scenario_kind(path)
     if kind == "drilling":
         scenario, own_controller = _drilling_scenario(path, realtime, controller), "none"
@@ -91,7 +93,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
             here, [graph_decl.BY_NAME[n.name] for n in nodes])} | set(extras or {})
     domain_id = launcher.default_domain_id() if domain_id is None else domain_id
     launch = launcher.Launch(nodes, run_dir, domain_id, layout,
-                             None if here is None else names, peers)
+                             None if here is None else names, peers, pin_cpus=pin_cpus)
     run_dir.mkdir(parents=True, exist_ok=True)
     say = (lambda *_: None) if quiet else (lambda text: print(text, flush=True))
     say(f"[rig] {scenario.name}: {scenario.description} ({mode} mode, logs in {run_dir / 'logs'})")

@@ -89,14 +89,35 @@ def test_a_container_takes_what_only_it_publishes_on_its_local_bus():
     separate = launcher.graph("nmpc", COMMON, Path("/r/x.mcap"), fast=True)
     wait_two = _by_name(two)["plant"].params["wait_for"]
     wait_separate = _by_name(separate)["plant"].params["wait_for"]
-    # the measurement reaches the estimator, protection and recorder through DDS, not the
-    # actuators (they share the plant's process); the frames reach the plant locally
+    # the measurement reaches the control process (estimator and protection share one
+    # subscription) and the recorder through DDS, not the actuators (they share the
+    # plant's process); the frames reach the plant locally
     assert f"sub@{topics.MEASUREMENT}:7" in wait_separate
-    assert f"sub@{topics.MEASUREMENT}:3" in wait_two
+    assert f"sub@{topics.MEASUREMENT}:2" in wait_two
     frame = topics.actuator_frame("drawworks")     # recorder, estimator, nmpc (and plant)
-    assert f"sub@{frame}:4" in wait_separate and f"sub@{frame}:3" in wait_two
+    assert f"sub@{frame}:4" in wait_separate and f"sub@{frame}:2" in wait_two
     assert f"sub@{topics.ESTIMATE}:1" in wait_two            # the recorder; nmpc is local
     processes = {p.name: p for p in launcher.processes(two, "two")}
     local = json.loads(processes["control"].command_line(Path("/m"))[6])
     # setpoints are latched: DDS; the machine command reaches the actuators by DDS as well
     assert local == sorted([topics.ESTIMATE, topics.MACHINE_COMMAND, topics.COMMAND])
+
+
+def test_fast_runs_give_the_control_chain_a_cpu_of_its_own(tmp_path):
+    nodes = launcher.graph("nmpc", COMMON, tmp_path / "x.mcap", fast=True)
+    two = launcher.processes(nodes, "two")
+    assert launcher.cpu_sets(two, [0, 1, 2]) == \
+        {"recorder": {1, 2}, "plant": {1, 2}, "control": {0}}
+    separate = launcher.cpu_sets(launcher.processes(nodes), [3, 5])
+    assert {name for name, cpus in separate.items() if cpus == {3}} == \
+        {"estimator", "nmpc", "protection"}
+    assert launcher.cpu_sets(two, [0]) == {}                       # one CPU: nothing pinned
+    plant_only = [n for n in nodes if n.name in (*topics.ACTUATORS, "plant")]
+    assert launcher.cpu_sets(launcher.processes(plant_only, "plant"), [0, 1]) == {}
+    if len(launcher.os.sched_getaffinity(0)) > 1:
+        assert launcher.Launch(nodes, tmp_path, 1, "two").cpus["control"] == \
+            {min(launcher.os.sched_getaffinity(0))}
+    assert launcher.Launch(nodes, tmp_path, 1, "two", pin_cpus=False).cpus == {}
+    realtime = launcher.graph("nmpc", dict(COMMON, mode="realtime"), tmp_path / "x.mcap",
+                              fast=False)
+    assert launcher.Launch(realtime, tmp_path, 1, "two").cpus == {}

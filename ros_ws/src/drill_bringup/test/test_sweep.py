@@ -3,6 +3,7 @@ aggregation on synthetic summaries, the runner's pool and worker domains, and ri
 getting its runs through the same runner."""
 import json
 import threading
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -144,7 +145,9 @@ def test_the_process_pool_keeps_the_plan_order(tmp_path):
     specs = [RunSpec("c", "s.yaml", "nmpc", seed) for seed in range(4)]
     seen = []
     rows = batch.execute(specs, run=repr, workers=2, on_done=seen.append)
-    assert rows == [repr(s) for s in specs] and sorted(seen) == sorted(rows)
+    # runs at once: none of them pins CPUs (launcher.cpu_sets)
+    assert rows == [repr(replace(s, alone=False)) for s in specs] and sorted(seen) == sorted(rows)
+    assert batch.execute(specs[:1], run=repr, workers=2) == [repr(specs[0])]    # alone
     with pytest.raises(ValueError, match="--workers: value 0 must be at least 1"):
         batch.execute(specs, run=repr, workers=0)
 

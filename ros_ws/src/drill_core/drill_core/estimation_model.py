@@ -152,7 +152,7 @@ class EstimationModel(WellboreLayout):
     @functools.cached_property
     def friction_function(self) -> ca.Function:
         """x -> annular friction of paths 2..n [Pa] (annulus_friction as one function)."""
-        x = ca.MX.sym("x", self.size)
+        x = ca.SX.sym("x", self.size)
         return ca.Function("annulus_friction", [x],
                            [ca.vertcat(*annulus_friction(CASADI, self, ca.vertsplit(x)))])
 

@@ -51,26 +51,28 @@ def annulus_fluid(mud: Mud, turbulence: Turbulence) -> Fluid:
                  mud.flow_index, a, b)
 
 
-def _velocity_and_slope(xp, excess, fluid: Fluid, section: FlowSection):
-    """Mean velocity v(tau_w) and d log v / d log(tau_w - tau_y) for wall stress tau_y + excess."""
+def _velocity_and_slope(xp, log_excess, fluid: Fluid, section: FlowSection):
+    """Mean velocity v(tau_w) and d log v / d log(tau_w - tau_y) for wall stress
+    tau_y + exp(log_excess) (powers as exp of a multiple of the log: one exp, no pow)."""
     m = 1.0 / fluid.flow_index
     ty = fluid.yield_stress_pa
     k_m = fluid.consistency_pa_sn ** (-m)
-    s = excess
+    s = xp.exp(log_excess)
+    s_m = xp.exp(m * log_excess)
     tau = ty + s
-    s_m = s ** m
+    tau_2 = tau * tau
     if section.annulus:
         gap = 0.5 * section.hydraulic_diameter_m
         # v = h/(2 tau^2) K^-m J,  J = int_0^S (s + ty) s^m ds
         j = s_m * s * (s / (m + 2.0) + ty / (m + 1.0))
-        v = 0.5 * gap * k_m * j / (tau * tau)
-        dv = 0.5 * gap * k_m * (s_m / tau - 2.0 * j / tau ** 3)
+        v = 0.5 * gap * k_m * j / tau_2
+        dv = 0.5 * gap * k_m * (s_m / tau - 2.0 * j / (tau_2 * tau))
     else:
         radius = 0.5 * section.hydraulic_diameter_m
         # v = R/tau^3 K^-m I,  I = int_0^S (s + ty)^2 s^m ds
         i = s_m * s * (s * s / (m + 3.0) + 2.0 * ty * s / (m + 2.0) + ty * ty / (m + 1.0))
-        v = radius * k_m * i / tau ** 3
-        dv = radius * k_m * (s_m / tau - 3.0 * i / tau ** 4)
+        v = radius * k_m * i / (tau_2 * tau)
+        dv = radius * k_m * (s_m / tau - 3.0 * i / (tau_2 * tau_2))
     return v, s * dv / v
 
 
@@ -82,10 +84,10 @@ def laminar_wall_stress(xp, speed_mps, fluid: Fluid, section: FlowSection):
         shear_rate = 6.0 * speed / (0.5 * section.hydraulic_diameter_m) * (2.0 * n + 1.0) / (3.0 * n)
     else:
         shear_rate = 8.0 * speed / section.hydraulic_diameter_m * (3.0 * n + 1.0) / (4.0 * n)
-    log_s = xp.log(fluid.consistency_pa_sn * shear_rate ** n)
+    log_s = math.log(fluid.consistency_pa_sn) + n * xp.log(shear_rate)
     log_target = xp.log(speed)
     for _ in range(_NEWTON_STEPS):
-        v, slope = _velocity_and_slope(xp, xp.exp(log_s), fluid, section)
+        v, slope = _velocity_and_slope(xp, log_s, fluid, section)
         log_s = log_s - (xp.log(v) - log_target) / slope
     return fluid.yield_stress_pa + xp.exp(log_s)
 

@@ -61,8 +61,23 @@ def test_the_drilling_lockstep_waits_for_every_endpoint_of_its_protocol():
     assert set(graph.lockstep_endpoints(nodes, fast=True)) == expected
     local = graph.local_subscriptions("two", nodes)      # drives and plant in one container
     assert set(graph.lockstep_endpoints(nodes, True, local)) == expected - {
-        "sub@/drilling/surface:4", *(f"sub@{f}:2" for f in drives)} | {
-        "sub@/drilling/surface:2", *(f"sub@{f}:1" for f in drives)}
+        "sub@/drilling/surface:4", "sub@/drilling/command:3", *(f"sub@{f}:2" for f in drives)} | {
+        "sub@/drilling/surface:2", "sub@/drilling/command:2",    # the drives share one
+        *(f"sub@{f}:1" for f in drives)}
+
+
+def test_a_container_takes_a_topic_published_elsewhere_once():
+    nodes = graph.run_nodes("nmpc", fast=True)
+    local = graph.local_subscriptions("two", nodes)
+    endpoints = set(graph.lockstep_endpoints(nodes, True, local))
+    # the control process (estimator, nmpc, protection) and the recorder read the plant
+    # process's measurement and frames: one subscription each, whoever reads them there
+    assert "sub@/rig/measurement:2" in endpoints
+    assert {f"sub@{f}:2" for f in FRAMES} <= endpoints
+    assert "sub@/rig/command:2" in endpoints         # the four actuators share one
+    assert local["estimator"] == frozenset()         # the first reader subscribes
+    assert {"/rig/measurement"} <= local["protection"]
+    assert set(FRAMES) - {topics.actuator_frame("choke")} <= local["nmpc"]
 
 
 def test_no_estimator_or_controller_reads_the_truth():

@@ -27,3 +27,22 @@ def test_messages_published_by_a_delivered_callback_are_delivered_too():
     bus.subscribe("/pong", lambda m: got.append(m.data))
     bus.publish("/ping", Float64(data=1.0))
     assert bus.deliver() == 2 and got == [2.0]
+
+
+def test_a_topic_published_elsewhere_is_taken_once_and_handed_to_each_subscriber():
+    bus = LocalBus([])
+    made, got = [], []
+
+    def create(fan_out):                   # stands for the middleware subscription
+        made.append(fan_out)
+        return "subscription"
+
+    assert bus.share("/x", lambda m: got.append(("first", m.data)), create) == "subscription"
+    assert bus.share("/x", lambda m: (got.append(("second", m.data)),
+                                      setattr(m, "data", -1.0)), create) is None
+    assert bus.share("/x", lambda m: got.append(("third", m.data)), create) is None
+    assert len(made) == 1                  # one subscription for the process
+    msg = Float64(data=3.0)
+    made[0](msg)                           # a message taken from the middleware
+    assert got == [("first", 3.0), ("second", 3.0), ("third", 3.0)]   # each its own copy
+    assert msg.data == 3.0 and not bus.pending

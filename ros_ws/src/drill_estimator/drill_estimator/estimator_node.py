@@ -28,6 +28,7 @@ Run: python -m drill_estimator.estimator_node --ros-args -p config_dir:=<dir> -p
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -213,11 +214,11 @@ class EstimatorNode(RigNode):
         self.pub.publish(msg)
 
         stamp_ns = to_ns(measurement.header.stamp)
+        window_nis = float(result.window_nis_per_dof) if result is not None else math.nan
         self.status.values = {
             "nis": msg.nis,
             "nis_dof": float(msg.nis_dof),
-            "nis_window_per_dof": float(np.nan_to_num(result.window_nis_per_dof))
-            if result is not None else 0.0,
+            "nis_window_per_dof": 0.0 if math.isnan(window_nis) else window_nis,
             "rejected": float(ukf.rejected), "rejected_channels": float(ukf.rejected_channels),
             "frozen_samples": float(self.watch.frozen_samples),
             "valve_law_frames": float(self.inputs.valve_law_frames),

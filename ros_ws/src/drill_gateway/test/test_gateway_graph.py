@@ -53,7 +53,7 @@ def test_in_a_split_run_a_gateway_runs_on_the_host_that_asks_for_it(monkeypatch,
     class Started(Exception):
         pass
 
-    def launch(nodes, run_dir, domain_id, layout, here, peers):
+    def launch(nodes, run_dir, domain_id, layout, here, peers, **_):
         started.update(here=here)
         raise Started
 

@@ -36,16 +36,17 @@ class FirstOrderLag:
 
     def advance(self, command: float, step_s: float, steps: int) -> np.ndarray:
         """Outputs at the start of each of ``steps`` steps; the state moves to the frame end."""
-        target = self.limit(command)
+        lo, hi = self.lag.minimum, self.lag.maximum
+        target = clamp(command, lo, hi)
         max_change = self.lag.rate_limit_per_s * step_s
-        keep = np.exp(-step_s / self.lag.time_constant_s)
-        out = np.empty(steps)
-        for i in range(steps):
-            out[i] = self.value
-            change = (target - self.value) * (1.0 - keep)
-            self.value = clamp(self.value + clamp(change, -max_change, max_change),
-                               self.lag.minimum, self.lag.maximum)
-        return out
+        gain = 1.0 - float(np.exp(-step_s / self.lag.time_constant_s))
+        value, out = self.value, []
+        for _ in range(steps):
+            out.append(value)
+            change = min(max((target - value) * gain, -max_change), max_change)
+            value = min(max(value + change, lo), hi)
+        self.value = value
+        return np.array(out)
 
 
 class Watchdog:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drill_core import hydraulics as hy
+from drill_core.compiled import compiled
 from drill_core.config import RigConfig
 from drill_plant.plant_model import (PARAMETER_NAMES, PlantLayout, SteadyState,
                                      build_frame_function, build_outputs_function,
@@ -57,6 +58,8 @@ class PlantSimulator:
                                       config.plant.choke_regularisation_pa)
         self.layout = PlantLayout(self.wm.n)
         self._frame = build_frame_function(self.wm, config)
+        if config.plant.jit:
+            self._frame = compiled([self._frame], "plant_frame")[self._frame.name()]
         self._outputs = build_outputs_function(self.wm)
         # the surface-flow sensors draw from their own stream so the paper's four sensors
         # (and runs recorded before the surface sensors existed) keep their noise

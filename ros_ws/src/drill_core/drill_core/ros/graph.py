@@ -250,12 +250,19 @@ def local_topics(members: list[Node], nodes: list[Node]) -> frozenset[str]:
 
 
 def local_subscriptions(layout: str, nodes: list[Node]) -> dict[str, frozenset[str]]:
-    """Node name -> the topics it takes on its process's local bus, in ``layout``."""
+    """Node name -> the topics it takes on its process's local bus, in ``layout``: the
+    local topics, and each reliable topic published elsewhere that an earlier member also
+    subscribes to (the process takes it once and shares it, drill_core.ros.local_bus)."""
     out = {}
     for _, members in process_groups(layout, nodes):
         if len(members) > 1:
             local = local_topics(members, nodes)
-            out.update({m.name: local & set(m.subscribes) for m in members})
+            taken: set[str] = set()
+            for m in members:
+                shared = {t for t in m.subscribes if t not in local and t in taken
+                          and getattr(BY_TOPIC.get(t), "qos", "") == "reliable"}
+                taken |= set(m.subscribes)
+                out[m.name] = frozenset(local & set(m.subscribes) | shared)
     return out
 
 
@@ -318,18 +325,20 @@ def lockstep_endpoints(nodes: list[Node], fast: bool, local: dict | None = None)
 
 
 def first_publish_matches(node: Node, nodes: list[Node], local: dict | None = None) -> list[str]:
-    """``topic:N`` for each lockstep topic ``node`` publishes in this node set: the
-    subscriptions (in the middleware: not the ``local`` ones) its publisher must have
-    matched before its first message. DDS matches a
-    publisher with a subscription some time after the graph shows both (the plant's
-    ``wait_for``); a first sample published before that is lost to that reader, and the
-    lockstep waits for it forever."""
+    """``topic:N`` for each reliable topic ``node`` publishes in this node set, its status
+    topic included: the subscriptions (in the middleware: not the ``local`` ones, nor
+    ``node``'s own) its publisher must have matched before its first message. DDS matches
+    a publisher with a subscription some time after the graph shows both (the plant's
+    ``wait_for``, the recorder's discovery); a first sample published before that is lost
+    to that reader: the lockstep would wait for it forever, the recording would miss it.
+    Latched topics need no gate: a late reader still gets their last value."""
     out = []
-    for topic in LOCKSTEP_TOPICS:
-        if topic not in node.publishes:
+    others = [n for n in nodes if n is not node]
+    for topic in (*node.publishes, node.status_topic):
+        if topic in BY_TOPIC and BY_TOPIC[topic].qos == "latched":
             continue
-        readers = sum(n.reads_clock for n in nodes) if topic == CLOCK else \
-            _middleware_readers(topic, nodes, local or {})
+        readers = sum(n.reads_clock for n in others) if topic == CLOCK else \
+            _middleware_readers(topic, others, local or {})
         if readers:
             out.append(f"{topic}:{readers}")
     return out

@@ -11,6 +11,13 @@ again, but must not change a published array or nested message in place, the rul
 shared message under rclcpp's intra-process delivery too). The container
 delivers the queue between executor spins, so a callback never runs inside another's
 publish, and every message is taken in the order it was published.
+
+A reliable topic published outside the process that several nodes here subscribe to is
+taken once: the first node's subscription is made in the middleware and hands each
+message to every subscriber here, in the order they subscribed (the others get shallow
+copies, as above). Each take costs the executor a wait-set pass, a DDS take and a
+deserialisation, so this saves one per message and extra subscriber; the graph counts
+one middleware subscription per process for such a topic (graph.local_subscriptions).
 """
 from __future__ import annotations
 
@@ -36,6 +43,7 @@ class LocalBus:
     def __init__(self, local_topics):
         self.local_topics = frozenset(local_topics)
         self._subscribers: dict[str, list] = defaultdict(list)
+        self._shared: dict[str, list] = {}
         self._queue: deque = deque()
 
     def subscribe(self, topic: str, callback) -> bool:
@@ -44,6 +52,22 @@ class LocalBus:
             return False
         self._subscribers[topic].append(callback)
         return True
+
+    def share(self, topic: str, callback, create):
+        """Take ``topic`` (reliable, published elsewhere) with the process's one middleware
+        subscription to it: the first caller's ``create(fan_out)`` makes it and is returned;
+        a later caller's ``callback`` joins it and gets None."""
+        callbacks = self._shared.get(topic)
+        if callbacks is not None:
+            callbacks.append(callback)
+            return None
+        callbacks = self._shared[topic] = [callback]
+
+        def fan_out(msg):
+            callbacks[0](msg)
+            for other in callbacks[1:]:
+                other(_shallow_copy(msg))
+        return create(fan_out)
 
     def publish(self, topic: str, msg) -> None:
         """Queue a shallow copy of ``msg`` for each local subscriber of ``topic``."""

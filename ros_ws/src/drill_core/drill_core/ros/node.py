@@ -11,7 +11,9 @@ entity the rig does not use are therefore left out:
   already refuses to start until every expected endpoint has matched).
 
 In a container, a subscription whose topic only this process publishes takes its messages
-from the process's local bus (drill_core.ros.local_bus) instead of the middleware.
+from the process's local bus (drill_core.ros.local_bus) instead of the middleware, and
+the nodes there that subscribe to one reliable topic published elsewhere share one
+middleware subscription to it.
 
 A node that ends the run (the plant at the scenario's end, the estimator after the last
 sample) calls ``finish``: on its own it shuts its process down; in a container
@@ -30,6 +32,7 @@ import rclpy
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 
+from drill_core.ros import topics
 from drill_core.ros.budget import NodeBudget
 from drill_core.ros.stopping import PROCESS
 
@@ -102,10 +105,17 @@ class RigNode(Node):
         kwargs.setdefault("event_callbacks",
                           SubscriptionEventCallbacks(use_default_callbacks=False))
         bus = CONTAINED["bus"]
-        if bus is not None and bus.subscribe(topic, self._timed(callback)):
+        timed = self._timed(callback)
+        if bus is None:
+            return super().create_subscription(msg_type, topic, timed, *args, **kwargs)
+        if bus.subscribe(topic, timed):
             return None        # every publisher of the topic is in this process
-        return super().create_subscription(msg_type, topic, self._timed(callback), *args,
-                                           **kwargs)
+        qos = kwargs.get("qos_profile", args[0] if args else None)
+        create = super().create_subscription
+        if qos != topics.RELIABLE:     # a latched value must reach each subscriber itself
+            return create(msg_type, topic, timed, *args, **kwargs)
+        return bus.share(topic, timed,
+                         lambda fan_out: create(msg_type, topic, fan_out, *args, **kwargs))
 
     def _timed(self, callback):
         """``callback`` with its calls and time counted in the budget."""

@@ -7,7 +7,11 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from drill_core.events import ACTUATORS  # noqa: F401  (re-exported: the actuator topics)
 
-MATCH_SETTLE_S = 2.0    # discovery precedes endpoint matching: let reliable matches complete
+# Discovery precedes endpoint matching: a pause for reliable matches to complete once the
+# graph shows the endpoints. In fast mode every first message on a reliable topic also
+# waits until its publisher has matched its readers (graph.first_publish_matches), so
+# this only covers a reader that has not yet matched a publisher that matched it.
+MATCH_SETTLE_S = 0.5
 
 MEASUREMENT = "/rig/measurement"        # drill_msgs/RigMeasurement, plant -> estimator, actuators
 TRUTH = "/rig/truth"                    # drill_msgs/PlantTruth, evaluation only
