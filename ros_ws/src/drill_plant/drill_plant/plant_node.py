@@ -48,6 +48,9 @@ class PlantNode(RigNode):
         initial = plant_steady_state(ctx.well_model.n, ctx.operating_point)
         self.sim = PlantSimulator(ctx.config, initial, seed)
         self.layout = PlantLayout(ctx.well_model.n)
+        n = ctx.well_model.n      # the truth message's rows of the state
+        self._pressure_rows = [self.layout.pressure(i) for i in range(1, n + 1)]
+        self._flow_rows = [self.layout.flow(i) for i in range(2, n + 1)]
         self.frame_ns = seconds_to_ns(ctx.config.plant.sensor_period_s)
         self.last_k = int(round(ctx.scenario.duration_s / ctx.config.plant.sensor_period_s))
         self.k = 0
@@ -189,14 +192,14 @@ class PlantNode(RigNode):
         msg.block_position_m = float(t.inputs[0])
         msg.string_position_m = float(x[lay.position])
         msg.string_velocity_mps = float(x[lay.velocity])
-        msg.annulus_pressure_pa = [float(x[lay.pressure(i)]) for i in range(1, n + 1)]
-        msg.annulus_flow_m3s = [t.choke_flow_m3s] + [float(x[lay.flow(i)]) for i in range(2, n + 1)]
+        msg.annulus_pressure_pa = x[self._pressure_rows].tolist()
+        msg.annulus_flow_m3s = [t.choke_flow_m3s] + x[self._flow_rows].tolist()
         msg.string_flow_m3s = float(x[lay.string_flow])
         msg.string_bottom_pressure_pa = float(x[lay.string_pressure])
         msg.bit_flow_m3s = t.bit_flow_m3s
         msg.bhp_pa = float(x[lay.pressure(n)])
         msg.ecd_kgm3 = t.ecd_kgm3
-        msg.annulus_friction_pa = [float(v) for v in t.annulus_friction_pa]
+        msg.annulus_friction_pa = t.annulus_friction_pa.tolist()
         msg.string_friction_pa = t.string_friction_pa
         msg.choke_opening = float(t.inputs[1])
         msg.bpp_flow_m3s = float(t.inputs[2])

@@ -58,9 +58,10 @@ class PlantSimulator:
                                       config.plant.choke_regularisation_pa)
         self.layout = PlantLayout(self.wm.n)
         self._frame = build_frame_function(self.wm, config)
-        if config.plant.jit:
-            self._frame = compiled([self._frame], "plant_frame")[self._frame.name()]
         self._outputs = build_outputs_function(self.wm)
+        if config.plant.jit:
+            built = compiled([self._frame, self._outputs], "plant")
+            self._frame, self._outputs = built[self._frame.name()], built[self._outputs.name()]
         # the surface-flow sensors draw from their own stream so the paper's four sensors
         # (and runs recorded before the surface sensors existed) keep their noise
         process_seed, sensor_seed, surface_seed = np.random.SeedSequence(seed).spawn(3)
