@@ -8,6 +8,7 @@ the rig must do what they say, and the UKF, with the string flow unobservable, m
 its BHP estimate near the truth: the paper's BHP estimate "converges with a constant
 bias", so the estimate is held to a bounded error, not to zero error.
 """
+import math
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ import pytest
 
 from drill_bringup import cli, mcap_io, report
 from drill_core.ros import topics
+from drill_core.scenario import load_scenario_config
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]
 SCENARIO = Path(__file__).resolve().parent / "scenarios" / "estimation_study_short.yaml"
@@ -116,3 +118,13 @@ def test_report_gives_estimator_errors_and_no_tracking_figures(recording):
     assert "n/a (open loop" in report.format_table("estimation", summary)
     assert len(summary["friction_estimate_final_bias_pa"]) == 3          # paths 2..4
     assert summary["string_flow_unobservable_s"] == pytest.approx(180.0, abs=1.0)
+
+
+def test_the_sequencer_sends_no_bhp_reference_and_the_configured_window(recording):
+    path, _ = recording
+    _, config = load_scenario_config(SCENARIO, cli.ROOT / "config")
+    low, high = config.pressure_window_pa
+    for topic in (topics.COMMAND, topics.MACHINE_COMMAND):      # and the protection passes it
+        commands = _messages(path, topic)
+        assert all(math.isnan(m.bhp_ref_pa) for m in commands), topic
+        assert {(m.bhp_window_low_pa, m.bhp_window_high_pa) for m in commands} == {(low, high)}
