@@ -181,7 +181,7 @@ def processes(nodes: list[NodeSpec], layout: str = "separate",
 # The nodes whose processes get a CPU of their own in fast mode: the lockstep's longest
 # chain per sample (estimate, solve, protection) runs there without being preempted by the
 # plant's process or the recorder (Case 2, layout two: 27.4-32.8 s against 29.9-36.0 s
-# wall in three interleaved pairs, docs/benchmarks.md).
+# wall in three interleaved pairs, docs/speed.md).
 CONTROL_CHAIN = frozenset({"estimator", "protection", "driller",
                            *(n.name for n in graph_decl.NODES if n.controller)})
 

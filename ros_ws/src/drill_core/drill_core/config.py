@@ -153,8 +153,9 @@ class Plant:
     active_pit_volume_m3: float = param("m^3", 0.0, 1000.0, doc="mud in the active pit at the start")
     measurement_noise: MeasurementNoise = param()
     surface_sensor_noise: SurfaceSensorNoise = param()
-    jit: bool = param(default=False, doc="compile the frame function to C (cached; needs a C "
-                                         "compiler); same numbers, about 0.6 of the frame time")
+    jit: bool = param(default=False, doc="compile the frame and outputs functions to C "
+                                         "(cached; needs a C compiler); same numbers, about "
+                                         "half the frame time")
 
     def validate(self) -> None:
         ratio = self.sensor_period_s / self.step_s

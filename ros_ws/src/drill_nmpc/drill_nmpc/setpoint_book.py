@@ -7,9 +7,9 @@ validated against the envelope (setpoint_validation) once the BHP target is know
 refusal changes nothing and says why. The process protection's answer narrows the
 envelope's pressure window after a kick or losses, and its BHP target replaces the
 reference when the protection holds the well at it (``follow_protection``). A NaN BHP
-target means "the BHP of the first estimate" and is resolved by the first finite one. Every change and refusal comes back
-as an ``Event`` for the node to publish (drill_msgs/OperatorEvent), and ``changed`` tells
-it to re-publish the latched /setpoints.
+target means "the BHP of the first estimate" and is resolved by the first finite one.
+Every change and refusal comes back as an ``Event`` for the node to publish
+(drill_msgs/OperatorEvent), and ``changed`` tells it to re-publish the latched /setpoints.
 """
 from __future__ import annotations
 

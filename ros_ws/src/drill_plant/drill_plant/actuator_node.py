@@ -119,7 +119,8 @@ class ActuatorNode(RigNode):
         else:
             out = self._frame(0.0 if fault == "trip" else target, measurement, hold=tripped)
         frame = ActuatorFrame(actuator=self.actuator, unit=UNITS[self.actuator],
-                              command=float(out.command), output=np.asarray(out.output, dtype=float).tolist(),
+                              command=float(out.command),
+                              output=np.asarray(out.output, dtype=float).tolist(),
                               sample_period_s=self.step_s, reference=float(out.reference),
                               watchdog_active=tripped, fault=fault)
         frame.header.stamp = measurement.header.stamp

@@ -37,14 +37,14 @@ class FirstOrderLag:
     def advance(self, command: float, step_s: float, steps: int) -> np.ndarray:
         """Outputs at the start of each of ``steps`` steps; the state moves to the frame end."""
         lo, hi = self.lag.minimum, self.lag.maximum
-        target = clamp(command, lo, hi)
+        target = self.limit(command)
         max_change = self.lag.rate_limit_per_s * step_s
         gain = 1.0 - float(np.exp(-step_s / self.lag.time_constant_s))
         value, out = self.value, []
         for _ in range(steps):
             out.append(value)
-            change = min(max((target - value) * gain, -max_change), max_change)
-            value = min(max(value + change, lo), hi)
+            value = clamp(value + clamp((target - value) * gain, -max_change, max_change),
+                          lo, hi)
         self.value = value
         return np.array(out)
 

@@ -64,6 +64,13 @@ TOPICS = (
 BY_TOPIC = {t.name: t for t in TOPICS}
 
 
+def latched(topic: str) -> bool:
+    """Whether ``topic`` is declared latched (a late reader still gets its last value);
+    every other topic, a node's status topic included, is reliable with keep-all."""
+    declared = BY_TOPIC.get(topic)
+    return declared is not None and declared.qos == "latched"
+
+
 @dataclass(frozen=True)
 class Node:
     name: str
@@ -259,8 +266,8 @@ def local_subscriptions(layout: str, nodes: list[Node]) -> dict[str, frozenset[s
             local = local_topics(members, nodes)
             taken: set[str] = set()
             for m in members:
-                shared = {t for t in m.subscribes if t not in local and t in taken
-                          and getattr(BY_TOPIC.get(t), "qos", "") == "reliable"}
+                shared = {t for t in m.subscribes
+                          if t not in local and t in taken and not latched(t)}
                 taken |= set(m.subscribes)
                 out[m.name] = frozenset(local & set(m.subscribes) | shared)
     return out
@@ -335,7 +342,7 @@ def first_publish_matches(node: Node, nodes: list[Node], local: dict | None = No
     out = []
     others = [n for n in nodes if n is not node]
     for topic in (*node.publishes, node.status_topic):
-        if topic in BY_TOPIC and BY_TOPIC[topic].qos == "latched":
+        if latched(topic):
             continue
         readers = sum(n.reads_clock for n in others) if topic == CLOCK else \
             _middleware_readers(topic, others, local or {})
