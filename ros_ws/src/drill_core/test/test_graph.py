@@ -89,3 +89,19 @@ def test_no_estimator_or_controller_reads_the_truth():
 def test_the_documented_topic_table_is_the_declared_one():
     doc = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
     assert graph.markdown_table() in doc, "regenerate it: python -m drill_core.ros.graph"
+
+
+def test_every_reliable_first_message_waits_for_its_readers_but_latched_ones_do_not():
+    nodes = graph.run_nodes("nmpc", fast=True)
+    by_name = {n.name: n for n in nodes}
+    gates = {name: dict(spec.rsplit(":", 1) for spec in
+                        graph.first_publish_matches(n, nodes)) for name, n in by_name.items()}
+    # the plant's lockstep topics and its status (the recorder reads every topic)
+    assert gates["plant"][topics.MEASUREMENT] == "7"
+    assert gates["plant"][topics.status("plant")] == "1"
+    # the NMPC's status and events are gated on the recorder; the latched setpoints are not
+    assert gates["nmpc"][topics.NMPC_STATUS] == "1"
+    assert gates["nmpc"][topics.OPERATOR_EVENTS] == "1"
+    assert topics.SETPOINTS not in gates["nmpc"] and graph.latched(topics.SETPOINTS)
+    # the recorder does not wait for itself to read its own status
+    assert topics.status("recorder") not in gates["recorder"]
