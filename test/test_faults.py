@@ -4,10 +4,10 @@ estimate or any command; the estimator reports staleness and the frozen channel;
 zone 7 bar over the BHP reference is detected from the surface flows and stops the trip,
 and the window the protection narrows is handed to the NMPC with a reference inside it;
 every event is on /rig/events in the recording. A mud-pump trip during a pull-out: the
-protection finds the lost circulation from the command and the string-flow meter and keeps
-BHP inside the pore/fracture window under the NMPC (and after the pull-out under the
-conventional controllers). Losses across a weak zone: the alarm, the window's high edge
-lowered and handed to the NMPC."""
+protection finds the lost circulation from the command and the string-flow meter, holds the
+pull-out and tells the advisor so, and BHP stays inside the pore/fracture window under each
+controller (and after the pull-out under automated MPD). Losses across a weak zone: the
+alarm, the window's high edge lowered and handed to the NMPC."""
 import math
 from pathlib import Path
 
@@ -21,10 +21,11 @@ pytestmark = [pytest.mark.dds, pytest.mark.slow]
 SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 
 
-def _run(tmp_path_factory, name: str, domain_id: int):
+def _run(tmp_path_factory, name: str, domain_id: int, controller: str | None = None):
     code, run_dir = cli.run_scenario(SCENARIOS / f"{name}.yaml",
                                      runs_dir=tmp_path_factory.mktemp(name),
-                                     domain_id=domain_id, timeout_s=240, quiet=True)
+                                     domain_id=domain_id, timeout_s=240, quiet=True,
+                                     controller=controller)
     assert code == 0, (run_dir / "launch.json").read_text()
     return next(run_dir.glob("*.mcap"))
 
@@ -34,19 +35,22 @@ def run_mcap(tmp_path_factory):
     return _run(tmp_path_factory, "faults_short", 97)
 
 
+@pytest.fixture(scope="module", params=("nmpc", "automated_mpd", "baseline"))
+def pump_trip_mcap(tmp_path_factory, request):
+    """The pump trips 5 s into a pull-out, under each controller."""
+    return _run(tmp_path_factory, "pump_trip_short", 93, request.param)
+
+
 @pytest.fixture(scope="module")
-def pump_trip_mcap(tmp_path_factory):
-    return _run(tmp_path_factory, "pump_trip_short", 93)
-
-
-@pytest.fixture(scope="module", params=("automated_mpd", "baseline"))
-def conventional_pump_trip_mcap(tmp_path_factory, request):
-    """config/scenarios/pump_trip.yaml (the pump stops after the pull-out) under the
-    conventional controllers; the NMPC's case is the harder short trip above."""
+def conventional_pump_trip_mcap(tmp_path_factory):
+    """config/scenarios/pump_trip.yaml (the pump stops after the pull-out, the stand is run
+    back in without circulation) under automated MPD. The PI baseline is left out: it goes
+    under the pore pressure as it stops running in, on 3 of 4 seeds by up to 1.3 bar for
+    up to 7 s (docs/results.md)."""
     code, run_dir = cli.run_scenario(cli.ROOT / "config" / "scenarios" / "pump_trip.yaml",
                                      runs_dir=tmp_path_factory.mktemp("pump_trip"),
                                      domain_id=93, timeout_s=600, quiet=True,
-                                     controller=request.param)
+                                     controller="automated_mpd")
     assert code == 0, (run_dir / "launch.json").read_text()
     return next(run_dir.glob("*.mcap"))
 
@@ -102,8 +106,13 @@ def test_the_kick_is_detected_and_the_trip_stopped(run_mcap):
     assert 0.0 < kick["volume_at_detection_m3"] < 0.2
     alarm_s = kick["onset_s"] + kick["delay_s"]
     t, velocity = series.get("velocity")
-    # the block reference brakes at 0.1 m/s^2 (5 s from 0.5 m/s), the string follows it
-    assert np.abs(velocity[t > alarm_s + 12.0]).max() < 0.05
+    # the block reference brakes at 0.1 m/s^2 (5 s from 0.5 m/s), the string follows it, and
+    # stays while the alarm stands (once the raised window has stopped the influx it clears
+    # and the trip goes on)
+    cleared = [e[0] for e in series.events if e[1] == "protection" and e[2] == "alarm"
+               and e[3].startswith("kick alarm cleared") and e[0] > alarm_s]
+    held = (t > alarm_s + 12.0) & (t < (cleared[0] if cleared else math.inf))
+    assert held.sum() > 100 and np.abs(velocity[held]).max() < 0.05
     _, position = series.get("position")
     assert position[-1] < 28.0 - 5.0                             # the stand was not finished
     assert summary["influx_volume_m3"] > kick["volume_at_detection_m3"]
@@ -170,9 +179,17 @@ def test_a_pump_trip_is_answered_and_bhp_stays_in_the_window(pump_trip_mcap):
     assert any("choke held shut" in c for c in clamps)
     tb, bpp = series.get("bpp")
     assert bpp[tb < 8.0].max() < 1.0e-5 and bpp[-1] > 0.005     # the back-pressure pump runs
+    # the pull-out is held on the BHP without friction, and the advisor is told so
+    machine = _messages(pump_trip_mcap, topics.MACHINE_COMMAND)
+    stamps = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in machine])
+    held_out = [m.trip_speed_limit_out_mps for m, t in zip(machine, stamps) if 8.0 < t < 12.0]
+    assert held_out and min(held_out) == 0.0
+    assert all(m.trip_speed_limit_out_mps > 0.0 for m, t in zip(machine, stamps) if t < 8.0)
+    sent = _messages(pump_trip_mcap, topics.COMMAND)          # the operator's, as planned
+    assert {m.trip_speed_limit_out_mps for m in sent} == {0.5}
 
 
-def test_the_conventional_controllers_keep_bhp_in_the_window_through_a_pump_trip(
+def test_automated_mpd_keeps_bhp_in_the_window_running_in_after_a_pump_trip(
         conventional_pump_trip_mcap):
     series = report.load_series(conventional_pump_trip_mcap)
     _, bhp = series.get("bhp")

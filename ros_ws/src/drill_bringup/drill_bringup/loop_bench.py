@@ -40,7 +40,7 @@ from drill_estimator.ukf import RigUkf
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.baseline import Baseline
 from drill_nmpc.inputs import choke_command, choke_input
-from drill_nmpc.setpoint_book import SetpointBook
+from drill_nmpc.setpoint_book import APPLIED_BLOCK_TOLERANCE_M, SetpointBook, within_speed_limits
 from drill_nmpc.setpoint_validation import Envelope
 from drill_nmpc.supervisor import Supervisor
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
@@ -57,8 +57,6 @@ BASELINE_KP_M3S_PER_PA = 5.0e-9     # the baseline node's default gains (30 L/mi
 BASELINE_TI_S = 5.0
 VELOCITY_WINDOW_S = 1.0             # the protection node's block-velocity window
 PORE, FRACTURE = (PARAMETER_NAMES.index(n) for n in ("pore_pressure_pa", "fracture_pressure_pa"))
-CLAMPED_BLOCK_TOLERANCE_M = 1.0e-3  # the nmpc node's: an applied block reference this far off
-                                    # ours was changed by the protection
 
 
 @dataclass
@@ -226,7 +224,7 @@ class NmpcController:
             self.u = self.sup.safe_input([x_hat[0], *self.initial])
         frame = self.rig.block_frame if self.block_integral else None
         if frame is not None and math.isfinite(frame.reference) \
-                and abs(frame.reference - self.u[0]) > CLAMPED_BLOCK_TOLERANCE_M:
+                and abs(frame.reference - self.u[0]) > APPLIED_BLOCK_TOLERANCE_M:
             self.u = self.u.copy()
             self.u[0] = frame.reference
         if sp.mud_pump_on and not flow_observable:
@@ -266,6 +264,8 @@ class Protection:
         self.window = WindowResponse(config.protection.well_control, config.pressure_window_pa)
         self.flow_threshold_m3s = config.protection.kick_detection.flow_threshold_m3s
         self.answer = None          # (window Pa, BHP reference in force Pa, the advisor's Pa)
+        self.speed_limits_mps = (math.nan, math.nan)     # of the last answer (running in,
+        self.applied_block_m = math.nan                  # pulling out) and its block reference
 
     def measurement(self, m, t: float) -> None:
         reading = self.detector.update(FlowSample(
@@ -304,6 +304,8 @@ class Protection:
             advisor_bhp_ref_pa=sp.bhp_ref_pa)
         self.clamps += [(t, text) for text in d.clamps]
         self.answer = (self.protection.window_pa, d.bhp_ref_pa, sp.bhp_ref_pa)
+        self.speed_limits_mps = d.standing_speed_limits_mps
+        self.applied_block_m = float(d.command[0])
         dp = d.choke_dp_setpoint
         c = d.command
         return Command(float(c[0]), float(c[1]), float(c[2]), float(c[3]),
@@ -355,15 +357,21 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
             book.advance(t)
             book.resolve_bhp(view.bhp_pa)
             sp = book.active
+            plan = sp if guard is None else \
+                within_speed_limits(sp, guard.speed_limits_mps, view.string_position_m)
             if nmpc is not None:
-                cmd = nmpc.step(x_hat, sp, inputs, t, bool(m.string_flow_valid))
+                cmd = nmpc.step(x_hat, plan, inputs, t, bool(m.string_flow_valid))
             elif baseline is not None:
+                if guard is not None:
+                    baseline.adopt_applied(guard.applied_block_m)
                 baseline.step(m.block_position_m, m.bhp_pa, sp.block_position_target_m,
                               sp.bhp_ref_pa, sp.controller_enabled)
                 cmd = Command(baseline.block_ref_m, baseline.choke_ref_m3s,
                               float(scenario.initial.bpp_flow_m3s), spp, stamp_s=t)
             else:
-                c = mpd.step(view, sp, sp.bhp_ref_pa)
+                if guard is not None:
+                    mpd.adopt_applied(guard.applied_block_m)
+                c = mpd.step(view, plan, sp.bhp_ref_pa)
                 cmd = Command(c.block_position_ref_m, c.choke_flow_feedforward_m3s,
                               c.bpp_flow_m3s, c.spp_pa, c.choke_dp_ref_pa,
                               c.choke_dp_ref_rate_pa_s, t)

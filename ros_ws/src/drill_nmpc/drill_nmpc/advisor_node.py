@@ -7,8 +7,9 @@ A sample runs once its inputs are in: the subclass's own (``inputs_ready``) and,
 mode, the protection's machine command answering this advisor's last command. That
 answer carries the BHP window and reference in force; when a kick or losses answer
 narrowed the window past the advisor's reference, the book takes the protection's target
-(drill_protection.well_control) before the sample's schedule entries. Realtime: the
-latest machine command."""
+(drill_protection.well_control) before the sample's schedule entries; its trip-speed
+limits and the block reference it applied are kept for the subclass to plan with
+(``speed_limits_mps``, ``applied_block_m``). Realtime: the latest machine command."""
 from __future__ import annotations
 
 from collections import deque
@@ -46,6 +47,10 @@ class AdvisorNode(RigNode):
                                                      # commands, by stamp
         self.machine: dict[int, RigCommand] = {}     # the protection's commands by stamp
         self.pending: deque = deque()     # (input, stamp) of the samples waiting, in order
+        # from the protection's last answer: its trip-speed limits running in and pulling
+        # out [m/s] and the block reference it applied [m] (NaN: no answer yet)
+        self.speed_limits_mps = (float("nan"), float("nan"))
+        self.applied_block_m = float("nan")
         self.create_subscription(RigCommand, topics.MACHINE_COMMAND, self._on_machine_command,
                                  topics.RELIABLE)
 
@@ -80,6 +85,9 @@ class AdvisorNode(RigNode):
             sent = self.sent_bhp_ref_pa.get(to_ns(answer.header.stamp), answer.bhp_ref_pa)
             self.publish_events(self.book.follow_protection(window, answer.bhp_ref_pa, sent),
                                 stamp, "protection")
+            self.speed_limits_mps = (answer.trip_speed_limit_in_mps,
+                                     answer.trip_speed_limit_out_mps)
+            self.applied_block_m = answer.block_position_ref_m
         self.act(msg, stamp)
         return True
 
@@ -117,12 +125,15 @@ class AdvisorNode(RigNode):
             self.book.changed = False
 
     def publish_command(self, cmd: RigCommand, stamp_ns: int) -> None:
-        """``cmd`` stamped ``stamp_ns`` with the book's BHP reference (NaN until resolved)
-        and the window it keeps to."""
+        """``cmd`` stamped ``stamp_ns`` with the book's BHP reference (NaN until resolved),
+        the window it keeps to and its trip-speed limit (the protection takes the operator's
+        limit from the command it limits, the same in every run)."""
         cmd.header.stamp = from_ns(stamp_ns)
         cmd.bhp_ref_pa = float(self.book.active.bhp_ref_pa) if self.book.bhp_resolved \
             else float("nan")
         cmd.bhp_window_low_pa, cmd.bhp_window_high_pa = self.book.window_pa
+        cmd.trip_speed_limit_in_mps = cmd.trip_speed_limit_out_mps = \
+            float(self.book.active.trip_speed_limit_mps)
         self.cmd_pub.publish(cmd)
         self.sent_bhp_ref_pa[stamp_ns] = cmd.bhp_ref_pa
         for old in sorted(self.sent_bhp_ref_pa)[:-SENT_KEPT]:

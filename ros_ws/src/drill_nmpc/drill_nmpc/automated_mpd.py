@@ -30,6 +30,7 @@ from drill_core.estimation_model import EstimationModel
 from drill_core.scenario import ActiveSetpoints
 from drill_core.surge_swab import SurgeSwabModel
 from drill_nmpc.motion_profile import MotionProfile
+from drill_nmpc.setpoint_book import APPLIED_BLOCK_TOLERANCE_M
 
 
 @dataclass(frozen=True)
@@ -76,6 +77,7 @@ class AutomatedMpd:
         self.string_speed_mps = 0.0     # the plan's string speed at this sample (lagged reference)
         self.bit_flow_m3s = math.nan    # low-passed bit flow of the estimates
         self.trim_pa = 0.0
+        self.applied_block_m = math.nan  # the block reference the protection applied last
 
     def string_speeds(self, reference_speeds: list[float], offsets_s) -> list[float]:
         """The string speed the plan gives at ``offsets_s`` after this sample: the reference
@@ -110,6 +112,18 @@ class AutomatedMpd:
             last = outside[0] if outside.size else grid.size     # speeds before the first miss
             limits.append(float(grid[last - 1]) if last > 0 else 0.0)
         return limits[0], limits[1]
+
+    def adopt_applied(self, applied_block_m: float) -> None:
+        """Go on from the block reference the process protection applied to the last
+        command [m] when it changed ours (a held or slowed trip): the profile continues
+        from there at the applied speed, instead of running ahead of the string and
+        braking too late once the protection lets it go."""
+        previous, self.applied_block_m = self.applied_block_m, applied_block_m
+        if self.profile is None or not math.isfinite(applied_block_m) \
+                or abs(applied_block_m - self.profile.position_m) <= APPLIED_BLOCK_TOLERANCE_M:
+            return
+        speed = (applied_block_m - previous) / self.sample_s if math.isfinite(previous) else 0.0
+        self.profile.position_m, self.profile.speed_mps = applied_block_m, speed
 
     def step(self, est: EstimateView, sp: ActiveSetpoints, bhp_ref_pa: float) -> MpdCommand:
         """One sample from the estimate and the setpoints in force."""

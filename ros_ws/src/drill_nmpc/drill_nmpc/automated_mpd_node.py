@@ -31,6 +31,7 @@ from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_nmpc.advisor_node import AdvisorNode
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
+from drill_nmpc.setpoint_book import within_speed_limits
 
 
 class AutomatedMpdNode(AdvisorNode):
@@ -68,7 +69,9 @@ class AutomatedMpdNode(AdvisorNode):
             self.status.error(f"estimate at {stamp * 1e-9:.3f} s is not finite: last command held")
             self.publish_command(self.held, stamp)   # the fast-mode lockstep waits for a command
             return
-        c = self.controller.step(view, sp, sp.bhp_ref_pa)
+        self.controller.adopt_applied(self.applied_block_m)
+        c = self.controller.step(view, within_speed_limits(sp, self.speed_limits_mps,
+                                                           view.string_position_m), sp.bhp_ref_pa)
         self.held = RigCommand(block_position_ref_m=c.block_position_ref_m,
                                choke_flow_ref_m3s=c.choke_flow_feedforward_m3s,
                                bpp_flow_m3s=c.bpp_flow_m3s, spp_pa=c.spp_pa,

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import math
 
+from drill_nmpc.setpoint_book import APPLIED_BLOCK_TOLERANCE_M
+
 
 class BaselinePi:
     """PI choke-flow controller on the BHP error, positional form with anti-windup."""
@@ -37,6 +39,14 @@ class Baseline:
         self.speed_mps, self.ts = trip_speed_mps, sample_time_s
         self.block_ref_m: float | None = None
         self.choke_ref_m3s = q0_m3s
+
+    def adopt_applied(self, applied_block_m: float) -> None:
+        """Ramp on from the block reference the process protection applied to the last
+        command [m] when it changed ours (a held or slowed trip), not from ours: a ramp run
+        ahead of the string makes it overshoot the target once the protection lets go."""
+        if self.block_ref_m is not None and math.isfinite(applied_block_m) \
+                and abs(applied_block_m - self.block_ref_m) > APPLIED_BLOCK_TOLERANCE_M:
+            self.block_ref_m = applied_block_m
 
     def step(self, position_m: float, bhp_pa: float, target_m: float, bhp_ref_pa: float | None,
              enabled: bool = True) -> bool:

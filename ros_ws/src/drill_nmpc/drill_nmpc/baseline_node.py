@@ -65,6 +65,7 @@ class BaselineNode(AdvisorNode):
         sp = self.book.active
         bhp_ref = sp.bhp_ref_pa if self.book.bhp_resolved else None
         c = self.controller
+        c.adopt_applied(self.applied_block_m)
         if not c.step(position, bhp, sp.block_position_target_m, bhp_ref, sp.controller_enabled):
             self.status.error(f"measurement at {stamp * 1e-9:.3f} s without a finite BHP: "
                               "choke reference held")

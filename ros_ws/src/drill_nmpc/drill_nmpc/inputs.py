@@ -56,9 +56,13 @@ class ChokeCommand:
 def choke_command(cfg: Nmpc, result: "SolveResult", fallback_flow_m3s: float) -> ChokeCommand:
     """What the choke is told for a supervisor result: on the pressure loop u[1] is the
     set-point, ramped toward the next planned one, with the predicted choke flow (the
-    operating point's ``fallback_flow_m3s`` before any solve predicted one) as feedforward."""
+    operating point's ``fallback_flow_m3s`` before any solve predicted one) as feedforward.
+    On a hold the choke on its flow loop goes to its pressure loop at the held choke dp
+    (the held flow reference its feedforward) until a solve succeeds again."""
     u = np.asarray(result.u, dtype=float)
     if cfg.choke_control != "pressure":
+        if result.fallback == "hold" and math.isfinite(result.hold_choke_dp_pa):
+            return ChokeCommand(True, float(u[1]), float(result.hold_choke_dp_pa), 0.0)
         return ChokeCommand(False, float(u[1]), 0.0, 0.0)
     plan = np.asarray(result.planned_inputs, dtype=float).reshape(-1, 4)
     rate = float(plan[1, 1] - u[1]) / cfg.sample_time_s if plan.shape[0] > 1 else 0.0

@@ -47,11 +47,10 @@ from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_nmpc.advisor_node import AdvisorNode
 from drill_nmpc.inputs import choke_command, choke_input
+from drill_nmpc.setpoint_book import APPLIED_BLOCK_TOLERANCE_M, within_speed_limits
 from drill_nmpc.setpoint_messages import merge_request, to_msg
 from drill_nmpc.soft_constraints import SLACK_NAMES
 from drill_nmpc.supervisor import SolveResult, Supervisor
-
-CLAMPED_BLOCK_TOLERANCE_M = 1.0e-3   # applied block reference this far from ours: it was changed
 
 
 class NmpcNode(AdvisorNode):
@@ -196,9 +195,10 @@ class NmpcNode(AdvisorNode):
         self._publish(stamp, result)
 
     def _plan_setpoints(self, msg: StateEstimate):
-        """The setpoints to plan with: the mud pump off while the rig says it delivers
-        nothing (a tripped pump: the string flow meter has no reading) though it is on."""
-        active = self.book.active
+        """The setpoints to plan with: within the protection's trip-speed limits, and the
+        mud pump off while the rig says it delivers nothing (a tripped pump: the string
+        flow meter has no reading) though it is on."""
+        active = within_speed_limits(self.book.active, self.speed_limits_mps, float(msg.mean[0]))
         if active.mud_pump_on and not msg.string_flow_observable:
             return dataclasses.replace(active, mud_pump_on=False)
         return active
@@ -208,7 +208,7 @@ class NmpcNode(AdvisorNode):
         changed ours (a trip held on an alarm, a clamp), not from the one we sent."""
         applied = (actuators or {}).get("block_reference_m")
         if applied is not None and math.isfinite(applied) \
-                and abs(applied - self.u_prev[0]) > CLAMPED_BLOCK_TOLERANCE_M:
+                and abs(applied - self.u_prev[0]) > APPLIED_BLOCK_TOLERANCE_M:
             self.u_prev = self.u_prev.copy()
             self.u_prev[0] = applied
 

@@ -56,7 +56,8 @@ class SequencerNode(RigNode):
                          spp_pa=c.spp_pa, mud_pump_on=c.mud_pump_on, choke_manual=c.choke_manual,
                          choke_opening_ref=c.choke_opening if c.choke_manual else 0.0,
                          bhp_ref_pa=math.nan, bhp_window_low_pa=low, bhp_window_high_pa=high,
-                         source="sequencer")          # open loop: no BHP reference
+                         trip_speed_limit_in_mps=math.nan, trip_speed_limit_out_mps=math.nan,
+                         source="sequencer")          # open loop: no BHP reference or limit
         cmd.header.stamp = from_ns(stamp)
         self.pub.publish(cmd)
         self.status.mode = f"{self.ctx.mode}/open_loop"

@@ -10,6 +10,8 @@ reference when the protection holds the well at it (``follow_protection``). A Na
 target means "the BHP of the first estimate" and is resolved by the first finite one.
 Every change and refusal comes back as an ``Event`` for the node to publish
 (drill_msgs/OperatorEvent), and ``changed`` tells it to re-publish the latched /setpoints.
+An advisor plans each sample within the protection's trip-speed limits as well
+(``within_speed_limits``: a copy for the plan, the book's setpoints stay the operator's).
 """
 from __future__ import annotations
 
@@ -26,6 +28,28 @@ class Event:
     kind: str          # "setpoint" (accepted) or "refusal"
     text: str
     accepted: bool
+
+
+APPLIED_BLOCK_TOLERANCE_M = 1.0e-3  # the protection's applied block reference this far from
+                                    # the advisor's: the protection changed it
+HELD_TRIP_PLAN_SPEED_MPS = 1.0e-3  # a held trip (limit 0) is planned at this speed: a
+                                   # setpoint limit of 0 would read as none
+
+
+def within_speed_limits(sp: ActiveSetpoints, limits_mps: tuple[float, float],
+                        position_m: float) -> ActiveSetpoints:
+    """The setpoints to plan a sample with: the trip-speed limit the smaller of the
+    operator's and the protection's standing limit (running in, pulling out [m/s], from its
+    answer to the last command: 0 for a held trip, the pull-out limit while circulation is
+    lost; NaN: none) in the direction of the block target from ``position_m`` (the
+    string's, positive up)."""
+    limit = limits_mps[1] if sp.block_position_target_m >= position_m else limits_mps[0]
+    if not math.isfinite(limit):
+        return sp
+    operator = sp.trip_speed_limit_mps
+    if math.isfinite(operator) and 0.0 < operator <= limit:
+        return sp
+    return dataclasses.replace(sp, trip_speed_limit_mps=max(limit, HELD_TRIP_PLAN_SPEED_MPS))
 
 
 def describe(sp: ActiveSetpoints) -> str:

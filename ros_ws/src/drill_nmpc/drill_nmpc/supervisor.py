@@ -22,6 +22,7 @@ import numpy as np
 from drill_core.config import Nmpc, RigConfig
 from drill_core.estimation_model import EstimationModel, friction_flow_gain_bound
 from drill_core.scenario import ActiveSetpoints
+from drill_core.surge_swab import SurgeSwabModel
 from drill_nmpc.motion_profile import MotionProfile
 from drill_nmpc.prediction_model import (ACTUATOR_KEYS, ActuatorLags, full_state, outputs,
                                          string_pressure_margin)
@@ -51,6 +52,8 @@ class SolveResult:
     integral: np.ndarray = field(default_factory=lambda: np.zeros(0))             # NMPC1 e_0 [span s]
     configuration: str = ""
     choke_flow_m3s: float = float("nan")   # predicted choke flow under u at t_k (pressure-loop feedforward)
+    hold_choke_dp_pa: float = float("nan")  # on a hold: the choke dp to hold on the choke's pressure
+                                            # loop (the estimate's when the holds began) [Pa]
 
 
 
@@ -111,6 +114,9 @@ class Supervisor:
         self.bhp_bias = 0.0                            # model's BHP offset (bhp_bias_gain > 0) [Pa]
         self.choke_flow_m3s = math.nan                 # the last solve's choke flow (held with its input)
         self._predicted_bhp: float | None = None       # the last solve's BHP prediction for now [Pa]
+        self.surge = SurgeSwabModel(self.em)
+        self._rest_choke_dp = math.nan                 # this sample's dp for the BHP reference at rest [Pa]
+        self._held_choke_dp = math.nan                 # the choke dp held since the holds began [Pa]
 
     # -- helpers ------------------------------------------------------------------------
     def reset(self) -> None:
@@ -123,6 +129,7 @@ class Supervisor:
         self._profile = None
         self.bhp_bias = 0.0
         self._predicted_bhp = None
+        self._held_choke_dp = math.nan
 
     def safe_input(self, u_prev) -> np.ndarray:
         """u_{-1} made finite and clipped into the input bounds."""
@@ -310,6 +317,7 @@ class Supervisor:
         y_ref = np.array([self.alpha ** j * y_now + (1.0 - self.alpha ** j) * y_sp
                           for j in range(pb.N + 1)])
         vlim, bhp_band, dp_band = self.levels(setpoints, y_sp)
+        self._rest_choke_dp = self.rest_choke_dp(x, par, y_sp[2], pump_on, dp_band)
         if self.cfg.block_reference == "profile":
             y_ref[:, 0] = self.block_profile(float(x[self.em.position]), float(y_sp[0]), vlim)
         if pb.ne:
@@ -383,6 +391,7 @@ class Supervisor:
             result = self._result(u, "relaxed" if relaxed else "none", sol, t0, par, X, U, slacks,
                                   y_ref, converged)
             self.choke_flow_m3s = result.choke_flow_m3s = float(self.model.choke_flow(x0, u))
+            self._held_choke_dp = math.nan
             if clamped:
                 result.status = f"{result.status}; {clamped}"
             if reasons:
@@ -402,8 +411,25 @@ class Supervisor:
         self._applied = None
         return self._hold(self.safe_input(u_prev), status, time.perf_counter())
 
+    def rest_choke_dp(self, x, par, bhp_ref_pa: float, pump_on: bool, dp_band) -> float:
+        """The steady choke dp [Pa] that holds ``bhp_ref_pa`` with the string at rest at
+        the estimated circulation (none with the pump off) and friction parameters
+        ``par``, inside ``dp_band``: what the choke holds while the supervisor falls back."""
+        flow = float(x[self.em.string_flow]) if pump_on else 0.0
+        dp = float(self.surge.choke_dp_for_bhp(bhp_ref_pa, par[:self.em.n - 1], flow, 0.0,
+                                               self.em.wm.well.choke_downstream_pressure_pa))
+        return min(max(dp, dp_band[0]), dp_band[1]) if math.isfinite(dp) else math.nan
+
     def _hold(self, u_prev, status: str, t0: float, iterations: int = -1) -> SolveResult:
+        """The last input held (the block reference braked within the acceleration limit)
+        and the choke dp to hold meanwhile, fixed when this run of holds began: the steady
+        dp that holds the BHP reference with the string at rest (``rest_choke_dp``). A
+        held choke flow would let the pressure run away against the back-pressure pump
+        without circulation; the dp of the moment would keep a surge's friction that goes
+        as the string stops."""
         self.fallback_count += 1
+        if not math.isfinite(self._held_choke_dp):
+            self._held_choke_dp = self._rest_choke_dp
         u = u_prev.copy()
         if self.acceleration and self._speed:      # brake the block reference, within the limit
             v = math.copysign(max(abs(self._speed) - self.acceleration * self.problem.ts, 0.0),
@@ -415,7 +441,7 @@ class Supervisor:
                            slacks={n: float("nan") for n in SLACK_NAMES},
                            planned_inputs=np.tile(u, (self.problem.N, 1)),
                            integral=self.integral.copy(), configuration=self.configuration,
-                           choke_flow_m3s=self.choke_flow_m3s)
+                           choke_flow_m3s=self.choke_flow_m3s, hold_choke_dp_pa=self._held_choke_dp)
 
     def _result(self, u, fallback, sol, t0, par, X, U, slacks, y_ref, converged) -> SolveResult:
         pb, em, model = self.problem, self.em, self.model

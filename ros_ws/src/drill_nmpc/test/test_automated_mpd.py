@@ -12,6 +12,7 @@ from drill_core.scenario import ActiveSetpoints
 from drill_core.surge_swab import SurgeSwabModel
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.motion_profile import MotionProfile
+from drill_nmpc.setpoint_book import HELD_TRIP_PLAN_SPEED_MPS, within_speed_limits
 
 CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
 FLOW = 1000.0 / 60000.0
@@ -130,3 +131,42 @@ def test_manual_hands_the_string_back_where_it_is(rig, em):
     sp = dataclasses.replace(_setpoints(target=28.0), controller_enabled=False)
     c = mpd.step(_estimate(em, 6.85e7, position=3.2), sp, 6.85e7)
     assert c.block_position_ref_m == 3.2
+
+
+def test_the_plan_goes_on_from_the_block_reference_the_protection_applied(rig, em):
+    """A held trip: the profile continues from the applied reference at the applied speed,
+    instead of running on ahead of the string (it then overshot the target once let go)."""
+    mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
+    sp = _setpoints(target=8.0, upper=6.63e7)
+    sent = []
+    for _ in range(6):
+        mpd.adopt_applied(sent[-1] if sent else math.nan)    # the protection passes ours
+        sent.append(mpd.step(_estimate(em, 6.85e7), sp, 6.85e7).block_position_ref_m)
+    assert sent[-1] > sent[-2] > 0.0
+    held = sent[-2]                                           # it held the last one back
+    mpd.adopt_applied(held)
+    assert mpd.profile.position_m == held and mpd.profile.speed_mps == 0.0
+    ahead = mpd.step(_estimate(em, 6.85e7), sp, 6.85e7).block_position_ref_m
+    assert held < ahead <= held + mpd.acceleration * mpd.sample_s ** 2 + 1e-12   # from rest
+    for _ in range(200):
+        mpd.adopt_applied(mpd.profile.position_m)
+        last = mpd.step(_estimate(em, 6.85e7), sp, 6.85e7).block_position_ref_m
+    assert last == 8.0                                        # on target, not past it
+
+
+def test_the_plan_keeps_to_the_protections_standing_trip_speed_limits(rig, em):
+    """within_speed_limits: the smaller of the operator's limit and the protection's standing
+    limit the trip heads into; a held trip (0) is planned at a crawl, none (NaN) changes
+    nothing; the book's setpoints stay the operator's."""
+    sp = _setpoints(target=8.0)
+    assert within_speed_limits(sp, (math.nan, math.nan), 0.0) is sp
+    assert within_speed_limits(sp, (0.0, 0.6), 0.0) is sp            # pulling out: 0.5 stands
+    assert within_speed_limits(sp, (0.6, 0.2), 0.0).trip_speed_limit_mps == 0.2
+    held = within_speed_limits(sp, (0.5, 0.0), 0.0)
+    assert held.trip_speed_limit_mps == HELD_TRIP_PLAN_SPEED_MPS
+    assert within_speed_limits(sp, (0.0, 0.5), 10.0).trip_speed_limit_mps == HELD_TRIP_PLAN_SPEED_MPS
+    assert sp.trip_speed_limit_mps == 0.5
+    mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
+    for _ in range(10):
+        c = mpd.step(_estimate(em, 6.85e7), held, 6.85e7)
+    assert c.block_position_ref_m <= 10 * HELD_TRIP_PLAN_SPEED_MPS + 1e-12

@@ -37,3 +37,18 @@ def test_the_integral_stops_at_the_range():
     assert b.choke_ref_m3s == 0.0
     b.step(0.0, 6.85e7, 0.0, 6.85e7)                        # on the reference again
     assert b.choke_ref_m3s > 0.0                            # no wound-up integral holds it shut
+
+
+def test_the_ramp_goes_on_from_the_reference_the_protection_applied():
+    b = Baseline(Q0, KP, TI, Q_MAX, trip_speed_mps=0.5, sample_time_s=1.0)
+    for _ in range(4):
+        b.step(0.0, 6.85e7, 8.0, 6.85e7)
+    assert b.block_ref_m == pytest.approx(2.0)
+    b.adopt_applied(2.0 + 0.5e-3)           # the protection's echo of ours: nothing changes
+    assert b.block_ref_m == pytest.approx(2.0)
+    b.adopt_applied(1.2)                    # it held the trip at 1.2 m: the ramp goes on from there
+    b.step(0.0, 6.85e7, 8.0, 6.85e7)
+    assert b.block_ref_m == pytest.approx(1.7)
+    b.adopt_applied(math.nan)               # no answer: our own ramp
+    b.step(0.0, 6.85e7, 8.0, 6.85e7)
+    assert b.block_ref_m == pytest.approx(2.2)

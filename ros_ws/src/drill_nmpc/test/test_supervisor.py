@@ -18,7 +18,7 @@ from drill_core.estimation_model import build_estimation_model
 from drill_core.scenario import ActiveSetpoints, Initial
 from drill_nmpc.bench import (ModelPlant, closed_loop, steady_estimate, supervisor_input,
                               trip_setpoints)
-from drill_nmpc.inputs import input_arrays
+from drill_nmpc.inputs import choke_command, input_arrays
 from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
                                          outputs)
 from drill_nmpc.soft_constraints import SLACK_NAMES
@@ -229,6 +229,39 @@ def test_fallback_policy_relaxed_then_hold(config, em, supervisor, monkeypatch):
     r = supervisor.step(x, sp, u)
     assert r.fallback == "hold" and not r.success
     assert np.all(np.isfinite(r.u))
+
+
+def test_a_hold_puts_the_choke_on_its_pressure_loop_at_the_dp_for_the_reference_at_rest(
+        config, em, supervisor, monkeypatch):
+    """Holding a choke flow reference with the pump off lets the pressure run away against
+    the back-pressure pump: a run of holds holds, on the choke's pressure loop, the steady dp
+    that puts BHP at the reference with the string at rest and no circulation - the BHP
+    less the mud column (1800 kg/m^3 over 3607.8 m: 637.07 bar) - fixed when the run
+    began; a solve ends it."""
+    x, u = _steady(config, em)
+    real = supervisor.problem.solve
+
+    def always_nan(*args, **kwargs):
+        sol = real(*args, **kwargs)
+        sol["z"] = sol["z"] * math.nan
+        return sol
+
+    supervisor.reset()
+    off = dataclasses.replace(trip_setpoints(0.0, 0.0, 0.0, 6.85e7), mud_pump_on=False,
+                              choke_dp_band_upper_pa=6.63e7)
+    monkeypatch.setattr(supervisor.problem, "solve", always_nan)
+    r = supervisor.step(x, off, u)
+    assert r.fallback == "hold"
+    assert r.hold_choke_dp_pa == pytest.approx(6.85e7 - 637.07e5, abs=0.01e5)
+    choke = choke_command(config.nmpc, r, 0.01)
+    assert choke.pressure_control and choke.dp_ref_pa == r.hold_choke_dp_pa
+    assert choke.dp_ref_rate_pa_s == 0.0 and choke.flow_m3s == r.u[1]   # its feed-forward
+    again = supervisor.step(x, dataclasses.replace(off, bhp_ref_pa=6.8e7), u)
+    assert again.hold_choke_dp_pa == r.hold_choke_dp_pa                # fixed over the run
+    monkeypatch.setattr(supervisor.problem, "solve", real)
+    solved = supervisor.step(x, trip_setpoints(0.0, 0.0, 100.0, float(outputs(em, x)[2])), u)
+    assert solved.fallback != "hold" and math.isnan(solved.hold_choke_dp_pa)
+    assert not choke_command(config.nmpc, solved, 0.01).pressure_control
 
 
 def test_an_unusable_warm_start_is_rolled_out_again_before_any_fallback(config, em, supervisor,

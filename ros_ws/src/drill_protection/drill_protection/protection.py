@@ -56,6 +56,21 @@ class Decision:
                                                           # its ramp Pa/s); None: not in force
     bhp_ref_pa: float = float("nan")    # the BHP reference in force: the advisor's, or the
                                         # well-control target while the protection holds [Pa]
+    standing_speed_limits_mps: tuple[float, float] = (float("inf"), float("inf"))
+                                        # the standing part of trip_speed_limits_mps
+                                        # (SpeedLimits.standing_mps): the advisors plan within it
+
+
+@dataclass(frozen=True)
+class SpeedLimits:
+    """The protection's trip-speed limits at one command [m/s], each with its reason."""
+    running_in: tuple[float, str]
+    pulling_out: tuple[float, str]
+    standing_mps: tuple[float, float]   # (running in, pulling out): the limits that last -
+                                        # the operator's and machine cap, 0 for a trip held on
+                                        # an alarm, the pull-out limit while circulation is
+                                        # lost - not the surge/swab clamp of each BHP reading
+                                        # nor the hold for a reading without a BHP
 
 
 def surge_swab_pa(wm: hy.WellModel, speeds_mps: np.ndarray, circulation_m3s: float) -> np.ndarray:
@@ -94,44 +109,55 @@ class ProcessProtection:
         self.slew = np.array(n.input_slew.as_tuple())
 
     def speed_limits(self, bhp_pa: float, string_velocity_mps: float, circulation_m3s: float,
-                     operator_limit_mps: float) -> tuple[tuple[float, str], tuple[float, str]]:
-        """Allowed trip speed [m/s] running in and pulling out, each with the limit that set it.
+                     operator_limit_mps: float, friction_free_bhp_pa: float = float("nan")
+                     ) -> SpeedLimits:
+        """Allowed trip speed [m/s] running in and pulling out, each with the limit that set
+        it, and the standing part of them.
 
         The measured BHP is first referred back to the string at rest with the model at
         the measured string velocity, then the model predicts BHP at each candidate speed.
+        While circulation is lost, the pull-out side also starts from
+        ``friction_free_bhp_pa`` (the BHP once the winding-down pump's friction is gone:
+        drill_protection.pump_trip), so the string is not pulled on friction that is going;
+        that limit stands until the choke has made the friction good, as a held trip and
+        the operator's and machine limits do (``SpeedLimits.standing_mps``).
         """
         p = self.config.protection
         if self.trip_hold:
             held = (0.0, self.trip_hold)
-            return held, held
-        if not (np.isfinite(bhp_pa) and np.isfinite(string_velocity_mps)):
-            held = (0.0, "no finite BHP or string-speed measurement: trip held")
-            return held, held
+            return SpeedLimits(held, held, (0.0, 0.0))
         machine = min(p.trip_speed_max_mps, self.config.actuators.drawworks.rate_limit_per_s)
         cap, cap_reason = (operator_limit_mps, "operator trip-speed limit") \
             if operator_limit_mps < machine else (machine, "drawworks machine limit")
+        if not (np.isfinite(bhp_pa) and np.isfinite(string_velocity_mps)):
+            held = (0.0, "no finite BHP or string-speed measurement: trip held")
+            return SpeedLimits(held, held, (float(cap), float(cap)))   # held for this reading
         grid = np.linspace(0.0, cap, _SPEED_GRID_POINTS)
         # one model evaluation: the measured speed, then the grid running in and pulling out
         change = surge_swab_pa(self.wm, np.concatenate([[string_velocity_mps], -grid, grid]),
                                circulation_m3s)
         static_bhp = bhp_pa - change[0]
         low, high = self.window_pa
+        surge, swab = change[1:1 + grid.size], change[1 + grid.size:]
 
-        def outside(bhp):
-            return np.maximum(low - bhp, 0.0) + np.maximum(bhp - high, 0.0)
-
-        limits = []
-        for part, word in ((change[1:1 + grid.size], "surge"), (change[1 + grid.size:], "swab")):
-            bhp = static_bhp + part
+        def allowed(part, start: float, word: str) -> tuple[float, str]:
+            bhp = start + part
             # a speed is acceptable if it keeps BHP in the window or moves it toward the window
-            ok = outside(bhp) <= outside(np.array([static_bhp]))[0]
+            outside = np.maximum(low - bhp, 0.0) + np.maximum(bhp - high, 0.0)
+            ok = outside <= max(low - start, 0.0) + max(start - high, 0.0)
             if ok.all():
-                limits.append((float(cap), f"{cap_reason} {cap:.2f} m/s"))
-            else:
-                allowed = float(grid[max(int(np.argmin(ok)) - 1, 0)])
-                limits.append((allowed, f"{word} model keeps BHP inside {low / 1e5:.1f}-"
-                                        f"{high / 1e5:.1f} bar only up to {allowed:.2f} m/s"))
-        return limits[0], limits[1]
+                return float(cap), f"{cap_reason} {cap:.2f} m/s"
+            speed = float(grid[max(int(np.argmin(ok)) - 1, 0)])
+            return speed, (f"{word} model keeps BHP inside {low / 1e5:.1f}-{high / 1e5:.1f} bar "
+                           f"only up to {speed:.2f} m/s")
+
+        down, up = allowed(surge, static_bhp, "surge"), allowed(swab, static_bhp, "swab")
+        standing_up = float(cap)
+        if np.isfinite(friction_free_bhp_pa):
+            lost = allowed(swab, friction_free_bhp_pa, "circulation lost: swab")
+            standing_up = lost[0]
+            up = min(up, lost)
+        return SpeedLimits(down, up, (float(cap), standing_up))
 
     def apply(self, request, position_m: float, string_velocity_mps: float, bhp_pa: float,
               circulation_m3s: float, operator_speed_limit_mps: float,
@@ -198,12 +224,14 @@ class ProcessProtection:
                 clamps.append(f"{INPUTS[i]} {command[i]:.6g} -> {limited:.6g} (machine range/rate)")
             command[i] = limited
         if guard:
-            self._drive_back(guard, command, surface_flows)
+            self._drive_back(guard, command, surface_flows, circulation_m3s)
         if trip is not None:
             self._answer_trip(trip, guard, command, clamps)
 
-        (down, why_down), (up, why_up) = self.speed_limits(
-            bhp_pa, string_velocity_mps, circulation_m3s, operator_speed_limit_mps)
+        limits = self.speed_limits(
+            bhp_pa, string_velocity_mps, circulation_m3s, operator_speed_limit_mps,
+            trip.friction_free_bhp_pa if trip is not None else float("nan"))
+        (down, why_down), (up, why_up) = limits.running_in, limits.pulling_out
         speed = (command[0] - self.previous[0]) / period
         if self.emergency_stop:
             limited_speed = speed
@@ -225,7 +253,7 @@ class ProcessProtection:
         self.previous_manual_opening = manual_choke_opening
         self.previous_dp_setpoint = choke_dp_setpoint
         return Decision(command, tuple(clamps), (down, up), manual_choke_opening,
-                        choke_dp_setpoint, float(bhp_ref_pa))
+                        choke_dp_setpoint, float(bhp_ref_pa), limits.standing_mps)
 
     def _answer_trip(self, trip: TripAction, guard: int, command: np.ndarray,
                      clamps: list[str]) -> None:
@@ -241,14 +269,21 @@ class ProcessProtection:
                           "back-pressure pump gives the choke a flow)")
             command[2] = floor
 
-    def _drive_back(self, guard: int, command: np.ndarray, surface_flows) -> None:
+    def _drive_back(self, guard: int, command: np.ndarray, surface_flows,
+                    circulation_m3s: float) -> None:
         """Choke flow reference and back-pressure pump one slew from where the machines are
         (the measured return and pump flows; the last commands where unmeasured), toward the
         window: more flow out and less pumped in over it (guard +1), the other way under it,
-        unless the advisor already asks for more of that."""
+        unless the advisor already asks for more of that. The choke starts from the flow
+        going in (back-pressure pump plus circulation) where that is further toward the
+        window than the return flow: under the window it lets out less than goes in at
+        once, so the annulus fills, instead of slewing down from a return flow that still
+        drains it (a string come to rest, a pump winding down)."""
         measured = [float(v) for v in (surface_flows or (np.nan, np.nan))]
         now = [m if np.isfinite(m) else self.previous[i] for i, m in zip((1, 2), measured)]
-        choke = now[0] + guard * self.slew[1]
+        flowing_in = now[1] + circulation_m3s
+        start = max(now[0], flowing_in) if guard > 0 else min(now[0], flowing_in)
+        choke = start + guard * self.slew[1]
         pump = now[1] - guard * self.slew[2]
         command[1] = max(command[1], choke) if guard > 0 else min(command[1], choke)
         command[2] = min(command[2], pump) if guard > 0 else max(command[2], pump)

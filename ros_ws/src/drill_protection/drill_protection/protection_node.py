@@ -87,6 +87,13 @@ class ProtectionNode(RigNode):
         if math.isfinite(msg.trip_speed_limit_mps) and msg.trip_speed_limit_mps > 0.0:
             self.operator_speed_limit = msg.trip_speed_limit_mps
 
+    def _operator_speed_limit(self, request: RigCommand) -> float:
+        """The operator's trip-speed limit [m/s] the advisor planned ``request`` under (it
+        rides on the command, so every run applies it at the same stamp), else the latched
+        /setpoints' (the open-loop sequencer sends none)."""
+        limit = min(request.trip_speed_limit_in_mps, request.trip_speed_limit_out_mps)
+        return limit if math.isfinite(limit) and limit > 0.0 else self.operator_speed_limit
+
     def _on_estop(self, msg: Bool) -> None:
         if msg.data != self.protection.emergency_stop:
             self.protection.emergency_stop = msg.data
@@ -184,7 +191,8 @@ class ProtectionNode(RigNode):
         decision = self.protection.apply(
             [request.block_position_ref_m, request.choke_flow_ref_m3s, request.bpp_flow_m3s,
              request.spp_pa], m.block_position_m, self._velocity(), m.bhp_pa, max(circulation, 0.0),
-            self.operator_speed_limit, request.choke_opening_ref if request.choke_manual else None,
+            self._operator_speed_limit(request),
+            request.choke_opening_ref if request.choke_manual else None,
             (request.choke_dp_ref_pa, request.choke_dp_ref_rate_pa_s)
             if request.choke_pressure_control else None,
             surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s),
@@ -203,6 +211,8 @@ class ProtectionNode(RigNode):
                          bhp_ref_pa=decision.bhp_ref_pa,
                          bhp_window_low_pa=float(self.protection.window_pa[0]),
                          bhp_window_high_pa=float(self.protection.window_pa[1]),
+                         trip_speed_limit_in_mps=float(decision.standing_speed_limits_mps[0]),
+                         trip_speed_limit_out_mps=float(decision.standing_speed_limits_mps[1]),
                          source=f"protection<{request.source}")
         out.header.stamp = request.header.stamp
         self.pub_command.publish(out)

@@ -39,6 +39,8 @@ class TripAction:
                                     # good; None: the advisor's choke command stands
     bpp_flow_min_m3s: float         # the back-pressure pump runs at least this
     reason: str
+    friction_free_bhp_pa: float = float("nan")  # the BHP once the annular friction is gone
+                                                # (mud column + measured choke dp) [Pa]
 
 
 class PumpTripResponse:
@@ -105,5 +107,6 @@ class PumpTripResponse:
                 and self.bhp_pa < high:
             return TripAction(0.0, c.bpp_flow_m3s,
                               f"{why}: BHP without friction {static / PA_PER_BAR:.1f} bar under "
-                              f"{(low + c.static_margin_pa) / PA_PER_BAR:.1f} bar: choke held shut")
-        return TripAction(None, c.bpp_flow_m3s, why)
+                              f"{(low + c.static_margin_pa) / PA_PER_BAR:.1f} bar: choke held shut",
+                              static)
+        return TripAction(None, c.bpp_flow_m3s, why, static)

@@ -186,7 +186,8 @@ def test_outside_the_window_the_choke_and_pump_are_driven_back_from_where_they_a
     over = f.fracture_pressure_pa - margin + 1.0e5
     flows = (0.001, 0.0125)                                  # measured: 60 L/min out, bpp at 750 L/min
     d = p.apply(held, 0.0, 0.0, over, 0.0, 0.5, manual_choke_opening=0.0, surface_flows=flows)
-    assert d.command[1] == pytest.approx(0.001 + slew.choke_flow_m3s)      # opening the choke
+    # opening the choke from the flow going in (750 L/min), more than the 60 L/min going out
+    assert d.command[1] == pytest.approx(0.0125 + slew.choke_flow_m3s)
     assert d.command[2] == pytest.approx(0.0125 - slew.bpp_flow_m3s)       # below the pump, not
     assert d.manual_choke_opening is None                                 # its command
     assert any("over the window's fracture limit 705.0 bar" in c for c in d.clamps)
@@ -196,7 +197,11 @@ def test_outside_the_window_the_choke_and_pump_are_driven_back_from_where_they_a
     under = f.pore_pressure_pa + margin - 1.0e5
     p = fresh(setup, start=(0.0, 0.02, 0.005, 0.0))           # an advisor asking for 1200 L/min out
     d = p.apply([0.0, 0.02, 0.0, 0.0], 0.0, 0.0, under, 0.0, 0.5, surface_flows=(0.01, 0.005))
-    assert d.command[1] == pytest.approx(0.01 - slew.choke_flow_m3s)       # closing, not opening
+    # closing, not opening: from the 300 L/min going in, under the 600 L/min coming out
+    assert d.command[1] == pytest.approx(0.005 - slew.choke_flow_m3s)
+    circulating = fresh(setup, start=(0.0, 0.02, 0.005, 0.0)).apply(
+        [0.0, 0.02, 0.0, 0.0], 0.0, 0.0, under, 0.016, 0.5, surface_flows=(0.01, 0.005))
+    assert circulating.command[1] == pytest.approx(0.01 - slew.choke_flow_m3s)  # out < in: from out
     assert d.command[2] == pytest.approx(0.005 + slew.bpp_flow_m3s)        # pump back up
     assert any("under the window's pore limit 665.0 bar" in c for c in d.clamps)
     inside = p.apply([0.0, 0.02, 0.0, 0.0], 0.0, 0.0, 6.85e7, 0.0, 0.5, surface_flows=flows)

@@ -152,3 +152,41 @@ def test_no_answer_under_an_emergency_stop(setup):
     d = p.apply([0.0, 0.01, 0.0, SPP_PA], 0.0, 0.0, BHP_PA, 0.0, 0.5,
                 trip_action=TripAction(0.0, 0.01, "lost"))
     assert d.command[1] == pytest.approx(0.01) and d.command[2] == 0.0
+
+
+def test_while_circulation_is_lost_the_pull_out_limit_stands_on_the_bhp_without_friction(setup):
+    """685 bar measured with the winding-down pump's friction, 657 bar without it (under the
+    window's 665 bar low edge): no pull-out speed keeps the well inside once the friction
+    is gone, so pulling is held - and that limit stands (the advisors plan with it); running
+    in is only clamped by the surge model of this reading (no circulation: the mud's yield
+    stress makes any speed surge), which does not stand; with circulation the same reading
+    allows the operator's speed."""
+    config, wm = setup
+    p = ProcessProtection(config, wm, np.array([0.0, 0.01, 0.01, SPP_PA]))
+    free_bhp = 657.07e5
+    lost = p.speed_limits(BHP_PA, 0.0, 0.0, 0.5, friction_free_bhp_pa=free_bhp)
+    assert lost.pulling_out[0] == 0.0 and "circulation lost" in lost.pulling_out[1]
+    assert lost.running_in[0] < 0.5 and lost.running_in[1].startswith("surge model")
+    assert lost.standing_mps == (0.5, 0.0)
+    circulating = p.speed_limits(BHP_PA, 0.0, 1000.0 / 60000.0, 0.5)
+    assert circulating.pulling_out[0] == 0.5 and circulating.standing_mps == (0.5, 0.5)
+    d = p.apply([1.0, 0.01, 0.01, SPP_PA], 0.0, 0.0, BHP_PA, 0.0, 0.5,
+                trip_action=TripAction(None, 0.01, "lost", free_bhp))
+    assert d.command[0] == 0.0 and d.standing_speed_limits_mps == (0.5, 0.0)
+
+
+def test_a_held_trip_is_a_standing_limit_and_the_surge_clamp_is_not(setup):
+    config, wm = setup
+    p = ProcessProtection(config, wm, np.array([0.0, 0.01, 0.01, SPP_PA]))
+    _, high = config.pressure_window_pa
+    edge = p.speed_limits(high - 0.1e5, 0.0, 1000.0 / 60000.0, 0.5)
+    assert edge.running_in[0] < 0.05                   # surge would push BHP over the edge
+    assert edge.standing_mps == (0.5, 0.5)             # a clamp of this reading, not standing
+    p.trip_hold = "kick alarm: trip stopped"
+    held = p.speed_limits(BHP_PA, 0.0, 1000.0 / 60000.0, 0.5)
+    assert held.running_in == held.pulling_out == (0.0, "kick alarm: trip stopped")
+    assert held.standing_mps == (0.0, 0.0)
+    p.trip_hold = ""
+    unread = p.speed_limits(float("nan"), 0.0, 1000.0 / 60000.0, 0.5)
+    assert unread.running_in[0] == unread.pulling_out[0] == 0.0     # held for this reading,
+    assert unread.standing_mps == (0.5, 0.5)                         # which does not stand
