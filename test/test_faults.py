@@ -4,10 +4,10 @@ estimate or any command; the estimator reports staleness and the frozen channel;
 zone 7 bar over the BHP reference is detected from the surface flows and stops the trip,
 and the window the protection narrows is handed to the NMPC with a reference inside it;
 every event is on /rig/events in the recording. A mud-pump trip during a pull-out: the
-protection finds the lost circulation from the command and the string-flow meter, holds the
-pull-out and tells the advisor so, and BHP stays inside the pore/fracture window under each
-controller (and after the pull-out under automated MPD). Losses across a weak zone: the
-alarm, the window's high edge lowered and handed to the NMPC."""
+protection finds the lost circulation from the command and the string-flow meter, holds
+the pull-out and tells the advisor so, and BHP stays inside the pore/fracture window
+under each controller (and after the pull-out under the conventional controllers). Losses
+across a weak zone: the alarm, the window's high edge lowered and handed to the NMPC."""
 import math
 from pathlib import Path
 
@@ -41,16 +41,14 @@ def pump_trip_mcap(tmp_path_factory, request):
     return _run(tmp_path_factory, "pump_trip_short", 93, request.param)
 
 
-@pytest.fixture(scope="module")
-def conventional_pump_trip_mcap(tmp_path_factory):
+@pytest.fixture(scope="module", params=("automated_mpd", "baseline"))
+def conventional_pump_trip_mcap(tmp_path_factory, request):
     """config/scenarios/pump_trip.yaml (the pump stops after the pull-out, the stand is run
-    back in without circulation) under automated MPD. The PI baseline is left out: it goes
-    under the pore pressure as it stops running in, on 3 of 4 seeds by up to 1.3 bar for
-    up to 7 s (docs/results.md)."""
+    back in without circulation) under the conventional controllers."""
     code, run_dir = cli.run_scenario(cli.ROOT / "config" / "scenarios" / "pump_trip.yaml",
                                      runs_dir=tmp_path_factory.mktemp("pump_trip"),
                                      domain_id=93, timeout_s=600, quiet=True,
-                                     controller="automated_mpd")
+                                     controller=request.param)
     assert code == 0, (run_dir / "launch.json").read_text()
     return next(run_dir.glob("*.mcap"))
 
@@ -189,7 +187,7 @@ def test_a_pump_trip_is_answered_and_bhp_stays_in_the_window(pump_trip_mcap):
     assert {m.trip_speed_limit_out_mps for m in sent} == {0.5}
 
 
-def test_automated_mpd_keeps_bhp_in_the_window_running_in_after_a_pump_trip(
+def test_the_conventional_controllers_keep_bhp_in_the_window_running_in_after_a_pump_trip(
         conventional_pump_trip_mcap):
     series = report.load_series(conventional_pump_trip_mcap)
     _, bhp = series.get("bhp")

@@ -43,6 +43,7 @@ from drill_protection.well_control import Hold
 
 INPUTS = ("block_position_ref_m", "choke_flow_ref_m3s", "bpp_flow_m3s", "spp_pa")
 _SPEED_GRID_POINTS = 61
+RESTING_REFERENCE_SPEED_MPS = 0.05   # a block reference slower than this is coming to rest
 
 
 @dataclass(frozen=True)
@@ -211,8 +212,10 @@ class ProcessProtection:
             command[1] = flowing if np.isfinite(flowing) else self.previous[1]
             clamps.append(hold.reason)
             bhp_ref_pa = hold.target_bhp_pa
-        guard = self._window_guard(bhp_pa, clamps)
         trip = None if not_applied else trip_action
+        resting = abs(self.previous_speed_mps) < RESTING_REFERENCE_SPEED_MPS
+        guard = self._window_guard(bhp_pa, clamps, trip.friction_free_bhp_pa
+                                   if trip is not None and resting else float("nan"))
         shut = trip is not None and trip.choke_flow_m3s is not None
         if guard or shut:
             manual_choke_opening, choke_dp_setpoint = None, None
@@ -289,20 +292,27 @@ class ProcessProtection:
         command[2] = min(command[2], pump) if guard > 0 else max(command[2], pump)
         command[1:3] = np.clip(command[1:3], self.lower[1:3], self.upper[1:3])
 
-    def _window_guard(self, bhp_pa: float, clamps: list[str]) -> int:
+    def _window_guard(self, bhp_pa: float, clamps: list[str],
+                      friction_free_bhp_pa: float = float("nan")) -> int:
         """+1 while the measured BHP is over the fracture pressure less the margin (relieve:
         more choke flow, less back-pressure pump), -1 under the pore pressure plus the margin
-        (hold back: less choke flow, more pump), else 0; the reason goes to ``clamps``."""
+        (hold back: less choke flow, more pump), else 0; the reason goes to ``clamps``.
+        While circulation is lost the low edge is judged on the lower of the measured BHP
+        and ``friction_free_bhp_pa`` (the BHP once a surge's friction is gone)."""
         if not (self.config.protection.window_guard and np.isfinite(bhp_pa)):
             return 0
         low, high = self.config.pressure_window_pa
-        if low <= bhp_pa <= high:
+        judged = min(bhp_pa, friction_free_bhp_pa) if np.isfinite(friction_free_bhp_pa) \
+            else bhp_pa
+        if bhp_pa <= high and judged >= low:
             return 0
         over = bhp_pa > high
-        clamps.append(f"BHP {bhp_pa / PA_PER_BAR:.1f} bar {'over' if over else 'under'} the window's "
-                      f"{'fracture' if over else 'pore'} limit {(high if over else low) / PA_PER_BAR:.1f} "
-                      f"bar: choke flow reference {'up' if over else 'down'}, back-pressure pump "
-                      f"{'down' if over else 'up'}")
+        what = "BHP" if over or judged == bhp_pa else "BHP without friction"
+        value = bhp_pa if over else judged
+        clamps.append(f"{what} {value / PA_PER_BAR:.1f} bar {'over' if over else 'under'} the "
+                      f"window's {'fracture' if over else 'pore'} limit "
+                      f"{(high if over else low) / PA_PER_BAR:.1f} bar: choke flow reference "
+                      f"{'up' if over else 'down'}, back-pressure pump {'down' if over else 'up'}")
         return 1 if over else -1
 
     def _limit_opening(self, opening: float | None, clamps: list[str]) -> float | None:

@@ -190,3 +190,24 @@ def test_a_held_trip_is_a_standing_limit_and_the_surge_clamp_is_not(setup):
     unread = p.speed_limits(float("nan"), 0.0, 1000.0 / 60000.0, 0.5)
     assert unread.running_in[0] == unread.pulling_out[0] == 0.0     # held for this reading,
     assert unread.standing_mps == (0.5, 0.5)                         # which does not stand
+
+
+def test_a_string_coming_to_rest_is_guarded_on_the_bhp_without_friction(setup):
+    """Circulation lost, BHP 680 bar held up by the surge of a string still running in, 655
+    bar without that friction (under the window's 665 bar low edge): once the block
+    reference is at rest the guard closes the choke from the flow going in (600 L/min)
+    before the measured BHP falls under; while the reference still moves it does not (an
+    advisor running in against the surge with its choke is left to it)."""
+    config, wm = setup
+    slew = config.nmpc.input_slew.choke_flow_m3s
+    lost = TripAction(None, 0.01, "circulation lost 60 s ago", 655.0e5)
+    p = ProcessProtection(config, wm, np.array([0.0, 0.02, 0.01, SPP_PA]))
+    d = p.apply([0.0, 0.02, 0.01, SPP_PA], 0.0, -0.2, 680.0e5, 0.0, 0.5,
+                surface_flows=(0.013, 0.01), trip_action=lost)
+    assert d.command[1] == pytest.approx(0.01 - slew)
+    assert any(c.startswith("BHP without friction 655.0 bar under") for c in d.clamps)
+    moving = ProcessProtection(config, wm, np.array([0.0, 0.02, 0.01, SPP_PA]))
+    moving.previous_speed_mps = -0.3
+    d = moving.apply([-0.3, 0.02, 0.01, SPP_PA], 0.0, -0.3, 680.0e5, 0.0, 0.5,
+                     surface_flows=(0.013, 0.01), trip_action=lost)
+    assert d.command[1] == pytest.approx(0.02) and not any("window" in c for c in d.clamps)
