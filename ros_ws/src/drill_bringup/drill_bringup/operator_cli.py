@@ -293,11 +293,11 @@ def _run(session: Session, args) -> int:
             what = cs.describe_changes(active, request)
     except cs.FormError as err:
         link.refuse(args.command, str(err))
-        session.flush()
+        session.flush(args.timeout)
         _say(f"refused: {err}")
         return 1
     result = link.request_setpoints(request, what)
-    session.flush()
+    session.flush(args.timeout)
     if result["accepted"]:
         _say(f"accepted: {what}")
         return 0

@@ -28,10 +28,6 @@ from drill_bringup import mcap_io
 from drill_bringup.mcap_io import QosOffer
 
 STATUS_TOPIC = topics.status("recorder")
-# The recorder is on no node's critical path (its subscriptions keep all and it drains at
-# the end), so it yields the CPU to the lockstep's processes: in fast mode on 2 cores this
-# took Case 2 from 34.2 to 31.7 s wall (mean of 4 interleaved pairs, docs/speed.md).
-NICENESS = 10
 DRAIN_QUIET_S = 0.2
 DRAIN_MAX_S = 10.0
 DRAIN_SPIN_S = 0.02
@@ -185,7 +181,6 @@ def drain(executor, node: "Recorder") -> None:
 
 def main(args: list[str] | None = None) -> int:
     """Record until SIGINT/SIGTERM or rclpy shutdown; always leaves a finished file."""
-    os.nice(NICENESS)
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):

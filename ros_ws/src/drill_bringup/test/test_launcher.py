@@ -121,3 +121,14 @@ def test_fast_runs_give_the_control_chain_a_cpu_of_its_own(tmp_path):
     realtime = launcher.graph("nmpc", dict(COMMON, mode="realtime"), tmp_path / "x.mcap",
                               fast=False)
     assert launcher.Launch(realtime, tmp_path, 1, "two").cpus == {}
+
+
+def test_the_recorder_yields_the_cpu_in_fast_mode_only(tmp_path):
+    """Niced in fast mode (off every critical path there); in realtime it keeps up with the
+    wall clock like every node (a niced recorder under a browser's load missed a short-lived
+    operator CLI's event)."""
+    fast = launcher.graph("nmpc", COMMON, tmp_path / "x.mcap", fast=True)
+    assert launcher.Launch(fast, tmp_path, 1, "two").niceness == {"recorder": 10}
+    realtime = launcher.graph("nmpc", dict(COMMON, mode="realtime"), tmp_path / "x.mcap",
+                              fast=False)
+    assert launcher.Launch(realtime, tmp_path, 1, "two").niceness == {}
