@@ -40,7 +40,7 @@ from drill_estimator.ukf import RigUkf
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.baseline import Baseline
 from drill_nmpc.inputs import choke_command, choke_input
-from drill_nmpc.setpoint_book import APPLIED_BLOCK_TOLERANCE_M, SetpointBook, within_speed_limits
+from drill_nmpc.setpoint_book import SetpointBook, protection_changed, within_speed_limits
 from drill_nmpc.setpoint_validation import Envelope
 from drill_nmpc.supervisor import Supervisor
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
@@ -223,8 +223,7 @@ class NmpcController:
         if self.u is None:
             self.u = self.sup.safe_input([x_hat[0], *self.initial])
         frame = self.rig.block_frame if self.block_integral else None
-        if frame is not None and math.isfinite(frame.reference) \
-                and abs(frame.reference - self.u[0]) > APPLIED_BLOCK_TOLERANCE_M:
+        if frame is not None and protection_changed(frame.reference, self.u[0]):
             self.u = self.u.copy()
             self.u[0] = frame.reference
         if sp.mud_pump_on and not flow_observable:

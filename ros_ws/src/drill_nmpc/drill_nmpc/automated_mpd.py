@@ -30,7 +30,7 @@ from drill_core.estimation_model import EstimationModel
 from drill_core.scenario import ActiveSetpoints
 from drill_core.surge_swab import SurgeSwabModel
 from drill_nmpc.motion_profile import MotionProfile
-from drill_nmpc.setpoint_book import APPLIED_BLOCK_TOLERANCE_M
+from drill_nmpc.setpoint_book import protection_changed
 
 
 @dataclass(frozen=True)
@@ -119,8 +119,8 @@ class AutomatedMpd:
         from there at the applied speed, instead of running ahead of the string and
         braking too late once the protection lets it go."""
         previous, self.applied_block_m = self.applied_block_m, applied_block_m
-        if self.profile is None or not math.isfinite(applied_block_m) \
-                or abs(applied_block_m - self.profile.position_m) <= APPLIED_BLOCK_TOLERANCE_M:
+        if self.profile is None or not protection_changed(applied_block_m,
+                                                          self.profile.position_m):
             return
         speed = (applied_block_m - previous) / self.sample_s if math.isfinite(previous) else 0.0
         self.profile.position_m, self.profile.speed_mps = applied_block_m, speed

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from drill_nmpc.setpoint_book import APPLIED_BLOCK_TOLERANCE_M
+from drill_nmpc.setpoint_book import protection_changed
 
 
 class BaselinePi:
@@ -44,8 +44,7 @@ class Baseline:
         """Ramp on from the block reference the process protection applied to the last
         command [m] when it changed ours (a held or slowed trip), not from ours: a ramp run
         ahead of the string makes it overshoot the target once the protection lets go."""
-        if self.block_ref_m is not None and math.isfinite(applied_block_m) \
-                and abs(applied_block_m - self.block_ref_m) > APPLIED_BLOCK_TOLERANCE_M:
+        if self.block_ref_m is not None and protection_changed(applied_block_m, self.block_ref_m):
             self.block_ref_m = applied_block_m
 
     def step(self, position_m: float, bhp_pa: float, target_m: float, bhp_ref_pa: float | None,

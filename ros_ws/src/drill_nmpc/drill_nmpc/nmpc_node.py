@@ -47,7 +47,7 @@ from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_nmpc.advisor_node import AdvisorNode
 from drill_nmpc.inputs import choke_command, choke_input
-from drill_nmpc.setpoint_book import APPLIED_BLOCK_TOLERANCE_M, within_speed_limits
+from drill_nmpc.setpoint_book import protection_changed, within_speed_limits
 from drill_nmpc.setpoint_messages import merge_request, to_msg
 from drill_nmpc.soft_constraints import SLACK_NAMES
 from drill_nmpc.supervisor import SolveResult, Supervisor
@@ -207,8 +207,7 @@ class NmpcNode(AdvisorNode):
         """Plan from the block reference the drawworks was given when the process protection
         changed ours (a trip held on an alarm, a clamp), not from the one we sent."""
         applied = (actuators or {}).get("block_reference_m")
-        if applied is not None and math.isfinite(applied) \
-                and abs(applied - self.u_prev[0]) > APPLIED_BLOCK_TOLERANCE_M:
+        if applied is not None and protection_changed(applied, self.u_prev[0]):
             self.u_prev = self.u_prev.copy()
             self.u_prev[0] = applied
 

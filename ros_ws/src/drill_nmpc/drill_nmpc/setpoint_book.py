@@ -36,6 +36,13 @@ HELD_TRIP_PLAN_SPEED_MPS = 1.0e-3  # a held trip (limit 0) is planned at this sp
                                    # setpoint limit of 0 would read as none
 
 
+def protection_changed(applied_block_m: float, ours_m: float) -> bool:
+    """The block reference the protection applied [m] (NaN: no answer) is not the one the
+    advisor sent or planned, ``ours_m``: it held or slowed the trip."""
+    return math.isfinite(applied_block_m) \
+        and abs(applied_block_m - ours_m) > APPLIED_BLOCK_TOLERANCE_M
+
+
 def within_speed_limits(sp: ActiveSetpoints, limits_mps: tuple[float, float],
                         position_m: float) -> ActiveSetpoints:
     """The setpoints to plan a sample with: the trip-speed limit the smaller of the

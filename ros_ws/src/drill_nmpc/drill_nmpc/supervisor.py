@@ -53,7 +53,7 @@ class SolveResult:
     configuration: str = ""
     choke_flow_m3s: float = float("nan")   # predicted choke flow under u at t_k (pressure-loop feedforward)
     hold_choke_dp_pa: float = float("nan")  # on a hold: the choke dp to hold on the choke's pressure
-                                            # loop (the estimate's when the holds began) [Pa]
+                                            # loop (Supervisor.rest_choke_dp when the holds began) [Pa]
 
 
 
@@ -115,7 +115,7 @@ class Supervisor:
         self.choke_flow_m3s = math.nan                 # the last solve's choke flow (held with its input)
         self._predicted_bhp: float | None = None       # the last solve's BHP prediction for now [Pa]
         self.surge = SurgeSwabModel(self.em)
-        self._rest_choke_dp = math.nan                 # this sample's dp for the BHP reference at rest [Pa]
+        self._rest_inputs: tuple | None = None         # rest_choke_dp's arguments at the last estimate
         self._held_choke_dp = math.nan                 # the choke dp held since the holds began [Pa]
 
     # -- helpers ------------------------------------------------------------------------
@@ -317,7 +317,7 @@ class Supervisor:
         y_ref = np.array([self.alpha ** j * y_now + (1.0 - self.alpha ** j) * y_sp
                           for j in range(pb.N + 1)])
         vlim, bhp_band, dp_band = self.levels(setpoints, y_sp)
-        self._rest_choke_dp = self.rest_choke_dp(x, par, y_sp[2], pump_on, dp_band)
+        self._rest_inputs = (x.copy(), par.copy(), float(y_sp[2]), pump_on, dp_band)
         if self.cfg.block_reference == "profile":
             y_ref[:, 0] = self.block_profile(float(x[self.em.position]), float(y_sp[0]), vlim)
         if pb.ne:
@@ -428,8 +428,8 @@ class Supervisor:
         without circulation; the dp of the moment would keep a surge's friction that goes
         as the string stops."""
         self.fallback_count += 1
-        if not math.isfinite(self._held_choke_dp):
-            self._held_choke_dp = self._rest_choke_dp
+        if not math.isfinite(self._held_choke_dp) and self._rest_inputs is not None:
+            self._held_choke_dp = self.rest_choke_dp(*self._rest_inputs)
         u = u_prev.copy()
         if self.acceleration and self._speed:      # brake the block reference, within the limit
             v = math.copysign(max(abs(self._speed) - self.acceleration * self.problem.ts, 0.0),

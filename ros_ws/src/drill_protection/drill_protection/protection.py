@@ -213,9 +213,9 @@ class ProcessProtection:
             clamps.append(hold.reason)
             bhp_ref_pa = hold.target_bhp_pa
         trip = None if not_applied else trip_action
+        friction_free = trip.friction_free_bhp_pa if trip is not None else float("nan")
         resting = abs(self.previous_speed_mps) < RESTING_REFERENCE_SPEED_MPS
-        guard = self._window_guard(bhp_pa, clamps, trip.friction_free_bhp_pa
-                                   if trip is not None and resting else float("nan"))
+        guard = self._window_guard(bhp_pa, clamps, friction_free if resting else float("nan"))
         shut = trip is not None and trip.choke_flow_m3s is not None
         if guard or shut:
             manual_choke_opening, choke_dp_setpoint = None, None
@@ -231,9 +231,8 @@ class ProcessProtection:
         if trip is not None:
             self._answer_trip(trip, guard, command, clamps)
 
-        limits = self.speed_limits(
-            bhp_pa, string_velocity_mps, circulation_m3s, operator_speed_limit_mps,
-            trip.friction_free_bhp_pa if trip is not None else float("nan"))
+        limits = self.speed_limits(bhp_pa, string_velocity_mps, circulation_m3s,
+                                   operator_speed_limit_mps, friction_free)
         (down, why_down), (up, why_up) = limits.running_in, limits.pulling_out
         speed = (command[0] - self.previous[0]) / period
         if self.emergency_stop:
