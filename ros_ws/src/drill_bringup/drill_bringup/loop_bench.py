@@ -274,7 +274,8 @@ class Protection:
             self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" \
                 if reading.alarm else ""
         narrowed = self.window.observe(t, m.bhp_pa, m.choke_dp_pa, reading.alarm,
-                                       reading.excess_flow_m3s, self.flow_threshold_m3s)
+                                       reading.excess_volume_m3, self.flow_threshold_m3s,
+                                       self.protection.bhp_ref_pa)
         if narrowed:
             self.alarms.append((t, narrowed))
         self.protection.window_pa = self.window.window_pa

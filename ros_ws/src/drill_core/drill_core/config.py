@@ -452,10 +452,21 @@ class WellControl:
     step_pa: float = param("Pa", 0.0, 5.0e6, lo_open=True,
                            doc="each step of the window's edge toward the other")
     interval_s: float = param("s", 0.0, 600.0, lo_open=True,
-                              doc="another step this long after the last while the well flows")
+                              doc="the flow since the last step is judged this long after it")
+    settle_s: float = param("s", 0.0, 600.0,
+                            doc="the first seconds after a step, left out of the flow judged")
+    kick_margin_pa: float = param("Pa", 0.0, 5.0e6, doc="a kick's edge goes this much further "
+                                                        "once the well no longer flows")
+    losses_margin_pa: float = param("Pa", 0.0, 5.0e6, doc="a loss's edge goes this much further "
+                                                          "once the well no longer takes mud")
     gap_pa: float = param("Pa", 0.0, 5.0e6, doc="the narrowed window is at least this wide")
     offset_time_constant_s: float = param(
         "s", 0.0, 600.0, lo_open=True, doc="low-pass of BHP - choke dp for the choke's set-point")
+
+    def validate(self) -> None:
+        if self.settle_s >= self.interval_s:
+            raise FieldError("settle_s", f"value {self.settle_s} s must be shorter than "
+                                         f"interval_s {self.interval_s} s")
 
 
 @dataclass(frozen=True)

@@ -357,6 +357,12 @@ def test_sensor_period_multiple_of_step_accepted(cfg, period, frames):
     assert load_rig(cfg).plant.steps_per_frame == frames
 
 
+def test_well_control_settling_longer_than_its_interval(cfg):
+    file = set_key(cfg, "protection", ("well_control", "settle_s"), 20.0)
+    assert_names(load_error(cfg), str(file), "well_control.settle_s", "20.0 s",
+                 "shorter than interval_s 18.0 s")
+
+
 # -------------------------------------------------------------------- overrides
 def test_bad_scenario_override_names_the_file(cfg):
     with pytest.raises(ConfigError) as info:

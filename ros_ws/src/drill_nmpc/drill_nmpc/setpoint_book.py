@@ -87,7 +87,10 @@ class SetpointBook:
         """The protection's answer to a command that carried ``sent_bhp_ref_pa``: its window
         in force (a finite, ordered pair; else ignored) bounds the setpoints from now on;
         its BHP reference, when it is not that echo, is the target it holds the well at,
-        taken as the reference with the band narrowed to fit in the window."""
+        taken as the reference with the band narrowed to fit in the window, and the
+        choke-dp reference moved as much (the choke dp that holds a BHP moves one for one
+        with it: kept where it was, its band would leave no room to run in against the
+        surge under a lowered target)."""
         low, high = (float(v) for v in window_pa)
         if math.isfinite(low) and math.isfinite(high) and low < high:
             self.envelope = dataclasses.replace(self.envelope, pore_pressure_pa=low,
@@ -97,8 +100,11 @@ class SetpointBook:
             return []
         low, high = self.window_pa
         band = min(self.active.bhp_band_pa, bhp_ref_pa - low, high - bhp_ref_pa)
+        shift = bhp_ref_pa - self.active.bhp_ref_pa if math.isfinite(self.active.bhp_ref_pa) \
+            else 0.0
+        dp_ref = min(max(self.active.choke_dp_ref_pa + shift, 0.0), self.envelope.choke_dp_max_pa)
         candidate = dataclasses.replace(self.active, bhp_ref_pa=float(bhp_ref_pa),
-                                        bhp_band_pa=band)
+                                        bhp_band_pa=band, choke_dp_ref_pa=dp_ref)
         ok, reason = validate_setpoints(candidate, self.envelope)
         window = f"window {low / 1e5:.1f}-{high / 1e5:.1f} bar"
         if not ok:

@@ -70,6 +70,7 @@ def test_the_protections_window_and_target_are_followed(book):
     and a later schedule entry merges over it."""
     book.resolve_bhp(BHP_PA)
     configured = book.window_pa
+    dp_ref_pa = book.active.choke_dp_ref_pa
     assert book.follow_protection(configured, BHP_PA, BHP_PA) == []
     assert book.active.bhp_ref_pa == BHP_PA and book.window_pa == configured
     window = (6.892e7, configured[1])                       # a kick: low edge raised
@@ -78,6 +79,8 @@ def test_the_protections_window_and_target_are_followed(book):
     assert book.window_pa == window and book.changed
     assert book.active.bhp_ref_pa == 6.9045e7
     assert book.active.bhp_band_pa == pytest.approx(6.9045e7 - 6.892e7)   # 1.25 bar, not 2
+    # the choke dp that holds the target moves one for one with it: so does its reference
+    assert book.active.choke_dp_ref_pa == pytest.approx(dp_ref_pa + 6.9045e7 - BHP_PA)
     assert [(e.kind, e.accepted) for e in events] == [("setpoint", True)]
     assert "protection: well control (window 689.2-705.0 bar)" in events[0].text
     assert book.follow_protection(window, 6.9045e7, BHP_PA) == []     # taken once

@@ -103,6 +103,7 @@ class ProcessProtection:
         # speed limits keep to, and the hold while the advisor aims outside it (None: none)
         self.window_pa = config.pressure_window_pa
         self.well_control: Hold | None = None
+        self.bhp_ref_pa = float("nan")      # the BHP reference in force after the last command [Pa]
         a, n = config.actuators, config.nmpc
         self.lower = np.array([a.drawworks.minimum, 0.0, a.bpp.minimum, a.mud_pump.minimum])
         self.upper = np.array([a.drawworks.maximum, n.input_max.choke_flow_m3s, a.bpp.maximum,
@@ -254,6 +255,7 @@ class ProcessProtection:
         self.previous = command.copy()
         self.previous_manual_opening = manual_choke_opening
         self.previous_dp_setpoint = choke_dp_setpoint
+        self.bhp_ref_pa = float(bhp_ref_pa)
         return Decision(command, tuple(clamps), (down, up), manual_choke_opening,
                         choke_dp_setpoint, float(bhp_ref_pa), limits.standing_mps)
 

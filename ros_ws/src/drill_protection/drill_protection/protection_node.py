@@ -149,7 +149,8 @@ class ProtectionNode(RigNode):
         if detection.stop_trip:
             self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" if reading.alarm else ""
         narrowed = self.window.observe(stamp * 1e-9, m.bhp_pa, m.choke_dp_pa, reading.alarm,
-                                       reading.excess_flow_m3s, detection.flow_threshold_m3s)
+                                       reading.excess_volume_m3, detection.flow_threshold_m3s,
+                                       self.protection.bhp_ref_pa)
         if narrowed:
             self.alarm_count += 1
             self._event("alarm", narrowed, stamp)

@@ -3,12 +3,18 @@
 
 The flow-balance detector (drill_protection.kick_detection) says the formation flows in
 (kick) or takes mud (losses); it does not say at what pressure. So the answer is the one
-an MPD crew gives by hand, in steps:
+an MPD crew gives by hand, in steps, judging each on the well's flow after it:
 
-* on a kick alarm the window's low edge goes to the measured BHP (the median of its last
-  second) plus ``step_pa``, and up by ``step_pa`` again every ``interval_s`` while the
-  detector's excess flow stays over half its threshold (the well still flowing);
-* on a losses alarm the high edge comes down the same way while the well still takes mud;
+* on a kick alarm the window's low edge goes ``step_pa`` over the pressure the well flowed
+  at: the measured BHP (the median of its last second) or the BHP reference in force,
+  whichever is higher (the BHP at the alarm may be a passing wave);
+* every ``interval_s`` the flow since the last step is judged: the least-squares slope of
+  the detector's excess volume, the first ``settle_s`` after a step left out (the choke
+  and the pressures settling). While it is over half the detector's threshold (the well
+  still flows) the edge goes up another ``step_pa``; the first time it is not, the
+  formation's pressure has been passed, and the edge goes up ``kick_margin_pa`` more;
+* on a losses alarm the high edge comes down the same way, from the lower of the two, and
+  ``losses_margin_pa`` more once the well no longer takes mud;
 * never closer to the other edge than ``gap_pa``, never beyond the configured window.
 
 From the first step on the protection holds BHP at a target half a step inside the moved
@@ -37,7 +43,7 @@ from collections import deque
 from dataclasses import dataclass
 
 from drill_core.config import WellControl
-from drill_core.units import PA_PER_BAR
+from drill_core.units import LPM_PER_M3S, PA_PER_BAR
 
 BHP_MEDIAN_S = 1.0          # the BHP the first step starts from: the median of this long
 
@@ -58,7 +64,10 @@ class WindowResponse:
         self.configured_pa = window_pa
         self.low_pa, self.high_pa = window_pa
         self._bhp: deque = deque()              # (time s, BHP Pa) of the last second
-        self._stepped_at_s: float | None = None
+        self._answering = ""                      # the alarm being answered ("" none)
+        self._stepped_at_s = math.nan             # its last step (or judgement) [s]
+        self._volumes: list = []                  # (time s, excess volume m^3) since it
+        self._margin_taken = False
         self.offset_pa = math.nan               # BHP - choke dp, low-passed [Pa]
         self._offset_at_s = math.nan
 
@@ -96,9 +105,11 @@ class WindowResponse:
                     f"{self.high_pa / PA_PER_BAR:.1f} bar)")
 
     def observe(self, time_s: float, bhp_pa: float, choke_dp_pa: float, alarm: str,
-                excess_flow_m3s: float, flow_threshold_m3s: float) -> str:
-        """Take one measurement and the detector's reading after it; the event text when an
-        edge moved ("" otherwise)."""
+                excess_volume_m3: float, flow_threshold_m3s: float,
+                reference_pa: float = math.nan) -> str:
+        """Take one measurement, the detector's reading after it (its alarm and excess
+        volume) and the BHP reference in force (NaN: none); the event text when an edge
+        moved ("" otherwise)."""
         if math.isfinite(bhp_pa):
             self._bhp.append((time_s, bhp_pa))
         if math.isfinite(bhp_pa) and math.isfinite(choke_dp_pa):
@@ -109,30 +120,75 @@ class WindowResponse:
             self.offset_pa, self._offset_at_s = offset, time_s
         while self._bhp and self._bhp[0][0] < time_s - BHP_MEDIAN_S + 1e-9:
             self._bhp.popleft()
-        if alarm not in ("kick", "losses") or not self._bhp:
-            self._stepped_at_s = None
+        if not self._bhp:
             return ""
-        kick = alarm == "kick"
-        if self._stepped_at_s is not None:
-            flowing = excess_flow_m3s > 0.5 * flow_threshold_m3s if kick \
-                else excess_flow_m3s < -0.5 * flow_threshold_m3s
-            if not flowing or time_s - self._stepped_at_s < self.config.interval_s - 1e-9:
-                return ""
-        c = self.config
         bhp = statistics.median(p for _, p in self._bhp)
+        if alarm in ("kick", "losses") and alarm != self._answering:    # the alarm's first step
+            self._answering, self._margin_taken = alarm, False
+            flowed_at = [bhp] + ([reference_pa] if math.isfinite(reference_pa) else [])
+            kick = alarm == "kick"
+            start = max(self.low_pa, *flowed_at) if kick else min(self.high_pa, *flowed_at)
+            return self._step(kick, start, time_s, bhp, "")
+        if not self._answering:
+            return ""
+        kick = self._answering == "kick"
+        since = time_s - self._stepped_at_s
+        if since >= self.config.settle_s - 1e-9 and math.isfinite(excess_volume_m3):
+            self._volumes.append((time_s, excess_volume_m3))
+        if since < self.config.interval_s - 1e-9:
+            return ""
+        flow = _slope_m3s(self._volumes)
+        self._stepped_at_s = time_s             # the next judgement an interval from now
+        self._volumes.clear()
+        if math.isnan(flow):
+            return ""
+        flowing = flow > 0.5 * flow_threshold_m3s if kick else flow < -0.5 * flow_threshold_m3s
+        why = f"; {flow * LPM_PER_M3S:+.0f} L/min since the last step"
+        step = self.config.step_pa
+        if flowing:
+            self._margin_taken = False
+        elif self._margin_taken:
+            if not alarm:                       # answered, and the detector agrees
+                self._answering = ""
+            return ""
+        else:
+            self._margin_taken = True
+            step = self.config.kick_margin_pa if kick else self.config.losses_margin_pa
+            why += f": the well no longer {'flows' if kick else 'takes mud'}, a margin"
+        return self._step(kick, self.low_pa if kick else self.high_pa, time_s, bhp, why, step)
+
+    def _step(self, kick: bool, start_pa: float, time_s: float, bhp_pa: float, why: str,
+              step_pa: float | None = None) -> str:
+        """Move the edge ``step_pa`` (a step if None) from ``start_pa``; the event text (""
+        if it did not move)."""
+        c = self.config
+        step_pa = c.step_pa if step_pa is None else step_pa
         low, high = self.configured_pa
         if kick:
-            start = self.low_pa if self._stepped_at_s is not None else max(self.low_pa, bhp)
-            edge = min(start + c.step_pa, self.high_pa - c.gap_pa, high)
+            edge = min(start_pa + step_pa, self.high_pa - c.gap_pa, high)
             moved, self.low_pa = edge > self.low_pa, max(self.low_pa, edge)
         else:
-            start = self.high_pa if self._stepped_at_s is not None else min(self.high_pa, bhp)
-            edge = max(start - c.step_pa, self.low_pa + c.gap_pa, low)
+            edge = max(start_pa - step_pa, self.low_pa + c.gap_pa, low)
             moved, self.high_pa = edge < self.high_pa, min(self.high_pa, edge)
         self._stepped_at_s = time_s
+        self._volumes.clear()
         if not moved:
             return ""
         which = "low edge raised" if kick else "high edge lowered"
+        alarm = "kick" if kick else "losses"
         return (f"{alarm}: BHP window's {which} to {edge / PA_PER_BAR:.1f} bar (window "
                 f"{self.low_pa / PA_PER_BAR:.1f}-{self.high_pa / PA_PER_BAR:.1f} bar; BHP "
-                f"{bhp / PA_PER_BAR:.1f} bar)")
+                f"{bhp_pa / PA_PER_BAR:.1f} bar{why})")
+
+
+def _slope_m3s(samples) -> float:
+    """Least-squares slope of (time s, volume m^3) samples [m^3/s]; NaN under three."""
+    if len(samples) < 3:
+        return math.nan
+    t0 = samples[0][0]
+    n = len(samples)
+    mean_t = sum(t - t0 for t, _ in samples) / n
+    mean_v = sum(v for _, v in samples) / n
+    stt = sum((t - t0 - mean_t) ** 2 for t, _ in samples)
+    stv = sum((t - t0 - mean_t) * (v - mean_v) for t, v in samples)
+    return stv / stt if stt > 0.0 else math.nan
