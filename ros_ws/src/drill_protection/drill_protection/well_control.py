@@ -126,9 +126,9 @@ class WindowResponse:
         if alarm in ("kick", "losses") and alarm != self._answering:    # the alarm's first step
             self._answering, self._margin_taken = alarm, False
             flowed_at = [bhp] + ([reference_pa] if math.isfinite(reference_pa) else [])
-            kick = alarm == "kick"
-            start = max(self.low_pa, *flowed_at) if kick else min(self.high_pa, *flowed_at)
-            return self._step(kick, start, time_s, bhp, "")
+            start = max(self.low_pa, *flowed_at) if alarm == "kick" \
+                else min(self.high_pa, *flowed_at)
+            return self._step(start, time_s, bhp, "")
         if not self._answering:
             return ""
         kick = self._answering == "kick"
@@ -155,14 +155,15 @@ class WindowResponse:
             self._margin_taken = True
             step = self.config.kick_margin_pa if kick else self.config.losses_margin_pa
             why += f": the well no longer {'flows' if kick else 'takes mud'}, a margin"
-        return self._step(kick, self.low_pa if kick else self.high_pa, time_s, bhp, why, step)
+        return self._step(self.low_pa if kick else self.high_pa, time_s, bhp, why, step)
 
-    def _step(self, kick: bool, start_pa: float, time_s: float, bhp_pa: float, why: str,
+    def _step(self, start_pa: float, time_s: float, bhp_pa: float, why: str,
               step_pa: float | None = None) -> str:
-        """Move the edge ``step_pa`` (a step if None) from ``start_pa``; the event text (""
-        if it did not move)."""
+        """Move the answered alarm's edge ``step_pa`` (a step if None) from ``start_pa``;
+        the event text ("" if it did not move)."""
         c = self.config
         step_pa = c.step_pa if step_pa is None else step_pa
+        kick = self._answering == "kick"
         low, high = self.configured_pa
         if kick:
             edge = min(start_pa + step_pa, self.high_pa - c.gap_pa, high)
@@ -175,8 +176,7 @@ class WindowResponse:
         if not moved:
             return ""
         which = "low edge raised" if kick else "high edge lowered"
-        alarm = "kick" if kick else "losses"
-        return (f"{alarm}: BHP window's {which} to {edge / PA_PER_BAR:.1f} bar (window "
+        return (f"{self._answering}: BHP window's {which} to {edge / PA_PER_BAR:.1f} bar (window "
                 f"{self.low_pa / PA_PER_BAR:.1f}-{self.high_pa / PA_PER_BAR:.1f} bar; BHP "
                 f"{bhp_pa / PA_PER_BAR:.1f} bar{why})")
 
