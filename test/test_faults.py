@@ -6,7 +6,7 @@ and the window the protection narrows is handed to the NMPC with a reference ins
 every event is on /rig/events in the recording. A mud-pump trip during a pull-out: the
 protection finds the lost circulation from the command and the string-flow meter, holds
 the pull-out and tells the advisor so, and BHP stays inside the pore/fracture window
-under each controller (and after the pull-out under the conventional controllers). Losses
+under each controller, in mid pull-out and after it (config/scenarios/pump_trip.yaml). Losses
 across a weak zone: the alarm, the window's high edge lowered and handed to the NMPC."""
 import math
 from pathlib import Path
@@ -41,10 +41,10 @@ def pump_trip_mcap(tmp_path_factory, request):
     return _run(tmp_path_factory, "pump_trip_short", 93, request.param)
 
 
-@pytest.fixture(scope="module", params=("automated_mpd", "baseline"))
-def conventional_pump_trip_mcap(tmp_path_factory, request):
-    """config/scenarios/pump_trip.yaml (the pump stops after the pull-out, the stand is run
-    back in without circulation) under the conventional controllers."""
+@pytest.fixture(scope="module", params=("nmpc", "automated_mpd", "baseline"))
+def scenario_pump_trip_mcap(tmp_path_factory, request):
+    """config/scenarios/pump_trip.yaml (the pump stops at the end of the pull-out, the stand
+    is run back in without circulation: the issue's case) under each controller."""
     code, run_dir = cli.run_scenario(cli.ROOT / "config" / "scenarios" / "pump_trip.yaml",
                                      runs_dir=tmp_path_factory.mktemp("pump_trip"),
                                      domain_id=93, timeout_s=600, quiet=True,
@@ -187,9 +187,9 @@ def test_a_pump_trip_is_answered_and_bhp_stays_in_the_window(pump_trip_mcap):
     assert {m.trip_speed_limit_out_mps for m in sent} == {0.5}
 
 
-def test_the_conventional_controllers_keep_bhp_in_the_window_running_in_after_a_pump_trip(
-        conventional_pump_trip_mcap):
-    series = report.load_series(conventional_pump_trip_mcap)
+def test_every_controller_keeps_bhp_in_the_window_running_in_after_a_pump_trip(
+        scenario_pump_trip_mcap):
+    series = report.load_series(scenario_pump_trip_mcap)
     _, bhp = series.get("bhp")
     _, pore = series.get("pore")
     _, fracture = series.get("fracture")
