@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 from drill_core.config import KickDetection, RigConfig
 from drill_core.well import WellGeometry
+from drill_protection.slope import LeastSquaresSlope
 
 
 @dataclass(frozen=True)
@@ -68,8 +69,8 @@ class KickDetector:
         self._first_pressures: list[float] = []  # the pressures' medians when the balance began
         self._last_time_s: float | None = None
         self._history: deque = deque()          # (time s, excess volume m^3)
-        self._pit: deque = deque()              # (time s, the pit's excess volume m^3)
-        self._pit_sums = [0.0] * 4              # of t, v, t^2, t v over it (t from the start)
+        self._pit = LeastSquaresSlope()         # (time s from its start, the pit's excess
+                                                # volume m^3) over its window
         self._pit_start: tuple[float, float, float] | None = None  # (time s, pit m^3, known m^3)
         self._since: dict[str, float | None] = {"kick": None, "losses": None, "clear": None}
         self._onset_volume: dict[str, float] = {}
@@ -87,7 +88,6 @@ class KickDetector:
             self._first = None
             self._history.clear()
             self._pit.clear()
-            self._pit_sums = [0.0] * 4
             self._pit_start = None
             return self._reading(False)
         if pressures_ok:
@@ -123,28 +123,17 @@ class KickDetector:
         if self._pit_start is None:
             self._pit_start = (s.time_s, s.pit_volume_m3, known_m3)
         start_s, pit0, known0 = self._pit_start
-        self._pit_add(s.time_s - start_s, s.pit_volume_m3 - pit0 + known_m3 - known0, 1.0)
-        while self._pit[0][0] < s.time_s - start_s - self.config.pit_window_s - 1e-9:
-            self._pit_add(*self._pit[0], -1.0)
-
-    def _pit_add(self, t: float, v: float, sign: float) -> None:
-        """Take a sample into the window (sign 1, at its end) or out of it (-1, its start)."""
-        if sign > 0.0:
-            self._pit.append((t, v))
-        else:
+        self._pit.append(s.time_s - start_s, s.pit_volume_m3 - pit0 + known_m3 - known0)
+        while self._pit.samples[0][0] < s.time_s - start_s - self.config.pit_window_s - 1e-9:
             self._pit.popleft()
-        for i, term in enumerate((t, v, t * t, t * v)):
-            self._pit_sums[i] += sign * term
 
     @property
     def pit_gain_flow_m3s(self) -> float:
         """Least-squares slope of the pit's excess volume over the window [m^3/s] (NaN until
         the pit has read for a window since the balance began)."""
-        if len(self._pit) < 3 or self._pit[-1][0] < self.config.pit_window_s - 1e-6:
+        if len(self._pit) < 3 or self._pit.samples[-1][0] < self.config.pit_window_s - 1e-6:
             return math.nan
-        n = len(self._pit)
-        sum_t, sum_v, sum_tt, sum_tv = self._pit_sums
-        return (sum_tv - sum_t * sum_v / n) / (sum_tt - sum_t * sum_t / n)
+        return self._pit.slope
 
     def _judge(self, time_s: float) -> bool:
         """Advance the alarm state on the windowed excess flow; True when raised now."""

@@ -44,6 +44,7 @@ from dataclasses import dataclass
 
 from drill_core.config import WellControl
 from drill_core.units import LPM_PER_M3S, PA_PER_BAR
+from drill_protection.slope import LeastSquaresSlope
 
 BHP_MEDIAN_S = 1.0          # the BHP the first step starts from: the median of this long
 
@@ -66,7 +67,7 @@ class WindowResponse:
         self._bhp: deque = deque()              # (time s, BHP Pa) of the last second
         self._answering = ""                      # the alarm being answered ("" none)
         self._stepped_at_s = math.nan             # its last step (or judgement) [s]
-        self._volumes: list = []                  # (time s, excess volume m^3) since it
+        self._volumes = LeastSquaresSlope()       # (time s since it, excess volume m^3)
         self._margin_taken = False
         self.offset_pa = math.nan               # BHP - choke dp, low-passed [Pa]
         self._offset_at_s = math.nan
@@ -134,10 +135,10 @@ class WindowResponse:
         kick = self._answering == "kick"
         since = time_s - self._stepped_at_s
         if since >= self.config.settle_s - 1e-9 and math.isfinite(excess_volume_m3):
-            self._volumes.append((time_s, excess_volume_m3))
+            self._volumes.append(since, excess_volume_m3)
         if since < self.config.interval_s - 1e-9:
             return ""
-        flow = _slope_m3s(self._volumes)
+        flow = self._volumes.slope
         self._stepped_at_s = time_s             # the next judgement an interval from now
         self._volumes.clear()
         if math.isnan(flow):
@@ -180,15 +181,3 @@ class WindowResponse:
                 f"{self.low_pa / PA_PER_BAR:.1f}-{self.high_pa / PA_PER_BAR:.1f} bar; BHP "
                 f"{bhp_pa / PA_PER_BAR:.1f} bar{why})")
 
-
-def _slope_m3s(samples) -> float:
-    """Least-squares slope of (time s, volume m^3) samples [m^3/s]; NaN under three."""
-    if len(samples) < 3:
-        return math.nan
-    t0 = samples[0][0]
-    n = len(samples)
-    mean_t = sum(t - t0 for t, _ in samples) / n
-    mean_v = sum(v for _, v in samples) / n
-    stt = sum((t - t0 - mean_t) ** 2 for t, _ in samples)
-    stv = sum((t - t0 - mean_t) * (v - mean_v) for t, v in samples)
-    return stv / stt if stt > 0.0 else math.nan
