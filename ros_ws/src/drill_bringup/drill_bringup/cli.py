@@ -3,7 +3,7 @@
   rig demo                         Case 2 trip in fast mode, with summary and plots
   rig run SCENARIO [--realtime] [--seed N] [--controller NAME] [--layout LAYOUT]
           [--nodes NAMES --domain N --peers ADDR[,ADDR]] [--runs-dir DIR]
-          [--foxglove [PORT]] [--opcua [ENDPOINT]]
+          [--foxglove [PORT]] [--opcua [ENDPOINT]] [--mismatch NAME]
                                    any scenario (name under config/scenarios or a path),
                                    optionally under another controller than its own, with
                                    nodes grouped into processes (separate, actuators, plant,
@@ -12,6 +12,8 @@
                                    run split across hosts (docs/multihost.md); --foxglove /
                                    --opcua add the live Foxglove bridge / the OPC-UA gateway
                                    (docs/gateways.md)
+                                   --mismatch NAME: a plant that is not the model
+                                   (config/mismatch.yaml, docs/mismatch.md)
   rig report RUN_DIR               re-make the summary and plots of a run
   rig replay FILE [options]        republish a recording (see rig replay --help)
   rig reestimate RUN_DIR [--config-dir DIR] [--rate R]
@@ -110,6 +112,9 @@ def main(argv=None) -> int:
                      help="serve the OPC-UA gateway on ENDPOINT (without it the gateway's "
                           "default, on this machine only; read docs/gateways.md before "
                           "binding elsewhere)")
+    run.add_argument("--mismatch", metavar="NAME",
+                     help="the plant differs from the model: a member of config/mismatch.yaml "
+                          "or draw:N (replaces the scenario's truth:, docs/mismatch.md)")
     rep = sub.add_parser("report", help="summary and plots of a run directory")
     rep.add_argument("run_dir", type=Path)
     sub.add_parser("replay", help="republish a recording", add_help=False)
@@ -145,7 +150,8 @@ def main(argv=None) -> int:
             return run_scenario(scenario_path(args.scenario), args.realtime, args.runs_dir,
                                 seed=args.seed, domain_id=args.domain,
                                 controller=args.controller, layout=args.layout,
-                                here=args.nodes, peers=peers, extras=_gateways(args))[0]
+                                here=args.nodes, peers=peers, extras=_gateways(args),
+                                mismatch=args.mismatch)[0]
         if args.command == "report":
             mcap = next(args.run_dir.glob("*.mcap"))
             _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name)

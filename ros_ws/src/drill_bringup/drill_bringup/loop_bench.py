@@ -29,9 +29,11 @@ from drill_bringup.runs import ROOT, scenario_path
 from drill_bringup.report import format_legs, tracking_metrics
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, parse_settings
-from drill_core.estimation_model import (BLOCK_INTEGRAL, MEASUREMENT_NAMES, build_estimation_model,
+from drill_core.estimation_model import (BLOCK_INTEGRAL, DENSITY_OFFSET, MEASUREMENT_NAMES,
+                                         build_estimation_model,
                                          fitted_friction_parameters)
 from drill_core.events import of_owner
+from drill_core.mismatch import Mismatch, resolve, truth_config
 from drill_core.scenario import initial_setpoints, load_scenario_config
 from drill_core.units import L_PER_M3, PA_PER_BAR
 from drill_core.channel_watch import ChannelWatch
@@ -158,22 +160,25 @@ class TruthState:
                                            float(x[lay.velocity]))
         x_hat = self.em.vector({**dict(zip(lay.names, x)),
                                 BLOCK_INTEGRAL: self.rig.drawworks.integral_m_s,
+                                DENSITY_OFFSET: self.rig.config.well.mud.density_kgm3
+                                - self.em.wm.well.mud.density_kgm3,
                                 **{self.em.theta_name(i): v for i, v in enumerate(theta, 2)}})
         return EstimateView(bhp_pa=float(x[lay.pressure(self.em.n)]),
                             string_position_m=float(x[lay.position]),
                             string_velocity_mps=float(x[lay.velocity]),
                             string_flow_m3s=float(x[lay.string_flow]),
-                            friction_factor=tuple(float(v) for v in theta)), x_hat
+                            friction_factor=tuple(float(v) for v in theta),
+                            density_offset_kgm3=float(self.em.density_offset_of(x_hat))), x_hat
 
 
 class UkfState:
     """The estimator as in the graph: channels screened, time update over the last frame,
     then the sample (the string-flow channel only while the meter reads)."""
 
-    def __init__(self, config: RigConfig, rig: Rig):
+    def __init__(self, config: RigConfig, wm: hy.WellModel):
         self.ukf = RigUkf(config)
         self.watch = ChannelWatch(MEASUREMENT_NAMES, config.estimator.frozen_after_samples)
-        self.wm = rig.sim.wm
+        self.wm = wm
         self.held = ModelInputs(self.ukf.em, self.ukf.block_input,
                                 config.estimator.frozen_after_samples)   # choke dp, return flow
         self.held.choke_dp_pa = math.nan
@@ -197,7 +202,8 @@ class UkfState:
         return EstimateView(bhp_pa=ukf.bhp_pa, string_position_m=float(x[ukf.em.position]),
                             string_velocity_mps=float(x[ukf.em.velocity]),
                             string_flow_m3s=float(x[ukf.em.string_flow]),
-                            friction_factor=tuple(float(v) for v in ukf.theta)), ukf.mean
+                            friction_factor=tuple(float(v) for v in ukf.theta),
+                            density_offset_kgm3=float(ukf.em.density_offset_of(x))), ukf.mean
 
 
 class NmpcController:
@@ -247,18 +253,18 @@ class Protection:
     """The protection node in process: the block velocity over its window, the kick
     detector's trip hold, and the limiter between the advisor's command and the machines."""
 
-    def __init__(self, config: RigConfig, rig: Rig, scenario):
+    def __init__(self, config: RigConfig, rig: Rig, scenario, wm: hy.WellModel):
         op = rig.op
         start = np.array([0.0, float(op.choke_flow_m3s), scenario.initial.bpp_flow_m3s,
                           float(op.inputs[3])])
-        self.protection = ProcessProtection(config, rig.sim.wm, start)
-        self.detector = detector_for(config, rig.sim.wm.geometry)
+        self.protection = ProcessProtection(config, wm, start)
+        self.detector = detector_for(config, wm.geometry)
         self.stop_trip = config.protection.kick_detection.stop_trip
         self.speed_limit = config.protection.trip_speed_max_mps
         self.positions: deque = deque()
         self.clamps: list[tuple[float, str]] = []
         self.alarms: list[tuple[float, str]] = []
-        self.trip = PumpTripResponse(config.protection.pump_trip, rig.sim.wm,
+        self.trip = PumpTripResponse(config.protection.pump_trip, wm,
                                      config.pressure_window_pa)
         self.window = WindowResponse(config.protection.well_control, config.pressure_window_pa)
         self.flow_threshold_m3s = config.protection.kick_detection.flow_threshold_m3s
@@ -315,21 +321,26 @@ class Protection:
 
 def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf",
         seed: int | None = None, overrides: dict | None = None,
-        block_integral_from_drawworks: bool = True, protection: bool = False) -> dict:
+        block_integral_from_drawworks: bool = True, protection: bool = False,
+        mismatch: Mismatch | None = None) -> dict:
     """One scenario in-process; the report's tracking figures, the time BHP spent outside
     the formation window, the BHP estimate RMSE. ``block_integral_from_drawworks`` False
     withholds the drawworks' command from the NMPC (as before it took its block-controller
     integral from there: docs/nmpc.md); ``protection`` puts the process protection between
-    the controller and the actuators."""
+    the controller and the actuators; ``mismatch``: the plant (and the actuators) differ
+    from the model the rest reads (drill_core.mismatch)."""
     if controller not in CONTROLLERS:
         raise ValueError(f"controller {controller!r} is not one of {', '.join(CONTROLLERS)}")
     scenario, config = load_scenario_config(scenario_path(scenario_name), ROOT / "config",
                                             overrides)
-    rig = Rig(config, scenario, scenario.seed if seed is None else seed)
+    plant_config = config if mismatch is None else truth_config(config, mismatch)
+    rig = Rig(plant_config, scenario, scenario.seed if seed is None else seed)
+    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
+                             config.plant.choke_regularisation_pa)      # the model's
     em = build_estimation_model(config)
-    source = TruthState(rig, em) if state == "truth" else UkfState(config, rig)
+    source = TruthState(rig, em) if state == "truth" else UkfState(config, wm)
     book = SetpointBook(scenario, initial_setpoints(config, scenario),
-                        Envelope.from_config(config, rig.sim.wm.geometry))
+                        Envelope.from_config(config, wm.geometry))
     u_b, opening, bpp, spp = (float(v) for v in rig.op.inputs)
     mpd = AutomatedMpd(config, em, bpp, spp) if controller == "automated_mpd" else None
     nmpc = NmpcController(config, rig, scenario.initial, block_integral_from_drawworks) \
@@ -337,7 +348,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
     baseline = Baseline(float(rig.op.choke_flow_m3s), BASELINE_KP_M3S_PER_PA, BASELINE_TI_S,
                         config.nmpc.input_max.choke_flow_m3s, scenario.baseline_trip_speed_mps,
                         config.nmpc.sample_time_s) if controller == "baseline" else None
-    guard = Protection(config, rig, scenario) if protection else None
+    guard = Protection(config, rig, scenario, wm) if protection else None
     cmd = Command(0.0, rig.op.choke_flow_m3s, bpp, spp)
     frames = int(round(scenario.duration_s / config.plant.sensor_period_s))
     per_sample = int(round(config.nmpc.sample_time_s / config.plant.sensor_period_s))
@@ -430,11 +441,14 @@ def main(argv=None) -> int:
                         help="the process protection between the controller and the actuators")
     parser.add_argument("--set", action="append", default=[],
                         help="config override FILE.KEY=VALUE, e.g. automated_mpd.feedforward_lead_s=2")
+    parser.add_argument("--mismatch", help="the plant differs from the model: a member of "
+                                           "config/mismatch.yaml or draw:N")
     args = parser.parse_args(argv)
     overrides = parse_settings(args.set)
+    mismatch = None if args.mismatch is None else resolve(args.mismatch, ROOT / "config")[1]
     for seed in args.seeds or [None]:
         r = run(args.scenario, args.controller, args.state, seed, overrides,
-                protection=args.protection)
+                protection=args.protection, mismatch=mismatch)
         print(f"{args.scenario} seed {seed}: BHP RMSE {r['bhp_rmse_pa'] / PA_PER_BAR:.2f} bar, "
               f"outside {r['bhp_time_outside_s']:.1f} s ({r['bhp_time_outside_settled_s']:.1f} s "
               f"after 30 s), worst {r['bhp_worst_excursion_pa'] / PA_PER_BAR:.2f} bar, "

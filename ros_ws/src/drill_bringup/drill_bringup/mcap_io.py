@@ -29,6 +29,7 @@ MESSAGE_ENCODING = "cdr"
 DELIMITER = "=" * 80
 METADATA_NAME = "rosbag2"
 METADATA_KEY = "serialized_metadata"
+TRUTH_METADATA = "rig_truth"     # the run's plant mismatch (drill_core.mismatch file, JSON)
 BAG_METADATA_VERSION = 9
 DEFAULT_CHUNK_SIZE_BYTES = 1024 * 1024
 INFINITE_NS = 2**63 - 1
@@ -330,6 +331,11 @@ class McapWriter:
     def __exit__(self, *_exc):
         self.close()
 
+    def add_metadata(self, name: str, values: dict[str, str]) -> None:
+        """A metadata record (name, string -> string) written now: it survives a hard kill
+        once its chunk reaches the file."""
+        self._writer.add_metadata(name, values)
+
     def add_topic(self, topic: str, type_name: str, offers: Sequence[QosOffer] = (),
                   type_hash: str = "") -> None:
         """Register a topic: schema (once per type) and channel with QoS metadata."""
@@ -445,6 +451,15 @@ def read_messages(path, topics: Iterable[str] | None = None,
         for schema, channel, message in reader.iter_messages(
                 topics=selected, starting_at=start_ns, ending_before=end_ns):
             yield _recorded(schema, channel, message)
+
+
+def read_metadata(path, name: str) -> dict[str, str] | None:
+    """The metadata record ``name`` of a file, None if absent."""
+    with open(path, "rb") as stream:
+        for record in make_reader(stream).iter_metadata():
+            if record.name == name:
+                return dict(record.metadata)
+    return None
 
 
 def read_bag_metadata(path) -> dict | None:

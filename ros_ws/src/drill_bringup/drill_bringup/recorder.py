@@ -9,6 +9,7 @@ import sys
 import threading
 import time
 from functools import partial
+from pathlib import Path
 from collections.abc import Iterable, Sequence
 
 import rclpy
@@ -25,7 +26,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 
 from drill_bringup import mcap_io
-from drill_bringup.mcap_io import QosOffer
+from drill_bringup.mcap_io import TRUTH_METADATA, QosOffer
 
 STATUS_TOPIC = topics.status("recorder")
 DRAIN_QUIET_S = 0.2
@@ -86,6 +87,9 @@ class Recorder(RigNode):
 
         self._writer = mcap_io.McapWriter(self.output, chunk_size_bytes=chunk_size_bytes,
                                           compression=compression)
+        truth_path = self.declare_parameter("truth", "").value
+        if truth_path:          # the run's plant, as the plant was given it
+            self._writer.add_metadata(TRUTH_METADATA, {"truth": Path(truth_path).read_text()})
         self._subscriptions_by_topic = {}
         self._unrecordable = set()
         self._status_pub = self.create_publisher(NodeStatus, STATUS_TOPIC, topics.RELIABLE)

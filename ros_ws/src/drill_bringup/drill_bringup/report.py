@@ -179,6 +179,8 @@ def tracking_metrics(t, bhp, pos, ref, band, target) -> dict:
         "block_position_rmse_m": float(np.sqrt(np.mean(e_pos ** 2))),
         "bhp_mean_error_pa": float(np.mean(e_bhp)),
         "bhp_rmse_pa": float(np.sqrt(np.mean(e_bhp ** 2))),
+        "bhp_rmse_settled_pa": float(np.sqrt(np.mean(e_bhp[settled] ** 2)))
+        if np.any(settled) else math.nan,
         "bhp_window_violations": int(np.count_nonzero(np.diff(outside.astype(int)) == 1)
                                      + int(outside[0])) if len(outside) else 0,
         "bhp_worst_excursion_pa": float(np.max(excursion)) if len(excursion) else 0.0,
@@ -262,11 +264,20 @@ def format_legs(legs) -> str:
                                                else "not reached") for target, time_s in legs)
 
 
+def plant_text(mismatch: dict | None) -> str:
+    """The run's plant against the model, for the printed table."""
+    if not mismatch:
+        return "the model's own (config/well.yaml)"
+    changes = ", ".join(f"{k} {v}" for k, v in mismatch["mismatch"].items())
+    return f"not the model: {mismatch['name']} ({changes or 'no change'})"
+
+
 def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
     """Human-readable summary in drilling units."""
     rows = [
         f"Run: {name}",
         f"  duration                      {summary['duration_s']:.0f} s",
+        f"  plant                         {plant_text(summary.get('plant_mismatch'))}",
         f"  trip distance                 {summary['trip_distance_m']:.1f} m "
         f"(max string speed {summary['max_string_speed_mps']:.2f} m/s)",
     ]
@@ -276,7 +287,8 @@ def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
             f"    block position [m]         {summary['block_position_mean_error_m']:10.3f}  "
             f"{summary['block_position_rmse_m']:9.3f}",
             f"    BHP [bar]                  {summary['bhp_mean_error_pa'] / PA_PER_BAR:10.3f}  "
-            f"{summary['bhp_rmse_pa'] / PA_PER_BAR:9.3f}",
+            f"{summary['bhp_rmse_pa'] / PA_PER_BAR:9.3f}  (after the first {SETTLE_S:.0f} s: "
+            f"{summary['bhp_rmse_settled_pa'] / PA_PER_BAR:.3f})",
             f"  BHP window violations         {summary['bhp_window_violations']} "
             f"(worst {summary['bhp_worst_excursion_pa'] / PA_PER_BAR:.2f} bar outside, "
             f"{summary['bhp_time_outside_s']:.1f} s outside, "
@@ -432,6 +444,8 @@ def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | Non
     else:
         series = load_series(mcap_path)
         summary = summarise(series)
+        recorded = mcap_io.read_metadata(mcap_path, mcap_io.TRUTH_METADATA)
+        summary["plant_mismatch"] = json.loads(recorded["truth"]) if recorded else None
         plots = plot(series, out_dir / "plots")
         table = format_table(name, summary, baseline)
     (out_dir / "summary.json").write_text(json.dumps(

@@ -9,9 +9,12 @@ import time
 from datetime import datetime
 from pathlib import Path
 
+import yaml
+
 from drill_bringup import launcher, report
 from drill_core.ros import graph as graph_decl
-from drill_core.scenario import load_scenario, scenario_kind
+from drill_core.mismatch import resolve, write_truth_file
+from drill_core.scenario import load_scenario, scenario_kind, scenario_truth, without_truth
 
 ROOT = Path(os.environ.get("RIG_ROOT", Path.cwd()))
 
@@ -52,13 +55,28 @@ def _drilling_scenario(path: Path, realtime: bool, controller: str | None):
     return load_drilling_scenario(path, ROOT / "config")[0]
 
 
+def run_truth(path: Path, mismatch: str | None):
+    """How the run's plant differs from the model: ``mismatch`` (a suite member or draw:N),
+    else the scenario's ``truth:`` section, as (name, Mismatch); None: the model's own."""
+    config_dir = ROOT / "config"
+    return (resolve(mismatch, config_dir, "--mismatch") if mismatch is not None
+            else scenario_truth(path, config_dir))
+
+
+def stage_truth(path: Path, run_dir: Path, truth) -> None:
+    """Write ``run_dir/scenario.yaml`` (the scenario less its truth, for every node) and
+    ``run_dir/truth.yaml`` (the plant's mismatch, for the plant's side alone)."""
+    (run_dir / "scenario.yaml").write_text(yaml.safe_dump(without_truth(path), sort_keys=False))
+    write_truth_file(run_dir / "truth.yaml", *truth)
+
+
 def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = None,
                  seed: int | None = None, domain_id: int | None = None,
                  timeout_s: float | None = None, quiet: bool = False,
                  controller: str | None = None, layout: str = "separate",
                  here: str | None = None, peers: tuple[str, ...] = (),
                  extras: dict[str, dict] | None = None,
-                 pin_cpus: bool = True) -> tuple[int, Path]:
+                 pin_cpus: bool = True, mismatch: str | None = None) -> tuple[int, Path]:
     """Launch a scenario, record it and report; returns (exit code, run directory).
     ``seed`` replaces the scenario's plant seed and ``controller`` its controller (the same
     trip under another controller: ``rig compare``); ``layout`` groups nodes into processes
@@ -67,7 +85,10 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     others' on ``peers`` (docs/multihost.md); the report is made where the recorder runs.
     ``extras`` adds optional nodes (the gateways), name -> parameters; in a share they run
     on this host. ``pin_cpus`` False leaves the processes on every CPU (several graphs
-    running at once: launcher.cpu_sets would put their control chains on one CPU)."""
+    running at once: launcher.cpu_sets would put their control chains on one CPU).
+    ``mismatch`` (a member of config/mismatch.yaml or ``draw:N``) replaces the scenario's
+    ``truth:``: how the plant differs from the model; only the plant's side is given it
+    (run_truth, stage_truth)."""
     kind = scenario_kind(path)
     if kind == "drilling":
         scenario, own_controller = _drilling_scenario(path, realtime, controller), "none"
@@ -78,13 +99,20 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
     tags = "".join(f"-{tag}" for tag in (
         controller if controller != own_controller else None,
-        f"seed{seed}" if seed is not None else None) if tag)
+        f"seed{seed}" if seed is not None else None,
+        mismatch.replace(":", "") if mismatch else None) if tag)
     run_dir = (runs_dir or ROOT / "runs") / f"{scenario.name}{tags}-{stamp}-{os.getpid()}"
     mcap_path = run_dir / f"{scenario.name}.mcap"
     mode = "realtime" if realtime else "fast"
-    common = {"config_dir": str(ROOT / "config"), "scenario": str(path), "mode": mode}
+    truth = run_truth(path, mismatch) if kind == "tripping" else None
+    staged = path if truth is None else run_dir / "scenario.yaml"
+    common = {"config_dir": str(ROOT / "config"), "scenario": str(staged), "mode": mode}
     nodes = launcher.graph(controller, common, mcap_path, fast=not realtime, layout=layout,
                            kind=kind, extras=extras)
+    if truth is not None:
+        for node in nodes:
+            if graph_decl.BY_NAME[node.name].truth_side:
+                node.params["truth"] = str(run_dir / "truth.yaml")
     if seed is not None:
         nodes[-1].params["seed"] = seed
     names = {n.name for n in nodes}
@@ -95,6 +123,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     launch = launcher.Launch(nodes, run_dir, domain_id, layout,
                              None if here is None else names, peers, pin_cpus=pin_cpus)
     run_dir.mkdir(parents=True, exist_ok=True)
+    if truth is not None:
+        stage_truth(path, run_dir, truth)
     say = (lambda *_: None) if quiet else (lambda text: print(text, flush=True))
     say(f"[rig] {scenario.name}: {scenario.description} ({mode} mode, logs in {run_dir / 'logs'})")
     started = time.monotonic()
@@ -117,7 +147,9 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     (run_dir / "launch.json").write_text(json.dumps(
         {"ok": ok, "message": message, "wall_time_s": wall, "exit_codes": codes,
          "scenario": str(path), "mode": mode, "controller": controller, "seed": seed,
-         "layout": layout, "nodes": sorted(names), "peers": list(peers)},
+         "mismatch": None if truth is None else truth[0],
+         "layout": layout, "nodes": sorted(names), "peers": list(peers),
+         "parameters": {n.name: n.params for n in nodes if n.name in names}},
         indent=2))
     if not ok:
         print(f"[rig] FAILED: {message}", file=sys.stderr, flush=True)

@@ -102,11 +102,27 @@ class Well:
     hoist_stiffness_n_m: float = param("N/m", 0.0, 1.0e9, lo_open=True, doc="k_eq")
     hoist_damping_n_s_m: float = param("N s/m", 0.0, 1.0e8, doc="c_eq")
     formation: Formation = param()
+    segment_hole_diameters_m: tuple[float, ...] | None = param(
+        "m", 0.0, 2.0, lo_open=True, default=None,
+        doc="hole diameter per annulus segment, top first (a washout); absent: hole_diameter_m")
+
+    def hole_diameters_m(self) -> tuple[float, ...]:
+        """The hole diameter of each annulus segment [m], top first."""
+        return self.segment_hole_diameters_m or (self.hole_diameter_m,) * len(self.segment_lengths_m)
 
     def validate(self) -> None:
         if len(self.segment_lengths_m) < 2:
             raise FieldError("segment_lengths_m",
                              f"value {list(self.segment_lengths_m)} must list at least 2 annulus segments")
+        holes = self.segment_hole_diameters_m
+        if holes is not None and len(holes) != len(self.segment_lengths_m):
+            raise FieldError("segment_hole_diameters_m",
+                             f"value {list(holes)} must list one diameter per annulus segment "
+                             f"({len(self.segment_lengths_m)})")
+        if holes is not None and min(holes) < self.hole_diameter_m:
+            raise FieldError("segment_hole_diameters_m",
+                             f"value {list(holes)}: a segment narrower than hole_diameter_m "
+                             f"{self.hole_diameter_m} m (the bit's size; a washout only widens it)")
         for i, section in enumerate(self.string):
             key = ("outer_diameter_m" if section.outer_diameter_m >= section.tool_joint_outer_diameter_m
                    else "tool_joint_outer_diameter_m")
@@ -141,6 +157,15 @@ class SurfaceSensorNoise:
 
 
 @dataclass(frozen=True)
+class SensorBias:
+    """A constant error of a sensor's reading (SI; reading = truth + bias)."""
+    bhp_pa: float = param("Pa", -1.0e7, 1.0e7, default=0.0)
+    choke_dp_pa: float = param("Pa", -1.0e7, 1.0e7, default=0.0)
+    return_flow_m3s: float = param("m^3/s", -0.1, 0.1, default=0.0)
+    string_flow_m3s: float = param("m^3/s", -0.1, 0.1, default=0.0)
+
+
+@dataclass(frozen=True)
 class Plant:
     """Truth-model numerics, process noise and sensors."""
     step_s: float = param("s", 0.0, 0.1, lo_open=True)
@@ -156,6 +181,8 @@ class Plant:
     jit: bool = param(default=False, doc="compile the frame and outputs functions to C "
                                          "(cached; needs a C compiler); same numbers, about "
                                          "half the frame time")
+    sensor_bias: SensorBias = param(default=SensorBias(),
+                                    doc="constant sensor errors (a mismatch: drill_core.mismatch)")
 
     def validate(self) -> None:
         ratio = self.sensor_period_s / self.step_s
@@ -261,6 +288,12 @@ class Estimator:
     nis_alarm_probability: float = param("1", 0.5, 0.999999)
     covariance_inflation: float = param("1", 1.0, 100.0)
     estimate_bottom_influx: bool = param(default=False)
+    estimate_density_offset: bool = param(
+        default=False, doc="a random-walk density offset state: every hydrostatic column is "
+                           "(rho + delta_rho) g h (docs/mismatch.md)")
+    initial_density_offset_std_kgm3: float = param("kg/m^3", 0.0, 500.0, lo_open=True, default=10.0)
+    density_offset_process_std_kgm3: float = param("kg/m^3", 0.0, 100.0, default=1.0e-3,
+                                                   doc="per-step std of the density offset")
     initial_rig_std: tuple[float, ...] = param("m, m/s, m s", 0.0, lo_open=True,
                                                default=(0.01, 0.01, 0.01),
                                                doc="initial std of z1..z3")
@@ -593,5 +626,5 @@ def replace(obj: object, **changes: object) -> object:
 __all__ = ["ConfigError", "RigConfig", "Well", "StringSection", "Mud", "Turbulence", "Plant",
            "MeasurementNoise", "SurfaceSensorNoise", "Lag", "Actuators", "Estimator", "FrictionLawTuning", "FRICTION_LAWS",
            "Nmpc", "ChokeDpSetpoint", "AutomatedMpd", "InputVector", "OutputVector", "Protection",
-           "KickDetection", "Formation",
+           "KickDetection", "Formation", "SensorBias",
            "load_rig", "load_section", "parse_settings", "replace"]

@@ -10,10 +10,13 @@ by a law with random-walk parameters theta_i (config ``annular_friction_law``):
   drill_core.rheology) with its yield jump smoothed over a wider velocity for the RK4
   steps, tabulated (:class:`NominalFriction`); theta_i ~ 1 is a factor.
 
-plus the block-position controller in place of the drawworks lag, and optionally an
+plus the block-position controller in place of the drawworks lag, optionally a random-walk
+density offset delta_rho (the mud's true density less the report's: every hydrostatic
+column, annulus and string, is (rho + delta_rho) g h; docs/mismatch.md) and optionally an
 unmeasured influx into the bottom volume (input disturbance on BHP, NMPC2).
 
-State  x = [z1 m, z2 m/s, z3 m s, p_1, q_2, p_2, ..., q_n, p_n, q_d, p_I, theta_2..theta_n (, d)]
+State  x = [z1 m, z2 m/s, z3 m s, p_1, q_2, p_2, ..., q_n, p_n, q_d, p_I, theta_2..theta_n
+          (, delta_rho) (, d)]
 Input  u = [u_r block reference m, q_c choke flow m^3/s, q_bpp m^3/s, p_in pump pressure Pa]
 Output y = [z1, p_1 - p_0, p_n, q_d] (q_d only while circulating).
 Everything here takes an array namespace ``xp`` so the one definition evaluates on
@@ -38,6 +41,7 @@ from drill_core.state_layout import POSITION, VELOCITY, WellboreLayout, hydrauli
 MEASUREMENT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa", "string_flow_m3s")
 BLOCK_INTEGRAL = "block_integral_m_s"
 BOTTOM_INFLUX = "bottom_influx_m3s"
+DENSITY_OFFSET = "density_offset_kgm3"    # the mud's true density less the report's
 INPUT_NAMES = ("block_position_ref_m", "choke_flow_m3s", "bpp_flow_m3s", "pump_pressure_pa")
 
 
@@ -117,6 +121,7 @@ class EstimationModel(WellboreLayout):
     with_disturbance: bool
     friction_law: str = "quadratic"
     nominal_friction: NominalFriction | None = field(default=None, compare=False, repr=False)
+    with_density_offset: bool = False
 
     @property
     def n(self) -> int:
@@ -133,6 +138,7 @@ class EstimationModel(WellboreLayout):
     def names(self) -> tuple[str, ...]:
         return (POSITION, VELOCITY, BLOCK_INTEGRAL, *hydraulic_state_names(self.n),
                 *(self.theta_name(i) for i in range(2, self.n + 1)),
+                *((DENSITY_OFFSET,) if self.with_density_offset else ()),
                 *((BOTTOM_INFLUX,) if self.with_disturbance else ()))
 
     def theta(self, i: int) -> int:
@@ -142,6 +148,16 @@ class EstimationModel(WellboreLayout):
     @property
     def block_integral(self) -> int:
         return self.index(BLOCK_INTEGRAL)
+
+    @property
+    def density_offset(self) -> int:
+        if not self.with_density_offset:
+            raise AttributeError("model has no density offset state")
+        return self.index(DENSITY_OFFSET)
+
+    def density_offset_of(self, x):
+        """The state's density offset [kg/m^3] (0 for a model without it)."""
+        return x[self.density_offset] if self.with_density_offset else 0.0
 
     @property
     def disturbance(self) -> int:
@@ -168,6 +184,8 @@ class EstimationModel(WellboreLayout):
         s[self.string_pressure] = 1e5
         for i in range(2, self.n + 1):
             s[self.theta(i)] = 1e6 if self.friction_law == "quadratic" else 1.0
+        if self.with_density_offset:
+            s[self.density_offset] = 10.0
         if self.with_disturbance:
             s[self.disturbance] = 1e-3
         return s
@@ -182,7 +200,7 @@ def build_estimation_model(config: RigConfig, with_disturbance: bool = False) ->
     nominal = NominalFriction(wm, est.annular_friction_smoothing_mps) \
         if law == "scaled_rheology" else None
     return EstimationModel(wm, config.actuators.block_kp, config.actuators.block_ki_per_s,
-                           with_disturbance, law, nominal)
+                           with_disturbance, law, nominal, est.estimate_density_offset)
 
 
 def path_friction(xp, em: EstimationModel, k: int, flow_m3s, string_velocity_mps, theta=1.0):
@@ -237,7 +255,8 @@ def drift(xp, em: EstimationModel, x, u, string_friction_law=None):
     p = [x[em.pressure(i)] for i in range(1, n + 1)]
     q = [x[em.flow(i)] for i in range(2, n + 1)]
     rates = hy.hydraulic_rates(xp, wm, p, q, x[em.string_flow], x[em.string_pressure], z1, z2,
-                               u[1], u[2], u[3], annulus_friction(xp, em, x), string_friction_law)
+                               u[1], u[2], u[3], annulus_friction(xp, em, x), string_friction_law,
+                               em.density_offset_of(x))
     bottom_influx = 0.0
     if em.with_disturbance:
         bottom_influx = hy.bottom_inflow_rate(wm, x[em.disturbance])
@@ -248,6 +267,8 @@ def drift(xp, em: EstimationModel, x, u, string_friction_law=None):
         out.append(rates.pressure[i] + (bottom_influx if i == n - 1 else 0.0))
     out += [rates.string_flow, rates.string_pressure]
     out += [0.0 * z1] * (n - 1)                       # random-walk theta: no drift
+    if em.with_density_offset:
+        out.append(0.0 * z1)                          # random-walk density offset
     if em.with_disturbance:
         out.append(0.0 * z1)                          # random-walk disturbance
     return out

@@ -16,11 +16,13 @@ from pathlib import Path
 from drill_core.config import ConfigError, RigConfig, load_rig
 from drill_core.yaml_files import load_yaml, merge
 from drill_core.events import ScenarioEvent
+from drill_core.mismatch import Mismatch, resolve
 from drill_core.open_loop import OpenLoopPlan, start_command
 from drill_core.schema import FieldError, build, param
 
 _NAN = float("nan")
 SCENARIO_KINDS = ("tripping", "drilling")    # a scenario file's ``kind`` (absent: tripping)
+TRUTH_KEY = "truth"     # the plant's mismatch (drill_core.mismatch), read by the plant's side only
 
 
 @dataclass(frozen=True)
@@ -171,9 +173,27 @@ def load_scenario(path: str | Path) -> tuple[Scenario, dict]:
         raise ConfigError(f"{path}: kind: value {kind!r}: not a tripping scenario (a drilling "
                           "scenario loads with drill_string.scenario)")
     overrides = data.pop("overrides", {}) or {}
+    data.pop(TRUTH_KEY, None)       # the plant's alone: scenario_truth
     if not isinstance(overrides, dict):
         raise ConfigError(f"{path}: overrides: expected a mapping of config file stems")
     return build(Scenario, data, str(path)), overrides
+
+
+def scenario_truth(path: str | Path, config_dir: str | Path) -> tuple[str, Mismatch] | None:
+    """The scenario's ``truth:`` section (how its plant differs from the model:
+    drill_core.mismatch) as (name, mismatch), None without one. Only the plant's side of
+    the graph is given it (the launcher stages the scenario without it for the others)."""
+    data = load_yaml(path)
+    if not isinstance(data, dict) or data.get(TRUTH_KEY) is None:
+        return None
+    return resolve(data[TRUTH_KEY], config_dir, f"{path}: {TRUTH_KEY}")
+
+
+def without_truth(path: str | Path) -> dict:
+    """The scenario file's mapping less its ``truth:`` section (what the model's side reads)."""
+    data = dict(load_yaml(path))
+    data.pop(TRUTH_KEY, None)
+    return data
 
 
 def load_scenario_config(path: str | Path, config_dir: str | Path,

@@ -72,8 +72,10 @@ class SurgeSwabModel:
             - self.friction_pa(theta, bit_flow_m3s, 0.0)
 
     def choke_dp_for_bhp(self, bhp_pa: float, theta, bit_flow_m3s: float,
-                         velocity_mps, downstream_pa: float):
+                         velocity_mps, downstream_pa: float, density_offset_kgm3: float = 0.0):
         """Steady choke dp [Pa] that puts the BHP at ``bhp_pa`` at this motion and flow (per
-        speed for an array of speeds)."""
-        return bhp_pa - self.column_pa - self.friction_pa(theta, bit_flow_m3s, velocity_mps) \
+        speed for an array of speeds), the mud ``density_offset_kgm3`` heavier than the
+        model's (the estimate's density offset)."""
+        column = self.column_pa * (1.0 + density_offset_kgm3 / self.em.wm.well.mud.density_kgm3)
+        return bhp_pa - column - self.friction_pa(theta, bit_flow_m3s, velocity_mps) \
             - downstream_pa

@@ -73,15 +73,19 @@ def _variants(well: Well):
     return out
 
 
-def _pieces(sections, a: float, b: float):
-    """Pieces of the depth interval [a, b]: (length, variants); variants empty below the bit."""
-    cuts = sorted({a, b, *[t for t, _, _ in sections if a < t < b],
-                   *[u for _, u, _ in sections if a < u < b]})
+def _pieces(sections, a: float, b: float, holes=()):
+    """Pieces of the depth interval [a, b]: (length, variants, hole diameter); variants
+    empty below the bit. ``holes``: (top, bottom, diameter) of each annulus segment (the
+    pieces are cut at their bounds too; without: diameter NaN)."""
+    bounds = [t for t, _, _ in sections] + [u for _, u, _ in sections] \
+        + [t for t, _, _ in holes] + [u for _, u, _ in holes]
+    cuts = sorted({a, b, *[d for d in bounds if a < d < b]})
     out = []
     for lo, hi in zip(cuts[:-1], cuts[1:]):
         mid = 0.5 * (lo + hi)
         variants = next((v for t, u, v in sections if t <= mid < u), ())
-        out.append((hi - lo, variants))
+        hole = next((d for t, u, d in holes if t <= mid < u), math.nan)
+        out.append((hi - lo, variants, hole))
     return out
 
 
@@ -90,10 +94,20 @@ def _outer_area_at(sections, depth: float) -> float:
     return sum(w * circle_area(od) for w, od, _ in variants)
 
 
-def _annulus_sections(well: Well, pieces) -> tuple[FlowSection, ...]:
-    d_hole = well.hole_diameter_m
+def _merged(holes):
+    """(top, bottom, diameter) intervals with neighbours of one diameter joined."""
+    out = [holes[0]]
+    for top, bottom, d in holes[1:]:
+        if d == out[-1][2]:
+            out[-1] = (out[-1][0], bottom, d)
+        else:
+            out.append((top, bottom, d))
+    return tuple(out)
+
+
+def _annulus_sections(pieces) -> tuple[FlowSection, ...]:
     out = []
-    for length, variants in pieces:
+    for length, variants, d_hole in pieces:
         for w, od, _ in (variants or ((1.0, 0.0, 0.0),)):
             out.append(FlowSection(
                 length_m=length * w,
@@ -118,18 +132,20 @@ def build_geometry(well: Well) -> WellGeometry:
         raise ValueError(f"node depths {depths} are not increasing: the bit must lie below the "
                          "middle of the second-deepest segment")
 
+    holes = _merged(tuple(zip(bounds[:-1], bounds[1:], well.hole_diameters_m())))
     volumes = []
     displacement = []
     for i in range(n):
         a, b = bounds[i], bounds[i + 1]
         steel_outer = sum(length * sum(w * circle_area(od) for w, od, _ in v)
-                          for length, v in _pieces(sections, a, b))
-        volumes.append(circle_area(well.hole_diameter_m) * (b - a) - steel_outer)
+                          for length, v, _ in _pieces(sections, a, b))
+        hole = next(d for t, u, d in holes if t <= 0.5 * (a + b) < u)
+        volumes.append(circle_area(hole) * (b - a) - steel_outer)
         displacement.append(_outer_area_at(sections, a) - _outer_area_at(sections, b))
 
     paths, inertances, main_area, main_kc = [], [], [], []
     for i in range(1, n):
-        path = _annulus_sections(well, _pieces(sections, depths[i - 1], depths[i]))
+        path = _annulus_sections(_pieces(sections, depths[i - 1], depths[i], holes))
         paths.append(path)
         inertances.append(rho * sum(s.length_m / s.flow_area_m2 for s in path))
         main = max(path, key=lambda s: s.length_m)

@@ -86,6 +86,14 @@ def test_no_estimator_or_controller_reads_the_truth():
             assert not node.subscribes_to(topics.TRUTH), node.name
 
 
+def test_only_the_plant_the_actuators_and_the_recorder_are_given_the_plants_mismatch():
+    given = {node.name for node in graph.NODES if node.truth_side}
+    assert given == {"plant", "recorder", *topics.ACTUATORS}
+    for node in graph.NODES:
+        if node.name in ("estimator", "protection") or node.controller:
+            assert not node.truth_side, node.name
+
+
 def test_the_documented_topic_table_is_the_declared_one():
     doc = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
     assert graph.markdown_table() in doc, "regenerate it: python -m drill_core.ros.graph"

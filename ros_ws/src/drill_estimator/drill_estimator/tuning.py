@@ -54,6 +54,9 @@ def build_tuning(est: Estimator, em: EstimationModel, scale: np.ndarray) -> UkfT
     p_std[flows] = est.initial_flow_std_m3s
     q_std[theta] = friction.theta_process_std
     p_std[theta] = friction.theta_initial_std
+    if em.with_density_offset:
+        q_std[em.density_offset] = est.density_offset_process_std_kgm3
+        p_std[em.density_offset] = est.initial_density_offset_std_kgm3
     if em.with_disturbance:
         q_std[em.disturbance] = est.bottom_influx_process_std_m3s
         p_std[em.disturbance] = est.initial_bottom_influx_std_m3s

@@ -41,6 +41,7 @@ class EstimateView:
     string_velocity_mps: float
     string_flow_m3s: float
     friction_factor: tuple[float, ...]     # theta_2..theta_n of the estimation model
+    density_offset_kgm3: float = 0.0       # the estimate's density offset (0: not estimated)
 
 
 @dataclass(frozen=True)
@@ -95,8 +96,8 @@ class AutomatedMpd:
         return out
 
     def speed_envelope(self, bhp_ref_pa: float, theta, bit_flow_m3s: float,
-                       speed_cap_mps: float, dp_low_pa: float, dp_high_pa: float
-                       ) -> tuple[float, float]:
+                       speed_cap_mps: float, dp_low_pa: float, dp_high_pa: float,
+                       density_offset_kgm3: float = 0.0) -> tuple[float, float]:
         """Largest speed pulling out and running in (<= cap, 0.01 m/s grid) at which the
         steady choke dp holding ``bhp_ref_pa`` stays inside [dp_low, dp_high]."""
         grid = np.minimum(np.arange(1, int(round(speed_cap_mps / 0.01)) + 1) * 0.01,
@@ -107,11 +108,21 @@ class AutomatedMpd:
                 limits.append(0.0)
                 continue
             dp = self.model.choke_dp_for_bhp(bhp_ref_pa, theta, bit_flow_m3s, direction * grid,
-                                             self.downstream_pa) + self.trim_pa
+                                             self.downstream_pa, density_offset_kgm3) \
+                + self.trim_pa
             outside = np.flatnonzero(~((dp_low_pa <= dp) & (dp <= dp_high_pa)))
             last = outside[0] if outside.size else grid.size     # speeds before the first miss
             limits.append(float(grid[last - 1]) if last > 0 else 0.0)
         return limits[0], limits[1]
+
+    def choke_dp_limits(self, sp: ActiveSetpoints, rest_setpoint_pa: float) -> tuple[float, float]:
+        """The choke-dp band [Pa]: the setpoints' band, moved down (not below the choke's
+        lowest set-point) as far as the set-point that holds the BHP reference at rest lies
+        under the band's target: a mud heavier or thicker than the model's needs less
+        back-pressure, and the band keeps its room below that set-point for the surge."""
+        low, high = sp.choke_dp_limits(self.cfg.choke_dp_min_pa)
+        shift = min(0.0, rest_setpoint_pa - sp.choke_dp_ref_pa)
+        return max(low + shift, self.cfg.choke_dp_min_pa), max(high + shift, low + shift)
 
     def adopt_applied(self, applied_block_m: float) -> None:
         """Go on from the block reference the process protection applied to the last
@@ -137,9 +148,19 @@ class AutomatedMpd:
             self.bit_flow_m3s = bit_flow if not math.isfinite(self.bit_flow_m3s) \
                 else keep * self.bit_flow_m3s + (1.0 - keep) * bit_flow
         q = self.bit_flow_m3s if math.isfinite(self.bit_flow_m3s) else 0.0
-        dp_low, dp_high = sp.choke_dp_limits(self.cfg.choke_dp_min_pa)
+        if math.isfinite(est.bhp_pa):
+            step = self.sample_s / self.cfg.trim_time_constant_s * (bhp_ref_pa - est.bhp_pa)
+            self.trim_pa = min(max(self.trim_pa + step, -self.cfg.trim_limit_pa),
+                               self.cfg.trim_limit_pa)
+        density = est.density_offset_kgm3
+
+        def setpoint(speed_mps: float) -> float:
+            return self.model.choke_dp_for_bhp(bhp_ref_pa, theta, q, speed_mps,
+                                               self.downstream_pa, density) + self.trim_pa
+
+        dp_low, dp_high = self.choke_dp_limits(sp, setpoint(0.0))
         out_limit, in_limit = self.speed_envelope(bhp_ref_pa, theta, q, sp.trip_speed_limit_mps,
-                                                  dp_low, dp_high)
+                                                  dp_low, dp_high, density)
         profile = self.profile
         heading_out = sp.block_position_target_m >= profile.position_m
         cruise = out_limit if heading_out else in_limit
@@ -155,18 +176,11 @@ class AutomatedMpd:
             ahead, (lead, lead + self.sample_s, self.sample_s))
         self.string_speed_mps = v_next_sample
 
-        if math.isfinite(est.bhp_pa):
-            step = self.sample_s / self.cfg.trim_time_constant_s * (bhp_ref_pa - est.bhp_pa)
-            self.trim_pa = min(max(self.trim_pa + step, -self.cfg.trim_limit_pa),
-                               self.cfg.trim_limit_pa)
+        def bounded(speed_mps: float) -> float:
+            return min(max(setpoint(speed_mps), dp_low), dp_high)
 
-        def setpoint(speed_mps: float) -> float:
-            dp = self.model.choke_dp_for_bhp(bhp_ref_pa, theta, q, speed_mps,
-                                             self.downstream_pa) + self.trim_pa
-            return min(max(dp, dp_low), dp_high)
-
-        dp_now = setpoint(v_now)
-        rate = (setpoint(v_next) - dp_now) / self.sample_s
+        dp_now = bounded(v_now)
+        rate = (bounded(v_next) - dp_now) / self.sample_s
         flow = self.model.choke_flow_m3s(q, self.bpp, v_now) - self.storage_m3_per_pa * rate
         return MpdCommand(block_position_ref_m=profile.position_m, choke_dp_ref_pa=dp_now,
                           choke_dp_ref_rate_pa_s=rate, choke_flow_feedforward_m3s=max(flow, 0.0),

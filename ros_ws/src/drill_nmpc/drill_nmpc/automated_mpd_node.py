@@ -50,7 +50,8 @@ class AutomatedMpdNode(AdvisorNode):
         return EstimateView(bhp_pa=float(msg.bhp_pa), string_position_m=float(mean[0]),
                             string_velocity_mps=float(msg.string_velocity_mps),
                             string_flow_m3s=float(mean[self.em.string_flow]),
-                            friction_factor=tuple(float(v) for v in msg.friction_parameter))
+                            friction_factor=tuple(float(v) for v in msg.friction_parameter),
+                            density_offset_kgm3=float(self.em.density_offset_of(mean)))
 
     def _on_estimate(self, msg: StateEstimate) -> None:
         stamp = to_ns(msg.header.stamp)

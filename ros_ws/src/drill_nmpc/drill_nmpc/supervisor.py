@@ -153,13 +153,22 @@ class Supervisor:
         return u
 
     def setpoint_vector(self, x_full, setpoints: ActiveSetpoints) -> np.ndarray:
-        """y_sp = [block target, choke dp ref, BHP ref] (NaN BHP: the first estimate's BHP)."""
+        """y_sp = [block target, choke dp target, BHP ref] (NaN BHP: the first estimate's
+        BHP). The choke dp target is the setpoints' reference, moved down as far as the
+        steady dp that holds the BHP reference at rest with the estimated friction and
+        density lies under it (a mud heavier or thicker than the model's needs less
+        back-pressure; the band moves with the target and keeps its room for the surge)."""
         bhp = setpoints.bhp_ref_pa
         if not math.isfinite(bhp):
             if self.bhp_ref_default is None:
                 self.bhp_ref_default = float(outputs(self.em, x_full)[2])
             bhp = self.bhp_ref_default
-        return np.array([setpoints.block_position_target_m, setpoints.choke_dp_ref_pa, bhp])
+        theta = [x_full[self.em.theta(i)] for i in range(2, self.em.n + 1)]
+        rest = self.rest_choke_dp(x_full, theta, bhp, bool(setpoints.mud_pump_on),
+                                  (-math.inf, math.inf))
+        dp = setpoints.choke_dp_ref_pa if not math.isfinite(rest) \
+            else min(setpoints.choke_dp_ref_pa, rest)
+        return np.array([setpoints.block_position_target_m, dp, bhp])
 
     def levels(self, setpoints: ActiveSetpoints, y_sp):
         """Soft-constraint levels: velocity limit, BHP band, choke dp band (SI)."""
@@ -417,7 +426,8 @@ class Supervisor:
         ``par``, inside ``dp_band``: what the choke holds while the supervisor falls back."""
         flow = float(x[self.em.string_flow]) if pump_on else 0.0
         dp = float(self.surge.choke_dp_for_bhp(bhp_ref_pa, par[:self.em.n - 1], flow, 0.0,
-                                               self.em.wm.well.choke_downstream_pressure_pa))
+                                               self.em.wm.well.choke_downstream_pressure_pa,
+                                               float(self.em.density_offset_of(x))))
         return min(max(dp, dp_band[0]), dp_band[1]) if math.isfinite(dp) else math.nan
 
     def _hold(self, u_prev, status: str, t0: float, iterations: int = -1) -> SolveResult:

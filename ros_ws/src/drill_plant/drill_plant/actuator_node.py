@@ -37,7 +37,7 @@ UNITS = {"drawworks": "m", "choke": "1", "bpp": "m^3/s", "mud_pump": "Pa"}
 class ActuatorNode(RigNode):
     def __init__(self, **node_options):
         super().__init__("actuator", **node_options)
-        ctx = load_context(self)
+        ctx = load_context(self, truth_side=True)
         self.ctx = ctx
         self.exit_code = 0
         self.actuator = self.declare_parameter("actuator", "drawworks").value

@@ -38,7 +38,7 @@ from drill_plant.simulator import PlantDiverged, PlantSimulator
 class PlantNode(RigNode):
     def __init__(self, **node_options):
         super().__init__("plant", **node_options)
-        ctx = load_context(self)
+        ctx = load_context(self, truth_side=True)
         self.ctx = ctx
         self.exit_code = 0
         seed = self.declare_parameter("seed", ctx.scenario.seed).value

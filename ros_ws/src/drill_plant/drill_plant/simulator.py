@@ -106,15 +106,17 @@ class PlantSimulator:
         """Sensors of eq. 48 and the surface-flow sensors (return flow, pit volume) with the
         configured noise; no string flow while not circulating."""
         lay, noise, x = self.layout, self.config.plant.measurement_noise, self.state
+        bias = self.config.plant.sensor_bias
         draw = self._sensor_rng.normal(size=4)
         p0 = self.config.well.choke_downstream_pressure_pa
-        flow = x[lay.string_flow] + noise.string_flow_m3s * draw[3]
+        flow = x[lay.string_flow] + noise.string_flow_m3s * draw[3] + bias.string_flow_m3s
         surface, surface_noise = self._surface_rng.normal(size=3), self.config.plant.surface_sensor_noise
-        returns = self._algebraic()[0]
+        returns = self._algebraic()[0] + bias.return_flow_m3s
         return Measurement(
             block_position_m=float(x[lay.position] + noise.block_position_m * draw[0]),
-            choke_dp_pa=float(x[lay.pressure(1)] - p0 + noise.choke_dp_pa * draw[1]),
-            bhp_pa=float(x[lay.pressure(self.wm.n)] + noise.bhp_pa * draw[2]),
+            choke_dp_pa=float(x[lay.pressure(1)] - p0 + noise.choke_dp_pa * draw[1]
+                              + bias.choke_dp_pa),
+            bhp_pa=float(x[lay.pressure(self.wm.n)] + noise.bhp_pa * draw[2] + bias.bhp_pa),
             string_flow_m3s=float(flow) if circulating else float("nan"),
             string_flow_valid=circulating,
             return_flow_m3s=float(returns) + surface_noise.return_flow_m3s * float(surface[0]),

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
+from drill_core.mismatch import read_truth_file, truth_config
 from drill_core.operating_point import OperatingPoint, initial_operating_point
 from drill_core.scenario import Scenario, load_scenario_config
 
@@ -41,12 +42,19 @@ def common_parameters(node, default_scenario: str) -> tuple[str, str, str]:
     return config_dir, scenario_path, node.declare_parameter("mode", "fast").value
 
 
-def load_context(node) -> NodeContext:
-    """Declare and read the common parameters, then load scenario and configuration once."""
+def load_context(node, truth_side: bool = False) -> NodeContext:
+    """Declare and read the common parameters, then load scenario and configuration once.
+    ``truth_side`` (the plant and the actuators): also the ``truth`` parameter, a file of
+    the plant's mismatch (drill_core.mismatch, as the launcher writes it; "" none), applied
+    to the configuration."""
     config_dir, scenario_path, mode = common_parameters(node, "case2")
     if mode not in MODES:
         raise ValueError(f"parameter mode: {mode!r} is not one of {', '.join(MODES)}")
     scenario, config = load_scenario_config(scenario_path, config_dir)
+    if truth_side:
+        truth_path = node.declare_parameter("truth", "").value
+        if truth_path:
+            config = truth_config(config, read_truth_file(truth_path)[1])
     wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                              config.plant.choke_regularisation_pa)
     return NodeContext(scenario, config, mode, wm, initial_operating_point(wm, scenario.initial))

@@ -85,6 +85,9 @@ class Node:
     plant: bool = False              # the run's clock: starts the lockstep once the graph is
                                      # connected (wait_for) and ends the run
     optional: bool = False           # in a run only when asked for (run_nodes' ``extras``)
+    truth_side: bool = False         # given the plant's mismatch (drill_core.mismatch): the
+                                     # plant, the actuators and the recorder, never an advisor,
+                                     # the estimator or the protection
 
     @property
     def status_topic(self) -> str:
@@ -96,7 +99,7 @@ class Node:
 
 def _actuator(name: str) -> Node:
     return Node(name, "drill_plant.actuator_node", "ActuatorNode", (topics.actuator_frame(name),),
-                (topics.MEASUREMENT, topics.MACHINE_COMMAND))
+                (topics.MEASUREMENT, topics.MACHINE_COMMAND), truth_side=True)
 
 
 def _drilling_actuator(name: str) -> Node:
@@ -107,7 +110,7 @@ def _drilling_actuator(name: str) -> Node:
 
 NODES = (
     Node("recorder", "drill_bringup.recorder", "Recorder", (), (EVERY_TOPIC,), reads_clock=True,
-         kinds=SCENARIO_KINDS),
+         kinds=SCENARIO_KINDS, truth_side=True),
     *(_actuator(name) for name in topics.ACTUATORS),
     Node("estimator", "drill_estimator.estimator_node", "EstimatorNode", (topics.ESTIMATE,),
          (topics.MEASUREMENT, *FRAMES)),
@@ -146,7 +149,8 @@ NODES = (
          (topics.MEASUREMENT, topics.ESTIMATE, topics.SETPOINTS, topics.LEVEL_IN_FORCE),
          optional=True),
     Node("plant", "drill_plant.plant_node", "PlantNode",
-         (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, CLOCK), FRAMES, plant=True),
+         (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, CLOCK), FRAMES, plant=True,
+         truth_side=True),
     Node("driller", "drill_string.ros.driller_node", "DrillerNode", (topics.DRILLING_COMMAND,),
          (topics.SURFACE,), kinds=("drilling",)),
     *(_drilling_actuator(name) for name in topics.DRILLING_ACTUATORS),
