@@ -178,7 +178,7 @@ def test_estimator_node_lockstep_and_rejection(estimator_process, monkeypatch):
         first = feeder.estimates[0]
         assert _stamps(feeder.estimates) == [0]
         assert _finite(first) and first.nis_dof == 0
-        assert len(first.mean) == len(first.state_names) == 15
+        assert len(first.mean) == len(first.state_names) == 16
         assert abs(first.bhp_pa - y[2]) < 1.0 and first.string_flow_observable
 
         # measurement t1 before the frames stamped t0: the estimator must wait for them

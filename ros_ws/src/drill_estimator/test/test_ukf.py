@@ -291,7 +291,7 @@ def test_nis_alarm_inflates_covariance(cfg):
 
 def test_bottom_influx_state(cfg):
     ukf, ss, y = _started(cfg, estimate_bottom_influx=True)
-    assert ukf.em.with_disturbance and ukf.n_x == 16
+    assert ukf.em.with_disturbance and ukf.n_x == 17     # with the density offset
     assert ukf.state_names[-1] == "bottom_influx_m3s"
     u = [ss.inputs[0], ss.choke_flow_m3s, 0.0, ss.inputs[3]]
     for _ in range(5):
