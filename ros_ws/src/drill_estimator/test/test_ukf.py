@@ -298,7 +298,7 @@ def test_bottom_influx_state(cfg):
         ukf.predict_frame(_held(u, cfg))
         ukf.update(y, True)
     assert np.isfinite(ukf.bottom_influx_m3s) and abs(ukf.bottom_influx_m3s) < 1e-3
-    assert ukf.covariance_diagonal.shape == (16,)
+    assert ukf.covariance_diagonal.shape == (17,)
 
 
 def test_reference_block_input_runs(cfg):
