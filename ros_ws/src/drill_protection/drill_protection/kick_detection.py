@@ -10,7 +10,9 @@ beyond what is pumped in is the formation's, once two known terms are taken out:
 changes compress, the annulus pressure taken linear in depth between the choke and the
 bottom-hole gauge, the string's with the bottom one, each pressure the median of its last
 second: robust to its noise and to a single bad sample). That *excess volume*, averaged
-into an *excess flow* over a window, raises a kick alarm when it stays above the
+into an *excess flow* over a window, less the baseline learnt while the well is quiet
+(drill_protection.flow_baseline: the meters' offset and the compliances' error, when
+``baseline_time_constant_s`` is set), raises a kick alarm when it stays above the
 threshold for the confirmation time, a losses alarm when it stays below minus the
 threshold, and clears once it has stayed within half the threshold as long. A sample with a non-finite flow or position is rejected, a
 non-finite pressure left out of its median, both counted; a sample without a
@@ -25,6 +27,7 @@ from dataclasses import dataclass
 
 from drill_core.config import KickDetection, RigConfig
 from drill_core.well import WellGeometry
+from drill_protection.flow_baseline import FlowBaseline
 from drill_protection.slope import LeastSquaresSlope
 
 
@@ -68,7 +71,10 @@ class KickDetector:
         self._first: FlowSample | None = None
         self._first_pressures: list[float] = []  # the pressures' medians when the balance began
         self._last_time_s: float | None = None
-        self._history: deque = deque()          # (time s, excess volume m^3)
+        self._history: deque = deque()          # (time s, excess volume m^3, choke dp Pa,
+                                                # BHP Pa: the pressures' medians)
+        self.baseline = FlowBaseline(config.baseline_time_constant_s, config.flow_threshold_m3s) \
+            if config.baseline_time_constant_s > 0.0 else None
         self._pit = LeastSquaresSlope()         # (time s from its start, the pit's excess
                                                 # volume m^3) over its window
         self._pit_start: tuple[float, float, float] | None = None  # (time s, pit m^3, known m^3)
@@ -106,11 +112,35 @@ class KickDetector:
         known = (self.area_m2 * (s.string_position_m - self._first.string_position_m)
                  + sum(c * (p - p0) for c, p, p0 in zip(self.compliance_m3_pa, pressures,
                                                          self._first_pressures)))
-        self._history.append((s.time_s, self._integral_m3 + known))
+        self._history.append((s.time_s, self._integral_m3 + known, *pressures))
         while self._history[0][0] < s.time_s - self.config.window_s - 1e-9:
             self._history.popleft()
         self._observe_pit(s, known)
-        return self._reading(self._judge(s.time_s))
+        raised = self._judge(s.time_s)
+        self._learn(s.time_s, dt)
+        return self._reading(raised)
+
+    def _window_rates(self):
+        """(raw excess flow m^3/s, regressors of the baseline) over the window; None
+        until the window is full."""
+        if len(self._history) < 2:
+            return None
+        (t0, v0, dp0, bhp0), (t1, v1, dp1, bhp1) = self._history[0], self._history[-1]
+        span = t1 - t0
+        if span < self.config.window_s - 1e-9:
+            return None
+        return (v1 - v0) / span, FlowBaseline.regressors((dp1 - dp0) / span, (bhp1 - bhp0) / span)
+
+    def _learn(self, time_s: float, dt_s: float) -> None:
+        """Fit the baseline on this sample when the well reads quiet: no alarm, nor one on
+        its way, and the corrected excess within the threshold."""
+        window = self._window_rates() if self.baseline is not None else None
+        if window is None or self.alarm or any(self._since[k] is not None
+                                                for k in ("kick", "losses")):
+            return
+        raw, phi = window
+        if abs(raw - self.baseline.baseline_m3s(phi)) < self.config.flow_threshold_m3s:
+            self.baseline.learn(phi, raw, dt_s)
 
     def _observe_pit(self, s: FlowSample, known_m3: float) -> None:
         """The pit's excess volume: its change since its first reading in this balance, the
@@ -164,12 +194,12 @@ class KickDetector:
 
     @property
     def excess_flow_m3s(self) -> float:
-        if len(self._history) < 2:
+        """The windowed excess flow less the learnt baseline [m^3/s] (NaN until a window)."""
+        window = self._window_rates()
+        if window is None:
             return math.nan
-        (t0, v0), (t1, v1) = self._history[0], self._history[-1]
-        if t1 - t0 < self.config.window_s - 1e-9:
-            return math.nan
-        return (v1 - v0) / (t1 - t0)
+        raw, phi = window
+        return raw - (self.baseline.baseline_m3s(phi) if self.baseline is not None else 0.0)
 
     def _reading(self, raised: bool) -> Detection:
         volume = self._history[-1][1] if self._history else math.nan

@@ -1,0 +1,58 @@
+"""The kick detector's learnt flow baseline (plain Python; docs/mismatch.md).
+
+The flow balance takes out the mud that pressure changes compress with the model's
+compliances V_i / beta; the mud report's bulk modulus and a washed-out hole are off, and a
+return-flow meter reads with an offset. So the windowed excess flow of a well that takes
+and gives nothing is not zero but
+
+    e = b + c_top dp_top/dt + c_bottom dp_bottom/dt
+
+(b the meters' offset, c the compliances' error, the pressure rates over the detector's
+window). :class:`FlowBaseline` fits (b, c_top, c_bottom) by recursive least squares with
+exponential forgetting over ``time_constant_s``, learning only from samples the detector
+reads as quiet (no alarm raised or pending, the corrected excess within the threshold); the detector
+judges e less the fit. What it cannot tell from a meter's offset is a formation flow that
+starts slower than the threshold per forgetting time: that is its detection limit.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+# Prior of the fit: its standard deviation per term (offset m^3/s, compliance errors
+# m^3/Pa) before any sample; small enough that a few noisy samples do not swing it.
+PRIOR_STD = np.array([2.0e-4, 5.0e-9, 5.0e-9])
+
+
+class FlowBaseline:
+    """Recursive least squares of the quiet excess flow on [1, dp_top/dt, dp_bottom/dt]."""
+
+    def __init__(self, time_constant_s: float, noise_m3s: float):
+        self.time_constant_s = time_constant_s
+        self.noise_var = noise_m3s ** 2
+        self.weights = np.zeros(3)
+        self.covariance = np.diag(PRIOR_STD ** 2)
+        self.samples = 0
+
+    @staticmethod
+    def regressors(choke_dp_rate_pa_s: float, bhp_rate_pa_s: float) -> np.ndarray:
+        return np.array([1.0, choke_dp_rate_pa_s, bhp_rate_pa_s])
+
+    def baseline_m3s(self, phi: np.ndarray) -> float:
+        """The learnt excess flow of a quiet well at these regressors [m^3/s]."""
+        return float(self.weights @ phi)
+
+    def learn(self, phi: np.ndarray, excess_m3s: float, dt_s: float) -> None:
+        """One quiet sample: its raw excess flow ``excess_m3s`` at regressors ``phi``."""
+        if not (math.isfinite(excess_m3s) and np.all(np.isfinite(phi))):
+            return
+        keep = math.exp(-dt_s / self.time_constant_s)
+        P = self.covariance / keep
+        gain = P @ phi / (self.noise_var + phi @ P @ phi)
+        self.weights = self.weights + gain * (excess_m3s - self.weights @ phi)
+        P = P - np.outer(gain, phi @ P)
+        # forgetting never widens a term past its prior (a direction the data do not excite)
+        shrink = np.sqrt(np.minimum(1.0, PRIOR_STD ** 2 / np.maximum(np.diag(P), 1e-300)))
+        self.covariance = P * np.outer(shrink, shrink)
+        self.samples += 1
