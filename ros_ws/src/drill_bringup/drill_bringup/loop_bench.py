@@ -29,7 +29,9 @@ from drill_bringup.runs import ROOT, scenario_path
 from drill_bringup.report import format_legs, tracking_metrics
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, parse_settings
+from drill_core.backend import NUMPY
 from drill_core.estimation_model import (BLOCK_INTEGRAL, DENSITY_OFFSET, MEASUREMENT_NAMES,
+                                         STRING_FRICTION,
                                          build_estimation_model,
                                          fitted_friction_parameters)
 from drill_core.events import of_owner
@@ -152,6 +154,12 @@ class TruthState:
     def __init__(self, rig: Rig, em):
         self.rig, self.em = rig, em
 
+    def _string_friction_factor(self, x, lay) -> float:
+        """The truth's string friction over the model's at the true flow and speed."""
+        q, v = float(x[lay.string_flow]), float(x[lay.velocity])
+        model = float(hy.string_friction(NUMPY, self.em.wm, q, v))
+        return float(hy.string_friction(NUMPY, self.rig.sim.wm, q, v)) / model if model else 1.0
+
     def observe(self, m, inputs, t: float) -> tuple[EstimateView, np.ndarray]:
         truth, lay = self.rig.sim.truth(), self.rig.layout
         x = truth.state
@@ -162,6 +170,7 @@ class TruthState:
                                 BLOCK_INTEGRAL: self.rig.drawworks.integral_m_s,
                                 DENSITY_OFFSET: self.rig.config.well.mud.density_kgm3
                                 - self.em.wm.well.mud.density_kgm3,
+                                STRING_FRICTION: self._string_friction_factor(x, lay),
                                 **{self.em.theta_name(i): v for i, v in enumerate(theta, 2)}})
         return EstimateView(bhp_pa=float(x[lay.pressure(self.em.n)]),
                             string_position_m=float(x[lay.position]),

@@ -294,6 +294,11 @@ class Estimator:
     initial_density_offset_std_kgm3: float = param("kg/m^3", 0.0, 500.0, lo_open=True, default=10.0)
     density_offset_process_std_kgm3: float = param("kg/m^3", 0.0, 100.0, default=1.0e-3,
                                                    doc="per-step std of the density offset")
+    estimate_string_friction: bool = param(
+        default=False, doc="a random-walk factor on the string's friction (docs/mismatch.md)")
+    initial_string_friction_std: float = param("1", 0.0, 10.0, lo_open=True, default=0.1)
+    string_friction_process_std: float = param("1", 0.0, 1.0, default=1.0e-5,
+                                               doc="per-step std of the string friction factor")
     initial_rig_std: tuple[float, ...] = param("m, m/s, m s", 0.0, lo_open=True,
                                                default=(0.01, 0.01, 0.01),
                                                doc="initial std of z1..z3")

@@ -12,11 +12,12 @@ by a law with random-walk parameters theta_i (config ``annular_friction_law``):
 
 plus the block-position controller in place of the drawworks lag, optionally a random-walk
 density offset delta_rho (the mud's true density less the report's: every hydrostatic
-column, annulus and string, is (rho + delta_rho) g h; docs/mismatch.md) and optionally an
+column, annulus and string, is (rho + delta_rho) g h; docs/mismatch.md), optionally a
+random-walk factor theta_s on the string's friction of the mud report, and optionally an
 unmeasured influx into the bottom volume (input disturbance on BHP, NMPC2).
 
 State  x = [z1 m, z2 m/s, z3 m s, p_1, q_2, p_2, ..., q_n, p_n, q_d, p_I, theta_2..theta_n
-          (, delta_rho) (, d)]
+          (, delta_rho) (, theta_s) (, d)]
 Input  u = [u_r block reference m, q_c choke flow m^3/s, q_bpp m^3/s, p_in pump pressure Pa]
 Output y = [z1, p_1 - p_0, p_n, q_d] (q_d only while circulating).
 Everything here takes an array namespace ``xp`` so the one definition evaluates on
@@ -42,6 +43,7 @@ MEASUREMENT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa", "string_flow_m
 BLOCK_INTEGRAL = "block_integral_m_s"
 BOTTOM_INFLUX = "bottom_influx_m3s"
 DENSITY_OFFSET = "density_offset_kgm3"    # the mud's true density less the report's
+STRING_FRICTION = "string_friction_factor"  # the string's true friction over the report's
 INPUT_NAMES = ("block_position_ref_m", "choke_flow_m3s", "bpp_flow_m3s", "pump_pressure_pa")
 
 
@@ -122,6 +124,7 @@ class EstimationModel(WellboreLayout):
     friction_law: str = "quadratic"
     nominal_friction: NominalFriction | None = field(default=None, compare=False, repr=False)
     with_density_offset: bool = False
+    with_string_friction: bool = False
 
     @property
     def n(self) -> int:
@@ -139,6 +142,7 @@ class EstimationModel(WellboreLayout):
         return (POSITION, VELOCITY, BLOCK_INTEGRAL, *hydraulic_state_names(self.n),
                 *(self.theta_name(i) for i in range(2, self.n + 1)),
                 *((DENSITY_OFFSET,) if self.with_density_offset else ()),
+                *((STRING_FRICTION,) if self.with_string_friction else ()),
                 *((BOTTOM_INFLUX,) if self.with_disturbance else ()))
 
     def theta(self, i: int) -> int:
@@ -158,6 +162,16 @@ class EstimationModel(WellboreLayout):
     def density_offset_of(self, x):
         """The state's density offset [kg/m^3] (0 for a model without it)."""
         return x[self.density_offset] if self.with_density_offset else 0.0
+
+    @property
+    def string_friction(self) -> int:
+        if not self.with_string_friction:
+            raise AttributeError("model has no string friction factor state")
+        return self.index(STRING_FRICTION)
+
+    def string_friction_of(self, x):
+        """The state's string friction factor [1] (1 for a model without it)."""
+        return x[self.string_friction] if self.with_string_friction else 1.0
 
     @property
     def disturbance(self) -> int:
@@ -186,6 +200,8 @@ class EstimationModel(WellboreLayout):
             s[self.theta(i)] = 1e6 if self.friction_law == "quadratic" else 1.0
         if self.with_density_offset:
             s[self.density_offset] = 10.0
+        if self.with_string_friction:
+            s[self.string_friction] = 1.0
         if self.with_disturbance:
             s[self.disturbance] = 1e-3
         return s
@@ -200,7 +216,8 @@ def build_estimation_model(config: RigConfig, with_disturbance: bool = False) ->
     nominal = NominalFriction(wm, est.annular_friction_smoothing_mps) \
         if law == "scaled_rheology" else None
     return EstimationModel(wm, config.actuators.block_kp, config.actuators.block_ki_per_s,
-                           with_disturbance, law, nominal, est.estimate_density_offset)
+                           with_disturbance, law, nominal, est.estimate_density_offset,
+                           est.estimate_string_friction)
 
 
 def path_friction(xp, em: EstimationModel, k: int, flow_m3s, string_velocity_mps, theta=1.0):
@@ -256,7 +273,7 @@ def drift(xp, em: EstimationModel, x, u, string_friction_law=None):
     q = [x[em.flow(i)] for i in range(2, n + 1)]
     rates = hy.hydraulic_rates(xp, wm, p, q, x[em.string_flow], x[em.string_pressure], z1, z2,
                                u[1], u[2], u[3], annulus_friction(xp, em, x), string_friction_law,
-                               em.density_offset_of(x))
+                               em.density_offset_of(x), em.string_friction_of(x))
     bottom_influx = 0.0
     if em.with_disturbance:
         bottom_influx = hy.bottom_inflow_rate(wm, x[em.disturbance])
@@ -269,6 +286,8 @@ def drift(xp, em: EstimationModel, x, u, string_friction_law=None):
     out += [0.0 * z1] * (n - 1)                       # random-walk theta: no drift
     if em.with_density_offset:
         out.append(0.0 * z1)                          # random-walk density offset
+    if em.with_string_friction:
+        out.append(0.0 * z1)                          # random-walk string friction factor
     if em.with_disturbance:
         out.append(0.0 * z1)                          # random-walk disturbance
     return out

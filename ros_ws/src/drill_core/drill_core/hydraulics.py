@@ -122,14 +122,15 @@ class HydraulicRates:
 def hydraulic_rates(xp, wm: WellModel, pressures, flows, string_flow_m3s, string_pressure_pa,
                     position_m, velocity_mps, choke_flow_m3s, bpp_flow_m3s, pump_pressure_pa,
                     friction_pa, string_friction_law=None,
-                    density_offset_kgm3=0.0) -> HydraulicRates:
+                    density_offset_kgm3=0.0, string_friction_factor=1.0) -> HydraulicRates:
     """Mass and momentum balances of annulus and drill string (docs/design.md §3).
 
     ``friction_pa`` is the annular friction of paths 2..n (HB in the plant, the
     configured law in the estimation model); ``string_friction_law(xp, wm, q_d, v_s)`` the
     string's (default :func:`string_friction`; the NMPC passes its tabulated copy);
     ``density_offset_kgm3`` is added to the mud's density in the hydrostatic columns (the
-    estimation model's density offset state). The bit rises with the string, so the string
+    estimation model's density offset state) and the string's friction is scaled by
+    ``string_friction_factor`` (its string friction factor state). The bit rises with the string, so the string
     column is D_bit - x_s high and the annulus pressure at the bit is p_n - rho g x_s.
     """
     w, g = wm.well, wm.geometry
@@ -151,6 +152,7 @@ def hydraulic_rates(xp, wm: WellModel, pressures, flows, string_flow_m3s, string
     dp_string = beta / g.string_volume_m3 * (string_flow_m3s - q_bit
                                               + g.string_top_inner_area_m2 * v_s)
     dq_string = (pump_pressure_pa - string_pressure_pa + rho_g * (g.bit_depth_m - position_m)
-                 - (string_friction_law or string_friction)(xp, wm, string_flow_m3s, v_s)) \
+                 - string_friction_factor
+                 * (string_friction_law or string_friction)(xp, wm, string_flow_m3s, v_s)) \
         / g.string_inertance_kg_m4
     return HydraulicRates(dp, dq, dq_string, dp_string, q_bit)

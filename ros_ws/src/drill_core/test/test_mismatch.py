@@ -130,3 +130,25 @@ def test_density_offset_state_balances_a_heavier_mud_column(model):
             expected = 0.0 if balanced else 14.4 * w.gravity_mps2 * (
                 g.node_depth_m[i - 1] - g.node_depth_m[i - 2]) / g.annulus_inertance_kg_m4[i - 2]
             assert float(rates[em.flow(i)]) == pytest.approx(expected, abs=1e-9)
+
+
+def test_string_friction_factor_scales_the_strings_friction_in_its_momentum_balance(model):
+    """dq_d/dt with theta_s = 1.2 is 0.2 F_s(q_d)/M_I below its value with theta_s = 1."""
+    from drill_core import hydraulics as hy
+    from drill_core.backend import NUMPY
+    from drill_core.config import replace
+    from drill_core.estimation_model import build_estimation_model, drift
+    config = dataclasses.replace(model, estimator=replace(model.estimator,
+                                                          estimate_string_friction=True))
+    em = build_estimation_model(config)
+    x = np.zeros(em.size)
+    q = 1000.0 / 60000.0
+    x[em.string_flow] = q
+    x[em.string_pressure] = 3.0e7
+    rates = []
+    for factor in (1.0, 1.2):
+        x[em.string_friction] = factor
+        rates.append(float(drift(NUMPY, em, list(x), [0.0, 0.0, 0.0, 1.2e7])[em.string_flow]))
+    friction = float(hy.string_friction(NUMPY, em.wm, q, 0.0))
+    assert rates[0] - rates[1] == pytest.approx(
+        0.2 * friction / em.wm.geometry.string_inertance_kg_m4, rel=1e-9)

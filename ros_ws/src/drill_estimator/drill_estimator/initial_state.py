@@ -34,6 +34,8 @@ def initial_state(em: EstimationModel, theta_initial: float, y, circulating: boo
             x[em.flow(i)] = flow
             x[em.theta(i)] = theta_initial
     x[em.string_flow] = flow
+    if em.with_string_friction:
+        x[em.string_friction] = 1.0            # the mud report's string friction
     if flow > 0.0:
         a = 0.5 * w.mud.density_kgm3 / w.bit_nozzle_coefficient_m2 ** 2
         x[em.string_pressure] = y[2] + w.bha_loss_coefficient_pa_s_m3 * flow + a * flow ** 2

@@ -57,6 +57,9 @@ def build_tuning(est: Estimator, em: EstimationModel, scale: np.ndarray) -> UkfT
     if em.with_density_offset:
         q_std[em.density_offset] = est.density_offset_process_std_kgm3
         p_std[em.density_offset] = est.initial_density_offset_std_kgm3
+    if em.with_string_friction:
+        q_std[em.string_friction] = est.string_friction_process_std
+        p_std[em.string_friction] = est.initial_string_friction_std
     if em.with_disturbance:
         q_std[em.disturbance] = est.bottom_influx_process_std_m3s
         p_std[em.disturbance] = est.initial_bottom_influx_std_m3s

@@ -262,16 +262,18 @@ class PredictionModel:
 
 
 def full_state(em: EstimationModel, x_hat, disturbance=None) -> np.ndarray:
-    """Estimate as a state of ``em`` (adds/overrides the bottom influx d when ``em`` has it)."""
+    """Estimate as a state of ``em`` (adds/overrides the bottom influx d when ``em`` has it).
+    The estimate holds the same states as ``em`` before d (one configuration builds both
+    models); d, last, is taken from ``disturbance``, else from the estimate if it has it."""
     x = np.asarray(x_hat, dtype=float).ravel()
-    nd_theta = em.theta(em.n) + 1
+    common = em.size - int(em.with_disturbance)
     out = np.zeros(em.size)
-    out[:nd_theta] = x[:nd_theta]
+    out[:common] = x[:common]
     if em.with_disturbance:
         if disturbance is not None:
             out[em.disturbance] = float(disturbance)
-        elif x.size > nd_theta:
-            out[em.disturbance] = x[nd_theta]
+        elif x.size > common:
+            out[em.disturbance] = x[common]
     return out
 
 
