@@ -35,10 +35,12 @@ class RunSpec:
     seed: int
     runs_dir: str | None = None
     alone: bool = True          # no other graph runs at once (launcher.cpu_sets may pin)
+    mismatch: str | None = None  # the plant's mismatch (drill_core.mismatch), None: the model
 
     @property
     def label(self) -> str:
-        return f"{self.case} / {self.controller} / seed {self.seed}"
+        plant = f" / {self.mismatch}" if self.mismatch else ""
+        return f"{self.case}{plant} / {self.controller} / seed {self.seed}"
 
 
 def worker_domain() -> int:
@@ -57,6 +59,7 @@ def result_row(spec: RunSpec, run_dir: Path | None, message: str = "") -> dict:
     summary = json.loads(summary_path.read_text()) if summary_path and summary_path.exists() \
         else None
     return {"case": spec.case, "controller": spec.controller, "seed": spec.seed,
+            "mismatch": spec.mismatch,
             "ok": summary is not None and launch.get("ok", False),
             "message": message or launch.get("message", "no run directory"),
             "run_dir": None if run_dir is None else str(run_dir),
@@ -72,7 +75,7 @@ def run_one(spec: RunSpec) -> dict:
         _, run_dir = runs.run_scenario(
             Path(spec.scenario), runs_dir=Path(spec.runs_dir) if spec.runs_dir else None,
             seed=spec.seed, domain_id=worker_domain(), quiet=True, controller=spec.controller,
-            pin_cpus=spec.alone)
+            pin_cpus=spec.alone, mismatch=spec.mismatch)
     except Exception as err:           # noqa: BLE001 - a run's failure is its row's message
         return result_row(spec, None, f"{type(err).__name__}: {err}")
     return result_row(spec, run_dir)

@@ -31,10 +31,12 @@
                                    the scenario on N seeds through the graph, on a local pool
                                    or a Dask cluster; mean, spread and worst of each figure
                                    per controller (table, plot); the same --output resumes
-  rig compare [SCENARIO ...] [--seeds N] [--output FILE]
+  rig compare [SCENARIO ...] [--seeds N] [--output FILE] [--mismatch SUITE]
                                    Cases 1-3 and the fault scenarios under the NMPC, automated
                                    MPD and the PI baseline, Case 4 under its NMPC, N seeds
-                                   each; write the results (the rows of cases not run are kept)
+                                   each; write the results (the rows of cases not run are kept);
+                                   --mismatch SUITE: Cases 1-3 on plants that are not the model
+                                   (suite: every member of config/mismatch.yaml)
 """
 from __future__ import annotations
 
@@ -141,6 +143,9 @@ def main(argv=None) -> int:
     comp.add_argument("--seeds", type=int, default=3, choices=(1, 2, 3),
                       help="seeds per case (the scenario's, and +1000, +2000)")
     comp.add_argument("--output", type=Path, default=ROOT / "docs" / "results.md")
+    comp.add_argument("--mismatch", metavar="SUITE",
+                      help="the trip cases on plants that are not the model: suite (every "
+                           "member of config/mismatch.yaml) or a comma list of members")
     args, rest = parser.parse_known_args(argv)
     try:
         if args.command == "demo":
@@ -165,7 +170,8 @@ def main(argv=None) -> int:
             return _stability(args)
         if args.command == "compare":
             from drill_bringup import compare
-            return compare.main(args.scenarios, args.output, args.seeds)
+            return compare.main(args.scenarios, args.output, args.seeds,
+                                mismatch=args.mismatch)
         if args.command == "reestimate":
             from drill_bringup.reestimate import reestimate
             result = reestimate(args.run_dir, args.config_dir, args.rate, launcher.default_domain_id())

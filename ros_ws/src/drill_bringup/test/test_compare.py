@@ -110,3 +110,26 @@ def test_a_partial_compare_keeps_the_other_cases_rows(tmp_path, monkeypatch):
     assert [(r["case"], r["summary"]["bhp_rmse_pa"]) for r in rows] == [("case2", 0.3e5), ("kick", 0.4e5)]
     assert picture.read_bytes() == b"the plot of the run that made the case2 rows"
     assert "results-case2.png" in output.read_text()
+
+
+def test_mismatch_rows_get_their_own_section_with_the_mismatch_targets():
+    def mismatched(controller, seed, rmse_settled_bar, outside_s=0.0, false=0, legs=(56.0, 57.0)):
+        s = _summary(rmse_settled_bar + 0.5, outside_s, legs=legs,
+                     solves=600 if controller == "nmpc" else 0)
+        s["bhp_rmse_settled_pa"] = rmse_settled_bar * 1e5
+        s["detection"] = {"kick": {"onset_s": None, "false_alarms": false}, "losses": None}
+        return {**_row("case2", controller, seed, s), "mismatch": "thick_report"}
+    rows = [_row("case2", "nmpc", 2, _summary(0.4, 0.0, solves=600)),
+            mismatched("nmpc", 2, 0.5), mismatched("baseline", 2, 0.7),
+            mismatched("automated_mpd", 2, 0.6),
+            mismatched("nmpc", 1002, 0.8, outside_s=12.0, false=1, legs=(70.0, 57.0)),
+            mismatched("baseline", 1002, 0.7), mismatched("automated_mpd", 1002, 0.9)]
+    text = compare.markdown(rows, None)
+    nominal, section = text.split("## On a plant that is not the model")
+    assert "thick_report" not in nominal           # the nominal tables hold nominal runs only
+    line = next(row for row in section.splitlines() if row.startswith("| case2 | thick_report | nmpc |"))
+    assert "| 0.65 / 0.80 |" in line               # settled RMSE, mean / worst over the seeds
+    assert "seed 2:" not in line
+    assert "seed 1002: bhp_time_outside_settled_s, leg_out_s, RMSE not below both baselines, " \
+           "false alarms |" in line
+    assert "| case2 | nmpc | 0.65 / 0.80 | 6.0 / 12.0 | 0 of 4 | 1 |" in section
