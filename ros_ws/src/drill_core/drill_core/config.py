@@ -405,6 +405,10 @@ class Nmpc:
         doc="r_r tilde (eq. 49/55); u_ref = [block target, previous choke flow, 0, initial spp]")
     integral_limit_s: float = param("s", 0.0, 1.0e4, lo_open=True, default=5.0,
                                     doc="NMPC1 anti-windup: |e_i| <= limit (e in output spans x s)")
+    integral_leak_time_s: float = param(
+        "s", 0.0, 1.0e4, default=0.0,
+        doc="NMPC1: while an output is inside its band its integral decays with this time "
+            "constant (0: kept)")
     jit: bool = param(default=False, doc="compile the prediction step and its Jacobian to C "
                                          "(cached; needs a C compiler and hessian gauss-newton)")
     expand: bool = param(default=False, doc="without jit: expand the NLP's MX graph to SX "

@@ -336,8 +336,14 @@ class Supervisor:
             bands = {1: dp_band, 2: bhp_band}
             err = np.array([(y_now[i] - min(max(y_now[i], bands[i][0]), bands[i][1]))
                             / pb.y_span[i] for i in INTEGRAL_OUTPUTS])
-            self.integral = np.clip(self.integral + pb.ts * err, -self.cfg.integral_limit_s,
-                                    self.cfg.integral_limit_s)
+            # back inside its band, an output's integral leaks away: what a transient (a
+            # start off the reference) wound up must not hold the output at the band's
+            # other edge until it has been paid back
+            leak = math.exp(-pb.ts / self.cfg.integral_leak_time_s) \
+                if self.cfg.integral_leak_time_s > 0.0 else 1.0
+            kept = np.where(err == 0.0, leak, 1.0)
+            self.integral = np.clip(kept * self.integral + pb.ts * err,
+                                    -self.cfg.integral_limit_s, self.cfg.integral_limit_s)
         u_ref = np.array([y_sp[0], u_prev[1], 0.0, self.spp_nominal])
         if self._predicted_bhp is not None:
             # offset-free: integrate the error of the last one-step BHP prediction
