@@ -273,6 +273,7 @@ class Protection:
         self.positions: deque = deque()
         self.clamps: list[tuple[float, str]] = []
         self.alarms: list[tuple[float, str]] = []
+        self.raised: list[tuple[float, str]] = []        # the detector's alarms (t, kind)
         self.trip = PumpTripResponse(config.protection.pump_trip, wm,
                                      config.pressure_window_pa)
         self.window = WindowResponse(config.protection.well_control, config.pressure_window_pa)
@@ -285,6 +286,8 @@ class Protection:
         reading = self.detector.update(FlowSample(
             t, m.return_flow_m3s, m.string_flow_m3s if m.string_flow_valid else math.nan,
             m.bpp_flow_m3s, m.block_position_m, m.choke_dp_pa, m.bhp_pa, m.pit_volume_m3))
+        if reading.raised:
+            self.raised.append((t, reading.alarm))
         if self.stop_trip:
             self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" \
                 if reading.alarm else ""
@@ -436,7 +439,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
         out["fallbacks"] = nmpc.fallbacks
         out["fallback_log"] = nmpc.statuses
     if guard is not None:
-        out["clamps"], out["alarms"] = guard.clamps, guard.alarms
+        out["clamps"], out["alarms"], out["raised"] = guard.clamps, guard.alarms, guard.raised
     return out
 
 

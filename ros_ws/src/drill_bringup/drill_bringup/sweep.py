@@ -9,7 +9,10 @@ folder per run (``<controller>-seed<N>/``, the run directory inside), ``sweep.js
 index: settings and a row per run), ``sweep.md`` and ``sweep.png``. Running the same command
 again with the same ``--output`` skips every run whose summary.json exists (resume); other
 settings (scenario or overrides) in that directory are refused. The figures are
-``rig compare``'s (compare.figures), SI in the index, bar and L/min in the table.
+``rig compare``'s (compare.figures), SI in the index, bar and L/min in the table. With
+``--mismatch-draws N`` every (controller, seed) runs on N plants that are not the model,
+draws 0..N-1 of config/mismatch.yaml's distributions (drill_core.mismatch.draw: the same
+draw on every machine; folders ``<controller>-seed<N>-draw<i>/``), aggregated with the seeds.
 """
 from __future__ import annotations
 
@@ -93,13 +96,18 @@ def sweep_scenario(source: Path, sets, output: Path) -> Path:
 
 
 def plan(case: str, scenario: Path, controllers, seeds: int, first_seed: int,
-         output: Path) -> list[RunSpec]:
-    """Every (controller, seed) run of the sweep, seeds first_seed .. first_seed+seeds-1."""
+         output: Path, mismatch_draws: int = 0) -> list[RunSpec]:
+    """Every (controller, seed) run of the sweep, seeds first_seed .. first_seed+seeds-1;
+    with ``mismatch_draws`` N, each on the plants of draws 0..N-1."""
     if seeds < 1:
         raise ConfigError(f"--seeds: value {seeds} must be at least 1")
+    if mismatch_draws < 0:
+        raise ConfigError(f"--mismatch-draws: value {mismatch_draws} must be at least 0")
+    plants = [(f"draw:{i}", f"-draw{i}") for i in range(mismatch_draws)] or [(None, "")]
     return [RunSpec(case, str(scenario), controller, seed,
-                    str(output / f"{controller}-seed{seed}"))
-            for controller in controllers for seed in range(first_seed, first_seed + seeds)]
+                    str(output / f"{controller}-seed{seed}{tag}"), mismatch=mismatch)
+            for controller in controllers for seed in range(first_seed, first_seed + seeds)
+            for mismatch, tag in plants]
 
 
 def finished(spec: RunSpec) -> Path | None:
@@ -148,7 +156,10 @@ def markdown(index: dict, stats: dict) -> str:
     failed = [r for r in rows if not r["ok"]]
     lines = [f"# Sweep: {index['scenario']}", "",
              f"Made by `rig sweep` on {datetime.now():%Y-%m-%d %H:%M}: seeds "
-             f"{', '.join(str(s) for s in index['seeds'])}, overrides "
+             f"{', '.join(str(s) for s in index['seeds'])}"
+             + (f", each on mismatch draws 0..{index['mismatch_draws'] - 1} of "
+                "config/mismatch.yaml (a plant that is not the model)"
+                if index.get("mismatch_draws") else "") + ", overrides "
              f"{json.dumps(index['overrides']) if index['overrides'] else 'none'}; "
              f"{len(rows) - len(failed)} of {len(rows)} runs finished. Each cell: mean ± "
              "standard deviation over the seeds (worst); *none*: runs without the figure "
@@ -161,7 +172,8 @@ def markdown(index: dict, stats: dict) -> str:
         lines.append(f"| {LABELS.get(key, key)} [{unit}] | "
                      + " | ".join(_cell(stats[c][key], factor) for c in controllers) + " |")
     if failed:
-        lines += ["", "Failed runs:", ""] + [f"- {r['controller']} seed {r['seed']}: "
+        lines += ["", "Failed runs:", ""] + [f"- {r['controller']} seed {r['seed']}"
+                                            f"{' ' + r['mismatch'] if r.get('mismatch') else ''}: "
                                             f"{first_line(r['message'])}" for r in failed]
     return "\n".join(lines) + "\n"
 
@@ -206,7 +218,7 @@ def write_index(output: Path, settings: dict, rows: list[dict]) -> dict:
 
 def sweep(case: str, seeds: int, first_seed: int | None = None, controllers=(), sets=(),
           workers: int = 1, cluster: str | None = None, output: Path | None = None,
-          run=batch.run_one, say=print) -> int:
+          run=batch.run_one, say=print, mismatch_draws: int = 0) -> int:
     """Plan, run what is not done yet, aggregate; 0 when every run finished."""
     source = runs.scenario_path(case)
     scenario, _ = load_scenario_config(source, runs.ROOT / "config")
@@ -214,23 +226,26 @@ def sweep(case: str, seeds: int, first_seed: int | None = None, controllers=(), 
               f"sweep-{scenario.name}-{datetime.now():%Y%m%d-%H%M%S}").resolve()
     controllers = list(dict.fromkeys(controllers or [scenario.controller]))
     first = scenario.seed if first_seed is None else first_seed
-    specs = plan(case, output / SCENARIO_FILE, controllers, seeds, first, output)
+    specs = plan(case, output / SCENARIO_FILE, controllers, seeds, first, output, mismatch_draws)
     sweep_scenario(source, sets, output)
     settings = {"scenario": scenario.name, "scenario_file": str(source),
                 "overrides": parse_settings(sets), "controllers": controllers,
-                "seeds": list(range(first, first + seeds))}
+                "seeds": list(range(first, first + seeds)), "mismatch_draws": mismatch_draws}
     rows = {spec: batch.result_row(spec, finished(spec)) for spec in specs if finished(spec)}
     todo = [spec for spec in specs if spec not in rows]
     say(f"[sweep] {scenario.name}: {len(specs)} runs, {len(rows)} done before, {len(todo)} to "
         f"run ({f'cluster {cluster}' if cluster else f'{workers} worker(s)'}); {output}")
 
     def done(row: dict) -> None:
-        spec = next(s for s in todo if (s.controller, s.seed) == (row["controller"], row["seed"]))
+        spec = next(s for s in todo if (s.controller, s.seed, s.mismatch)
+                    == (row["controller"], row["seed"], row.get("mismatch")))
         rows[spec] = row
         write_index(output, settings, [rows[s] for s in specs if s in rows])
         outcome = (f"BHP RMSE {row['summary']['bhp_rmse_pa'] / PA_PER_BAR:.3f} bar" if row["ok"]
                    else f"FAILED: {first_line(row['message'])}")
-        say(f"[sweep] {row['controller']} seed {row['seed']}: {outcome} ({len(rows)}/{len(specs)})")
+        plant = f" {row['mismatch']}" if row.get("mismatch") else ""
+        say(f"[sweep] {row['controller']} seed {row['seed']}{plant}: {outcome} "
+            f"({len(rows)}/{len(specs)})")
 
     batch.execute(todo, run, workers, cluster, done)
     ordered = [rows[s] for s in specs]
@@ -252,6 +267,9 @@ def add_arguments(parser) -> None:
                         help="default: the scenario's own")
     parser.add_argument("--set", action="append", default=[], metavar="FILE.KEY=VALUE",
                         help="configuration override, e.g. nmpc.bhp_bias_gain=0 (repeatable)")
+    parser.add_argument("--mismatch-draws", type=int, default=0, metavar="N",
+                        help="every run on N plants that are not the model: draws 0..N-1 of "
+                             "config/mismatch.yaml (docs/mismatch.md)")
     parser.add_argument("--workers", type=int, default=1,
                         help="graphs at once in a local process pool (default 1)")
     parser.add_argument("--cluster", metavar="ADDRESS",
@@ -266,4 +284,4 @@ def main(args) -> int:
         print(f"[rig] sweep: --workers: value {args.workers} must be at least 1", file=sys.stderr)
         return 2
     return sweep(args.scenario, args.seeds, args.first_seed, args.controller or (), args.set,
-                 args.workers, args.cluster, args.output)
+                 args.workers, args.cluster, args.output, mismatch_draws=args.mismatch_draws)

@@ -169,9 +169,27 @@ def test_compare_gets_its_runs_through_the_sweep_runner(tmp_path, capsys):
     items = [("short_trip", "nmpc", 7), ("short_trip", "baseline", 7)]
     rows = compare.run_all(items, runs_dir=tmp_path, run=fake)
     assert fake.ran == [("nmpc", 7), ("baseline", 7)]
-    assert [list(r) for r in rows] == [["case", "controller", "seed", "summary", "run_dir",
-                                        "wall_s"]] * 2
+    assert [list(r) for r in rows] == [["case", "controller", "seed", "mismatch", "summary",
+                                        "run_dir", "wall_s"]] * 2
+    assert rows[0]["mismatch"] is None
     assert rows[0]["summary"]["bhp_rmse_pa"] == pytest.approx(0.7e5)
     assert "short_trip / baseline / seed 7: BHP RMSE 0.700 bar" in capsys.readouterr().out
     with pytest.raises(RuntimeError, match="short_trip / nmpc / seed 7 failed: node 'plant'"):
         compare.run_all(items, runs_dir=tmp_path / "again", run=FakeRun(failing={7}))
+
+
+def test_mismatch_draws_put_every_run_on_each_draws_plant(tmp_path):
+    specs = sweep.plan("short_trip", SHORT, ["baseline"], 2, 7, tmp_path, mismatch_draws=3)
+    assert [(s.seed, s.mismatch) for s in specs] == [
+        (seed, f"draw:{i}") for seed in (7, 8) for i in range(3)]
+    assert Path(specs[1].runs_dir) == tmp_path / "baseline-seed7-draw1"
+    fake = FakeRun()
+    quiet = lambda text: None      # noqa: E731
+    assert sweep.sweep("short_trip", 2, 7, ["baseline"], output=tmp_path, run=fake, say=quiet,
+                       mismatch_draws=3) == 0
+    index = json.loads((tmp_path / sweep.INDEX_FILE).read_text())
+    assert [r["mismatch"] for r in index["runs"]] == ["draw:0", "draw:1", "draw:2"] * 2
+    assert index["mismatch_draws"] == 3
+    assert "mismatch draws 0..2" in (tmp_path / sweep.TABLE_FILE).read_text()
+    with pytest.raises(ConfigError, match="--mismatch-draws: value -1"):
+        sweep.plan("short_trip", SHORT, ["baseline"], 1, 7, tmp_path, mismatch_draws=-1)
