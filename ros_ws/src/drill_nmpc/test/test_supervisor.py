@@ -478,3 +478,20 @@ def test_the_real_time_iteration_is_one_full_gauss_newton_sqp_step(config, em):
 def test_the_real_time_iteration_needs_the_gauss_newton_hessian(config, em):
     with pytest.raises(ValueError, match="Gauss-Newton"):
         Supervisor(config, em, solver="rti", hessian="exact")
+
+
+def test_nmpc1_integral_leaks_while_the_output_is_inside_its_band(config, em):
+    """BHP at its reference (inside the band): a wound-up integral decays by exp(-t_s/T)
+    per sample with a leak time T, and is kept without one."""
+    x, u = _steady(config, em)
+    sp = trip_setpoints(0.0, 0.0, 100.0, float(outputs(em, x)[2]))
+    kept = []
+    for leak_s in (10.0, 0.0):
+        cfg = dataclasses.replace(config, nmpc=dataclasses.replace(
+            config.nmpc, integral_leak_time_s=leak_s))
+        sup = Supervisor(cfg, em, configuration="NMPC1", jit=False)
+        sup.integral = np.array([0.0, 1.0])
+        sup.step(x, sp, u)
+        kept.append(float(sup.integral[-1]))
+    assert kept[0] == pytest.approx(math.exp(-config.nmpc.sample_time_s / 10.0), rel=1e-9)
+    assert kept[1] == pytest.approx(1.0)
