@@ -1,18 +1,21 @@
 """The kick detector's learnt flow baseline (plain Python; docs/mismatch.md).
 
 The flow balance takes out the mud that pressure changes compress with the model's
-compliances V_i / beta; the mud report's bulk modulus and a washed-out hole are off, and a
-return-flow meter reads with an offset. So the windowed excess flow of a well that takes
-and gives nothing is not zero but
+compliances V_i / beta; the mud report's bulk modulus and a washed-out hole are off. So the
+windowed excess flow of a well that takes and gives nothing is not zero while the
+pressures move but
 
-    e = b + c_top dp_top/dt + c_bottom dp_bottom/dt
+    e = c_top dp_top/dt + c_bottom dp_bottom/dt
 
-(b the meters' offset, c the compliances' error, the pressure rates over the detector's
-window). :class:`FlowBaseline` fits (b, c_top, c_bottom) by recursive least squares with
-exponential forgetting over ``time_constant_s``, learning only from samples the detector
-reads as quiet (no alarm raised or pending, the corrected excess within the threshold); the detector
-judges e less the fit. What it cannot tell from a meter's offset is a formation flow that
-starts slower than the threshold per forgetting time: that is its detection limit.
+(c the compliances' errors, the pressure rates over the detector's window).
+:class:`FlowBaseline` fits (c_top, c_bottom) by recursive least squares with exponential
+forgetting over ``time_constant_s``, learning only from samples the detector reads as
+quiet (no alarm raised or pending, the corrected excess within the threshold); the
+detector judges e less the fit. It learns no constant term: a loss or an influx that is
+there when the balance starts would look like a meter's offset and be learnt away (a
+weak zone met 10 s into a trip was, in a first version); a meter that reads off shows as
+an alarm, which is what the crew must see. What it can take for compressibility is a
+formation flow that follows the pressure's rate over the forgetting time.
 """
 from __future__ import annotations
 
@@ -20,24 +23,25 @@ import math
 
 import numpy as np
 
-# Prior of the fit: its standard deviation per term (offset m^3/s, compliance errors
-# m^3/Pa) before any sample; small enough that a few noisy samples do not swing it.
-PRIOR_STD = np.array([2.0e-4, 5.0e-9, 5.0e-9])
+# Prior of the fit: its standard deviation per term (compliance errors m^3/Pa, about 20 %
+# of the reference well's) before any sample; small enough that a few noisy samples do
+# not swing it.
+PRIOR_STD = np.array([5.0e-9, 5.0e-9])
 
 
 class FlowBaseline:
-    """Recursive least squares of the quiet excess flow on [1, dp_top/dt, dp_bottom/dt]."""
+    """Recursive least squares of the quiet excess flow on [dp_top/dt, dp_bottom/dt]."""
 
     def __init__(self, time_constant_s: float, noise_m3s: float):
         self.time_constant_s = time_constant_s
         self.noise_var = noise_m3s ** 2
-        self.weights = np.zeros(3)
+        self.weights = np.zeros(2)
         self.covariance = np.diag(PRIOR_STD ** 2)
         self.samples = 0
 
     @staticmethod
     def regressors(choke_dp_rate_pa_s: float, bhp_rate_pa_s: float) -> np.ndarray:
-        return np.array([1.0, choke_dp_rate_pa_s, bhp_rate_pa_s])
+        return np.array([choke_dp_rate_pa_s, bhp_rate_pa_s])
 
     def baseline_m3s(self, phi: np.ndarray) -> float:
         """The learnt excess flow of a quiet well at these regressors [m^3/s]."""

@@ -11,8 +11,8 @@ changes compress, the annulus pressure taken linear in depth between the choke a
 bottom-hole gauge, the string's with the bottom one, each pressure the median of its last
 second: robust to its noise and to a single bad sample). That *excess volume*, averaged
 into an *excess flow* over a window, less the baseline learnt while the well is quiet
-(drill_protection.flow_baseline: the meters' offset and the compliances' error, when
-``baseline_time_constant_s`` is set), raises a kick alarm when it stays above the
+(drill_protection.flow_baseline: the compliances' errors, when ``baseline_time_constant_s``
+is set), raises a kick alarm when it stays above the
 threshold for the confirmation time, a losses alarm when it stays below minus the
 threshold, and clears once it has stayed within half the threshold as long. A sample with a non-finite flow or position is rejected, a
 non-finite pressure left out of its median, both counted; a sample without a
@@ -29,6 +29,11 @@ from drill_core.config import KickDetection, RigConfig
 from drill_core.well import WellGeometry
 from drill_protection.flow_baseline import FlowBaseline
 from drill_protection.slope import LeastSquaresSlope
+
+
+# The windowed excess flow's scatter about the baseline the fit assumes, as a share of the
+# alarm threshold (meter noise over a window plus what the balance leaves out).
+BASELINE_NOISE_SHARE = 0.25
 
 
 @dataclass(frozen=True)
@@ -73,7 +78,8 @@ class KickDetector:
         self._last_time_s: float | None = None
         self._history: deque = deque()          # (time s, excess volume m^3, choke dp Pa,
                                                 # BHP Pa: the pressures' medians)
-        self.baseline = FlowBaseline(config.baseline_time_constant_s, config.flow_threshold_m3s) \
+        self.baseline = FlowBaseline(config.baseline_time_constant_s,
+                                     BASELINE_NOISE_SHARE * config.flow_threshold_m3s) \
             if config.baseline_time_constant_s > 0.0 else None
         self._pit = LeastSquaresSlope()         # (time s from its start, the pit's excess
                                                 # volume m^3) over its window

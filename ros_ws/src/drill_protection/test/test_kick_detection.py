@@ -166,48 +166,46 @@ LEARNING = KickDetection(window_s=10.0, pressure_average_s=1.0, flow_threshold_m
                          baseline_time_constant_s=300.0)
 
 
-def _swinging_well(seconds, influx=lambda t: 0.0, bias=0.0, seed=3):
-    """The choke dp and the BHP swinging 3 bar every 60 s (a controller working hard), a
-    true compliance 40 % over the detector's (18 L/min at the swing's fastest) and a return
-    meter reading ``bias`` high."""
+def _swinging_well(seconds, influx=lambda t: 0.0, seed=3):
+    """The choke dp and the BHP swinging 5 bar every 60 s (a controller working hard) and a
+    true compliance 40 % over the detector's (30 L/min at the swing's fastest)."""
     def dp(t):
-        return 2.0e6 + 3.0e5 * np.sin(2.0 * np.pi * t / 60.0)
+        return 2.0e6 + 5.0e5 * np.sin(2.0 * np.pi * t / 60.0)
 
     def bhp(t):
-        return 6.85e7 + 3.0e5 * np.sin(2.0 * np.pi * t / 60.0)
+        return 6.85e7 + 5.0e5 * np.sin(2.0 * np.pi * t / 60.0)
     samples = well(seconds, influx=influx, dp=dp, bhp=bhp, noise=8.3e-5, seed=seed)
     scale = 1.4                 # the well's compliance over the model's: add the difference
     out = []
     for s in samples:
         rates = [(f(s.time_s + 0.05) - f(s.time_s - 0.05)) / 0.1 for f in (dp, bhp)]
         extra = (scale - 1.0) * sum(c * r for c, r in zip(COMPLIANCE, rates))
-        out.append(FlowSample(s.time_s, s.return_flow_m3s - extra + bias, s.string_flow_m3s,
+        out.append(FlowSample(s.time_s, s.return_flow_m3s - extra, s.string_flow_m3s,
                               s.bpp_flow_m3s, s.string_position_m, s.choke_dp_pa, s.bhp_pa))
     return out
 
 
-def test_the_learnt_baseline_takes_out_a_meter_offset_and_a_compliance_error():
-    samples = _swinging_well(900.0, bias=12.0 / 60000.0)
+def test_the_learnt_baseline_takes_out_a_compliance_error():
+    samples = _swinging_well(900.0)
     plain, plain_readings = run(samples)
     learning = KickDetector(LEARNING, AREA, *COMPLIANCE)
     readings = [learning.update(s) for s in samples]
     plain_flows = np.array([r.excess_flow_m3s for r in plain_readings[-3000:]])
     flows = np.array([r.excess_flow_m3s for r in readings[-3000:]])
-    # without learning the offset (12 L/min) plus the compliance error swing past the threshold
+    # without learning the compliance error swings past the threshold
     assert np.max(np.abs(plain_flows)) > CONFIG.flow_threshold_m3s
     assert any(r.alarm for r in plain_readings)
-    # learnt: the last 5 minutes within a quarter of it, and no alarm after the first 2 min
-    assert np.max(np.abs(flows)) < 0.25 * LEARNING.flow_threshold_m3s
+    # learnt: the last 5 minutes within 40 % of it (what is left is the pressure median's
+    # lag, 0.5 s behind a 5 bar swing), and no alarm after the first 2 min
+    assert np.max(np.abs(flows)) < 0.4 * LEARNING.flow_threshold_m3s
     assert not any(r.alarm for r in readings[1200:])
-    b, c_top, c_bottom = learning.baseline.weights
-    assert b == pytest.approx(12.0 / 60000.0, rel=0.1)
+    c_top, c_bottom = learning.baseline.weights
     assert c_top + c_bottom == pytest.approx(-0.4 * sum(COMPLIANCE), rel=0.15)
 
 
 def test_a_kick_is_still_raised_with_the_baseline_learning():
     rate = 81.0 / 60000.0                                             # 81 L/min from t = 600 s
-    samples = _swinging_well(660.0, influx=lambda t: rate if t >= 600.0 else 0.0,
-                             bias=12.0 / 60000.0)
+    samples = _swinging_well(660.0, influx=lambda t: rate if t >= 600.0 else 0.0)
     detector = KickDetector(LEARNING, AREA, *COMPLIANCE)
     readings = [detector.update(s) for s in samples]
     raised = [k * 0.1 for k, r in enumerate(readings) if r.raised and r.alarm == "kick"]
@@ -215,3 +213,14 @@ def test_a_kick_is_still_raised_with_the_baseline_learning():
     assert raised[-1] - 600.0 < 10.0
     volume = readings[int(round(raised[-1] * 10))].volume_at_alarm_m3
     assert volume < 0.020
+
+
+def test_a_loss_present_from_the_start_is_not_learnt_away():
+    """A loss of 30 L/min from the first sample on (a weak zone met as the balance starts):
+    alarmed, with the baseline learning as without it."""
+    rate = -30.0 / 60000.0
+    samples = well(120.0, influx=lambda t: rate, noise=8.3e-5, seed=4)
+    for config in (CONFIG, LEARNING):
+        detector = KickDetector(config, AREA, *COMPLIANCE)
+        readings = [detector.update(s) for s in samples]
+        assert readings[-1].alarm == "losses"
