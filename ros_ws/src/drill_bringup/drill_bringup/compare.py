@@ -138,6 +138,12 @@ def _stat(values, scale: float, digits: int, worst=max) -> str:
     return f"{np.mean(values) / scale:.{digits}f} / {worst(values) / scale:.{digits}f}"
 
 
+def _fallbacks(group, fs) -> str:
+    """The fallbacks of a group of runs (n/a for a controller that has none)."""
+    return "n/a" if fs[0]["fallback_share"] is None else \
+        str(sum(r["summary"].get("fallbacks", 0) for r in group))
+
+
 def _legs(rows, key) -> str:
     values = [figures(r["summary"])[key] for r in rows]
     if any(v is None for v in values):
@@ -187,8 +193,6 @@ def markdown(rows: list[dict], plot_name: str | None) -> str:
             failing = [(r["seed"], misses(f, base.get(r["seed"]) if controller != "baseline"
                                           else None)) for r, f in zip(group, fs)]
             failed = "; ".join(f"seed {s}: {', '.join(m)}" for s, m in failing if m) or "none"
-            fallbacks = "n/a" if fs[0]["fallback_share"] is None else \
-                str(sum(r["summary"].get("fallbacks", 0) for r in group))
             lines.append(
                 f"| {case} | {controller} | {_stat([f['bhp_rmse_pa'] for f in fs], PA_PER_BAR, 2)} | "
                 f"{_stat([f['bhp_time_outside_s'] for f in fs], 1.0, 1)} | "
@@ -198,7 +202,7 @@ def markdown(rows: list[dict], plot_name: str | None) -> str:
                 f"{_stat([f['max_string_speed_mps'] for f in fs], 1.0, 2)} | "
                 f"{_stat([f['trip_overshoot_m'] for f in fs], 1.0, 2)} | "
                 f"{_stat([f['bhp_estimate_rmse_pa'] for f in fs], PA_PER_BAR, 2)} | {solver} | "
-                f"{fallbacks} | {failed} |")
+                f"{_fallbacks(group, fs)} | {failed} |")
     lines += ["", "Targets per run (issue: the controller that beats conventional MPD): BHP RMSE "
               "<= 0.7 bar and below the baseline's on the same seed, <= 5 s outside the band "
               "after the first 30 s, worst excursion <= 1 bar, legs <= 57 s, fallbacks < 1 % "
@@ -307,8 +311,6 @@ def mismatch_section(rows: list[dict]) -> list[str]:
                         if m:
                             failing.append(f"seed {r['seed']}: {', '.join(m)}")
                     failed = "; ".join(failing) or "none"
-                fallbacks = "n/a" if fs[0]["fallback_share"] is None else \
-                    str(sum(r["summary"].get("fallbacks", 0) for r in group))
                 lines.append(
                     f"| {case} | {member} | {controller} | "
                     f"{_stat([f['bhp_rmse_pa'] for f in fs], PA_PER_BAR, 2)} | "
@@ -317,7 +319,7 @@ def mismatch_section(rows: list[dict]) -> list[str]:
                     f"{_stat([f['bhp_worst_excursion_pa'] for f in fs], PA_PER_BAR, 2)} | "
                     f"{_legs(group, 'leg_out_s')} | {_legs(group, 'leg_in_s')} | "
                     f"{_stat([f['bhp_estimate_rmse_pa'] for f in fs], PA_PER_BAR, 2)} | "
-                    f"{sum(false_alarms(r['summary']) for r in group)} | {fallbacks} | "
+                    f"{sum(false_alarms(r['summary']) for r in group)} | {_fallbacks(group, fs)} | "
                     f"{failed} |")
     lines += ["", "Over the suite (every member and seed):", "",
               "| case | controller | settled BHP RMSE mean / worst [bar] | outside, settled "

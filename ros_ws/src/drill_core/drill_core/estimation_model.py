@@ -153,31 +153,34 @@ class EstimationModel(WellboreLayout):
     def block_integral(self) -> int:
         return self.index(BLOCK_INTEGRAL)
 
+    def _optional(self, name: str) -> int:
+        """Index of an optional state; AttributeError for a model without it."""
+        if name not in self.names:
+            raise AttributeError(f"model has no {name} state")
+        return self.index(name)
+
+    def _value_or(self, x, name: str, absent: float):
+        return x[self.index(name)] if name in self.names else absent
+
     @property
     def density_offset(self) -> int:
-        if not self.with_density_offset:
-            raise AttributeError("model has no density offset state")
-        return self.index(DENSITY_OFFSET)
+        return self._optional(DENSITY_OFFSET)
 
     def density_offset_of(self, x):
         """The state's density offset [kg/m^3] (0 for a model without it)."""
-        return x[self.density_offset] if self.with_density_offset else 0.0
+        return self._value_or(x, DENSITY_OFFSET, 0.0)
 
     @property
     def string_friction(self) -> int:
-        if not self.with_string_friction:
-            raise AttributeError("model has no string friction factor state")
-        return self.index(STRING_FRICTION)
+        return self._optional(STRING_FRICTION)
 
     def string_friction_of(self, x):
         """The state's string friction factor [1] (1 for a model without it)."""
-        return x[self.string_friction] if self.with_string_friction else 1.0
+        return self._value_or(x, STRING_FRICTION, 1.0)
 
     @property
     def disturbance(self) -> int:
-        if not self.with_disturbance:
-            raise AttributeError("model has no disturbance state")
-        return self.index(BOTTOM_INFLUX)
+        return self._optional(BOTTOM_INFLUX)
 
     @functools.cached_property
     def friction_function(self) -> ca.Function:
