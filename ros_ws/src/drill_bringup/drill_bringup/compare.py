@@ -17,6 +17,7 @@ the issue's mismatch targets checked per run.
 from __future__ import annotations
 
 import json
+import math
 from datetime import datetime
 from pathlib import Path
 
@@ -266,7 +267,10 @@ def mismatch_misses(f: dict, s: dict, others: list[dict]) -> list[str]:
            if f.get(k) is not None and f[k] > MISMATCH_TARGETS[k]]
     out += [k for k in ("leg_out_s", "leg_in_s")
             if f[k] is None or f[k] > MISMATCH_TARGETS["trip_leg_s"]]
-    if any(s["bhp_rmse_settled_pa"] >= o["bhp_rmse_settled_pa"] for o in others):
+    if len(others) < len(CONTROLLERS) - 1:
+        out.append("no baseline runs to compare")
+    elif any(s.get("bhp_rmse_settled_pa", math.inf) >= o.get("bhp_rmse_settled_pa", math.inf)
+             for o in others):
         out.append("RMSE not below both baselines")
     if false_alarms(s):
         out.append("false alarms")

@@ -220,14 +220,15 @@ class NmpcController:
     planned off while the string-flow meter reads nothing, the block reference the
     drawworks was given, command)."""
 
-    def __init__(self, config: RigConfig, rig: Rig, ini, block_integral_from_drawworks: bool):
+    def __init__(self, config: RigConfig, rig: Rig, ini, block_integral_from_drawworks: bool,
+                 op):
         self.rig = rig
         self.block_integral = block_integral_from_drawworks
         self.sup = Supervisor(config, build_estimation_model(
             config, with_disturbance=config.nmpc.configuration == "NMPC2"))
         self.cfg = config.nmpc
-        u_b, opening, bpp, spp = (float(v) for v in rig.op.inputs)
-        self.operating_flow_m3s = float(rig.op.choke_flow_m3s)   # before any solve
+        u_b, opening, bpp, spp = (float(v) for v in op.inputs)
+        self.operating_flow_m3s = float(op.choke_flow_m3s)   # before any solve
         self.u = None
         self.initial = (choke_input(self.cfg, self.operating_flow_m3s, ini.choke_dp_pa), bpp, spp)
         self.solve_times: list[float] = []
@@ -262,8 +263,7 @@ class Protection:
     """The protection node in process: the block velocity over its window, the kick
     detector's trip hold, and the limiter between the advisor's command and the machines."""
 
-    def __init__(self, config: RigConfig, rig: Rig, scenario, wm: hy.WellModel):
-        op = rig.op
+    def __init__(self, config: RigConfig, scenario, wm: hy.WellModel, op):
         start = np.array([0.0, float(op.choke_flow_m3s), scenario.initial.bpp_flow_m3s,
                           float(op.inputs[3])])
         self.protection = ProcessProtection(config, wm, start)
@@ -353,15 +353,17 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
     source = TruthState(rig, em) if state == "truth" else UkfState(config, wm)
     book = SetpointBook(scenario, initial_setpoints(config, scenario),
                         Envelope.from_config(config, wm.geometry))
-    u_b, opening, bpp, spp = (float(v) for v in rig.op.inputs)
+    ini = scenario.initial      # where the controllers believe the run starts: the model's
+    op = steady_state(wm, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
+    u_b, opening, bpp, spp = (float(v) for v in op.inputs)
     mpd = AutomatedMpd(config, em, bpp, spp) if controller == "automated_mpd" else None
-    nmpc = NmpcController(config, rig, scenario.initial, block_integral_from_drawworks) \
+    nmpc = NmpcController(config, rig, ini, block_integral_from_drawworks, op) \
         if controller == "nmpc" else None
-    baseline = Baseline(float(rig.op.choke_flow_m3s), BASELINE_KP_M3S_PER_PA, BASELINE_TI_S,
+    baseline = Baseline(float(op.choke_flow_m3s), BASELINE_KP_M3S_PER_PA, BASELINE_TI_S,
                         config.nmpc.input_max.choke_flow_m3s, scenario.baseline_trip_speed_mps,
                         config.nmpc.sample_time_s) if controller == "baseline" else None
-    guard = Protection(config, rig, scenario, wm) if protection else None
-    cmd = Command(0.0, rig.op.choke_flow_m3s, bpp, spp)
+    guard = Protection(config, scenario, wm, op) if protection else None
+    cmd = Command(0.0, op.choke_flow_m3s, bpp, spp)
     frames = int(round(scenario.duration_s / config.plant.sensor_period_s))
     per_sample = int(round(config.nmpc.sample_time_s / config.plant.sensor_period_s))
     log = {k: [] for k in ("t", "bhp", "pos", "ref", "band", "target", "bhp_est", "velocity",

@@ -13,6 +13,7 @@ import yaml
 
 from drill_bringup import launcher, report
 from drill_core.ros import graph as graph_decl
+from drill_core.config import ConfigError
 from drill_core.mismatch import resolve, write_truth_file
 from drill_core.scenario import load_scenario, scenario_kind, scenario_truth, without_truth
 
@@ -55,6 +56,9 @@ def _drilling_scenario(path: Path, realtime: bool, controller: str | None):
     return load_drilling_scenario(path, ROOT / "config")[0]
 
 
+TRUTH_FILE = "truth.json"       # the plant's mismatch in a run directory (drill_core.mismatch)
+
+
 def run_truth(path: Path, mismatch: str | None):
     """How the run's plant differs from the model: ``mismatch`` (a suite member or draw:N),
     else the scenario's ``truth:`` section, as (name, Mismatch); None: the model's own."""
@@ -65,9 +69,9 @@ def run_truth(path: Path, mismatch: str | None):
 
 def stage_truth(path: Path, run_dir: Path, truth) -> None:
     """Write ``run_dir/scenario.yaml`` (the scenario less its truth, for every node) and
-    ``run_dir/truth.yaml`` (the plant's mismatch, for the plant's side alone)."""
+    ``run_dir/truth.json`` (the plant's mismatch, for the plant's side alone)."""
     (run_dir / "scenario.yaml").write_text(yaml.safe_dump(without_truth(path), sort_keys=False))
-    write_truth_file(run_dir / "truth.yaml", *truth)
+    write_truth_file(run_dir / TRUTH_FILE, *truth)
 
 
 def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = None,
@@ -104,6 +108,9 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     run_dir = (runs_dir or ROOT / "runs") / f"{scenario.name}{tags}-{stamp}-{os.getpid()}"
     mcap_path = run_dir / f"{scenario.name}.mcap"
     mode = "realtime" if realtime else "fast"
+    if mismatch is not None and kind != "tripping":
+        raise ConfigError(f"--mismatch {mismatch}: {path.name} is a {kind} scenario; a "
+                          "mismatch changes a tripping run's well (docs/mismatch.md)")
     truth = run_truth(path, mismatch) if kind == "tripping" else None
     staged = path if truth is None else run_dir / "scenario.yaml"
     common = {"config_dir": str(ROOT / "config"), "scenario": str(staged), "mode": mode}
@@ -112,7 +119,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     if truth is not None:
         for node in nodes:
             if graph_decl.BY_NAME[node.name].truth_side:
-                node.params["truth"] = str(run_dir / "truth.yaml")
+                node.params["truth"] = str(run_dir / TRUTH_FILE)
     if seed is not None:
         nodes[-1].params["seed"] = seed
     names = {n.name for n in nodes}

@@ -474,8 +474,8 @@ class KickDetection:
                                                       "of the pit over this long (0: no pit channel)")
     baseline_time_constant_s: float = param(
         "s", 0.0, 1.0e5, default=0.0,
-        doc="forgetting time of the flow baseline learnt while the well is quiet (meter "
-            "offset, compliance error: drill_protection.flow_baseline); 0: none")
+        doc="forgetting time of the compliances' errors learnt while the well is quiet "
+            "(drill_protection.flow_baseline); 0: none")
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from drill_core.config import MeasurementNoise, RigConfig, SensorBias, SurfaceSensorNoise
+from drill_core.config import (MeasurementNoise, Plant, RigConfig, SensorBias,
+                               SurfaceSensorNoise, Well)
 from drill_core.schema import ConfigError, build, param
 from drill_core.yaml_files import load_yaml
 
@@ -92,13 +93,20 @@ def truth_config(config: RigConfig, mismatch: Mismatch) -> RigConfig:
         well, mud=true_mud, choke_coefficient_m2=well.choke_coefficient_m2 * m.choke_coefficient_factor,
         segment_hole_diameters_m=holes if m.hole_diameter_factors is not None
         else well.segment_hole_diameters_m)
-    true_well.validate()
     scale = m.sensor_noise_factor
     true_plant = dataclasses.replace(
         plant, measurement_noise=_scaled(plant.measurement_noise, MeasurementNoise, scale),
         surface_sensor_noise=_scaled(plant.surface_sensor_noise, SurfaceSensorNoise, scale),
-        sensor_bias=m.sensor_bias)
-    return dataclasses.replace(config, well=true_well, plant=true_plant)
+        sensor_bias=SensorBias(**{f.name: getattr(plant.sensor_bias, f.name)
+                                  + getattr(m.sensor_bias, f.name)
+                                  for f in dataclasses.fields(SensorBias)}))
+    # every value of the plant's well and sensors checked against its range again
+    return dataclasses.replace(config, well=_checked(Well, true_well),
+                               plant=_checked(Plant, true_plant))
+
+
+def _checked(cls, obj):
+    return build(cls, dataclasses.asdict(obj), "truth (the plant's mismatch applied)")
 
 
 def _scaled(noise, cls, factor: float):
@@ -188,4 +196,4 @@ def draw(draws: Draws, index: int) -> Mismatch:
         own = getattr(Mismatch(), field.name)
         values[field.name] = own * math.exp(spread.sd * z) if spread.log_normal \
             else own + spread.sd * z
-    return Mismatch(**values)
+    return build(Mismatch, values, f"draw:{index}")

@@ -126,6 +126,15 @@ class ActiveSetpoints:
     mud_pump_on: bool
     choke_dp_band_upper_pa: float = 0.0     # 0: choke_dp_band_pa (symmetric band)
 
+    def following_rest(self, rest_choke_dp_pa: float, choke_dp_min_pa: float) -> ActiveSetpoints:
+        """These setpoints with the choke-dp target moved down (not below
+        ``choke_dp_min_pa``) to the steady dp that holds the BHP reference at rest, where that
+        lies under it: a mud heavier or thicker than the model's needs less back-pressure,
+        and the band moves with its target, keeping its room below it for the surge."""
+        if not math.isfinite(rest_choke_dp_pa) or rest_choke_dp_pa >= self.choke_dp_ref_pa:
+            return self
+        return dataclasses.replace(self, choke_dp_ref_pa=max(rest_choke_dp_pa, choke_dp_min_pa))
+
     def choke_dp_limits(self, choke_dp_min_pa: float) -> tuple[float, float]:
         """The choke-dp band [Pa]: target - band (not below ``choke_dp_min_pa``) to target +
         upper width (the paper's Table 6 lets Cases 1-3 rise to the BHP band's bottom)."""

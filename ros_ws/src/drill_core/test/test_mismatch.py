@@ -90,8 +90,8 @@ def test_draws_are_reproducible_and_spread():
 
 def test_truth_file_round_trip(tmp_path):
     name, m = resolve("thick_report", CONFIG)
-    write_truth_file(tmp_path / "truth.yaml", name, m)
-    assert read_truth_file(tmp_path / "truth.yaml") == (name, m)
+    write_truth_file(tmp_path / "truth.json", name, m)
+    assert read_truth_file(tmp_path / "truth.json") == (name, m)
 
 
 def test_scenario_truth_is_read_apart_from_the_scenario(tmp_path):

@@ -427,9 +427,12 @@ class RigUkf:
             self.repairs += 1
 
     def _project(self) -> None:
-        """Keep 0 <= theta <= the law's theta_max (mean) and the standard deviations capped."""
+        """Keep 0 <= theta <= the law's theta_max and the string friction factor >= 0 (mean)
+        and the standard deviations capped."""
         x = self._ukf.x
         theta = self.tuning.theta_index
         x[theta] = np.clip(x[theta], 0.0, self.tuning.theta_max)
+        if self.em.with_string_friction:
+            x[self.em.string_friction] = max(x[self.em.string_friction], 0.0)
         if np.all(np.isfinite(self._ukf.P)):
             self._ukf.P = self._capped(self._ukf.P)

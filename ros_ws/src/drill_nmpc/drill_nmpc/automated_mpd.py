@@ -115,15 +115,6 @@ class AutomatedMpd:
             limits.append(float(grid[last - 1]) if last > 0 else 0.0)
         return limits[0], limits[1]
 
-    def choke_dp_limits(self, sp: ActiveSetpoints, rest_setpoint_pa: float) -> tuple[float, float]:
-        """The choke-dp band [Pa]: the setpoints' band, moved down (not below the choke's
-        lowest set-point) as far as the set-point that holds the BHP reference at rest lies
-        under the band's target: a mud heavier or thicker than the model's needs less
-        back-pressure, and the band keeps its room below that set-point for the surge."""
-        low, high = sp.choke_dp_limits(self.cfg.choke_dp_min_pa)
-        shift = min(0.0, rest_setpoint_pa - sp.choke_dp_ref_pa)
-        return max(low + shift, self.cfg.choke_dp_min_pa), max(high + shift, low + shift)
-
     def adopt_applied(self, applied_block_m: float) -> None:
         """Go on from the block reference the process protection applied to the last
         command [m] when it changed ours (a held or slowed trip): the profile continues
@@ -158,7 +149,8 @@ class AutomatedMpd:
             return self.model.choke_dp_for_bhp(bhp_ref_pa, theta, q, speed_mps,
                                                self.downstream_pa, density) + self.trim_pa
 
-        dp_low, dp_high = self.choke_dp_limits(sp, setpoint(0.0))
+        dp_low, dp_high = sp.following_rest(setpoint(0.0), self.cfg.choke_dp_min_pa) \
+            .choke_dp_limits(self.cfg.choke_dp_min_pa)
         out_limit, in_limit = self.speed_envelope(bhp_ref_pa, theta, q, sp.trip_speed_limit_mps,
                                                   dp_low, dp_high, density)
         profile = self.profile

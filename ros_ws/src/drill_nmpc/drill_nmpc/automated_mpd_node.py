@@ -25,7 +25,7 @@ import sys
 
 from drill_msgs.msg import RigCommand, StateEstimate
 
-from drill_core.estimation_model import build_estimation_model
+from drill_core.estimation_model import DENSITY_OFFSET, build_estimation_model
 from drill_core.ros import topics
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
@@ -51,7 +51,8 @@ class AutomatedMpdNode(AdvisorNode):
                             string_velocity_mps=float(msg.string_velocity_mps),
                             string_flow_m3s=float(mean[self.em.string_flow]),
                             friction_factor=tuple(float(v) for v in msg.friction_parameter),
-                            density_offset_kgm3=float(self.em.density_offset_of(mean)))
+                            density_offset_kgm3=float(dict(zip(msg.state_names, mean)).get(
+                                DENSITY_OFFSET, 0.0)))
 
     def _on_estimate(self, msg: StateEstimate) -> None:
         stamp = to_ns(msg.header.stamp)

@@ -33,7 +33,7 @@ from drill_core.operating_point import initial_operating_point
 from drill_core.scenario import ActiveSetpoints, Initial
 from drill_nmpc.inputs import choke_input, choke_time_constant
 from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
-                                         outputs)
+                                         full_state, outputs)
 from drill_nmpc.supervisor import Supervisor
 
 PAPER_SOLVE_TIME_S = 16.4          # Tengesdal & Holden 2020, sec. 6.3.4 (MATLAB fmincon, NMPC0)
@@ -63,6 +63,8 @@ def steady_estimate(em: EstimationModel, initial: Initial) -> tuple[np.ndarray, 
     flows = np.full(wm.n - 1, initial.circulation_m3s)
     friction = hy.annulus_friction(np, wm, flows, 0.0)
     x[em.theta(2):em.theta(wm.n) + 1] = fitted_friction_parameters(em, flows, friction)
+    if em.with_string_friction:
+        x[em.string_friction] = 1.0          # the mud report's string friction
     u = np.array([0.0, op.choke_flow_m3s, initial.bpp_flow_m3s, op.spp_pa])
     return x, u
 
@@ -88,8 +90,7 @@ class ModelPlant:
                                      None if exact else StringFrictionTable(em_d.wm),
                                      choke_time_constant(config.nmpc))
         self.step_fn = self.model.function(config.nmpc.sample_time_s, substeps, "rk4")
-        full = np.zeros(em_d.size)
-        full[:em.theta(em.n) + 1] = np.asarray(x0)[:em.theta(em.n) + 1]
+        full = full_state(em_d, x0, 0.0)
         self.par = full[self.model.nd_model:].copy()
         self.par[:em.n - 1] *= friction_factor
         self.x = self.model.initial_state(full, u0)
@@ -109,12 +110,7 @@ class ModelPlant:
     def state(self, em: EstimationModel) -> np.ndarray:
         """The plant state in the layout of ``em`` (what a perfect estimator would report)."""
         full = np.array(self.model.full(self.x, self.par), dtype=float)
-        out = np.zeros(em.size)
-        n = em.theta(em.n) + 1
-        out[:n] = full[:n]
-        if em.with_disturbance:
-            out[em.disturbance] = full[self.em.disturbance]
-        return out
+        return em.vector(dict(zip(self.em.names, full)))
 
     def advance(self, u, pump_on: bool = True) -> None:
         self.x = np.asarray(self.step_fn(self.x, u, self.par, 1.0 if pump_on else 0.0),

@@ -86,8 +86,9 @@ class PredictionModel:
 
     State x = [z1, z2, z3, p_1, q_2, ..., p_n, q_d, p_I (, b, q_bpp, p_in)]: the estimation
     model's evolving states, then the lagged actuator outputs that are modelled (block
-    position b, back-pressure pump flow, stand-pipe pressure); par = [theta_2..theta_n (, d)]
-    frozen over the horizon; ``pump_on`` (0/1) switches the mud pump (off: p_in -> 0).
+    position b, back-pressure pump flow, stand-pipe pressure); par = the estimation model's
+    states from theta_2 on (theta_2..theta_n, then the density offset, the string friction
+    factor and d where the model has them) frozen over the horizon; ``pump_on`` (0/1) switches the mud pump (off: p_in -> 0).
 
     The shared estimation model puts the block at the block controller's output and the
     pumps at their commands instantly; the actuators (and the truth plant) lag them by

@@ -154,20 +154,19 @@ class Supervisor:
 
     def setpoint_vector(self, x_full, setpoints: ActiveSetpoints) -> np.ndarray:
         """y_sp = [block target, choke dp target, BHP ref] (NaN BHP: the first estimate's
-        BHP). The choke dp target is the setpoints' reference, moved down as far as the
-        steady dp that holds the BHP reference at rest with the estimated friction and
-        density lies under it (a mud heavier or thicker than the model's needs less
-        back-pressure; the band moves with the target and keeps its room for the surge)."""
+        BHP). The choke dp target is the setpoints' reference following the steady dp that
+        holds the BHP reference at rest with the estimated friction (clamped as the
+        prediction clamps it) and density (ActiveSetpoints.following_rest)."""
         bhp = setpoints.bhp_ref_pa
         if not math.isfinite(bhp):
             if self.bhp_ref_default is None:
                 self.bhp_ref_default = float(outputs(self.em, x_full)[2])
             bhp = self.bhp_ref_default
-        theta = [x_full[self.em.theta(i)] for i in range(2, self.em.n + 1)]
-        rest = self.rest_choke_dp(x_full, theta, bhp, bool(setpoints.mud_pump_on),
+        par = x_full[self.model.nd_model:].copy()
+        self._clamp_friction(x_full, par)
+        rest = self.rest_choke_dp(x_full, par, bhp, bool(setpoints.mud_pump_on),
                                   (-math.inf, math.inf))
-        dp = setpoints.choke_dp_ref_pa if not math.isfinite(rest) \
-            else min(setpoints.choke_dp_ref_pa, rest)
+        dp = setpoints.following_rest(rest, self.cfg.choke_dp_min_pa).choke_dp_ref_pa
         return np.array([setpoints.block_position_target_m, dp, bhp])
 
     def levels(self, setpoints: ActiveSetpoints, y_sp):

@@ -320,8 +320,8 @@ class NmpcProblem:
     # -- numeric data of one instance ---------------------------------------------------
     def parameters(self, x0, par, u_prev, e0, y_ref, y_sp, u_ref, pump_on: bool = True,
                    reference_speed: float = 0.0, bhp_bias_pa: float = 0.0) -> np.ndarray:
-        """Parameter vector: prediction state x_0, par = [theta (, d)], pump_on, u_{-1},
-        (u_r,-2 scaled from the last block-reference speed), e_0, y_ref[1..N], y_sp, u_ref,
+        """Parameter vector: prediction state x_0, par (the estimate from theta on), pump_on,
+        u_{-1}, (u_r,-2 scaled from the last block-reference speed), e_0, y_ref[1..N], y_sp, u_ref,
         the BHP bias added to the predicted BHP of stages 1..N."""
         return self.parameter_layout.pack(
             x0=x0, par=par, pump_on=1.0 if pump_on else 0.0, u_prev=u_prev,

@@ -10,8 +10,9 @@ pressures move but
 (c the compliances' errors, the pressure rates over the detector's window).
 :class:`FlowBaseline` fits (c_top, c_bottom) by recursive least squares with exponential
 forgetting over ``time_constant_s``, learning only from samples the detector reads as
-quiet (no alarm raised or pending, the corrected excess within the threshold); the
-detector judges e less the fit. It learns no constant term: a loss or an influx that is
+quiet (no alarm raised or pending, the corrected excess within half the threshold), each
+term bounded at WEIGHT_LIMIT prior standard deviations; the detector judges e less the
+fit. It learns no constant term: a loss or an influx that is
 there when the balance starts would look like a meter's offset and be learnt away (a
 weak zone met 10 s into a trip was, in a first version); a meter that reads off shows as
 an alarm, which is what the crew must see. What it can take for compressibility is a
@@ -27,6 +28,10 @@ import numpy as np
 # of the reference well's) before any sample; small enough that a few noisy samples do
 # not swing it.
 PRIOR_STD = np.array([5.0e-9, 5.0e-9])
+# The fit never corrects a compliance by more than this many prior standard deviations
+# (about 40 % of the reference well's each): a slow influx that raises the pressures of a
+# nearly closed well looks like compressibility, and must not be learnt away without end.
+WEIGHT_LIMIT = 2.0
 
 
 class FlowBaseline:
@@ -37,7 +42,6 @@ class FlowBaseline:
         self.noise_var = noise_m3s ** 2
         self.weights = np.zeros(2)
         self.covariance = np.diag(PRIOR_STD ** 2)
-        self.samples = 0
 
     @staticmethod
     def regressors(choke_dp_rate_pa_s: float, bhp_rate_pa_s: float) -> np.ndarray:
@@ -54,9 +58,9 @@ class FlowBaseline:
         keep = math.exp(-dt_s / self.time_constant_s)
         P = self.covariance / keep
         gain = P @ phi / (self.noise_var + phi @ P @ phi)
-        self.weights = self.weights + gain * (excess_m3s - self.weights @ phi)
+        self.weights = np.clip(self.weights + gain * (excess_m3s - self.weights @ phi),
+                               -WEIGHT_LIMIT * PRIOR_STD, WEIGHT_LIMIT * PRIOR_STD)
         P = P - np.outer(gain, phi @ P)
         # forgetting never widens a term past its prior (a direction the data do not excite)
         shrink = np.sqrt(np.minimum(1.0, PRIOR_STD ** 2 / np.maximum(np.diag(P), 1e-300)))
         self.covariance = P * np.outer(shrink, shrink)
-        self.samples += 1

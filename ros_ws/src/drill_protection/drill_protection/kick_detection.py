@@ -139,13 +139,13 @@ class KickDetector:
 
     def _learn(self, time_s: float, dt_s: float) -> None:
         """Fit the baseline on this sample when the well reads quiet: no alarm, nor one on
-        its way, and the corrected excess within the threshold."""
+        its way, and the corrected excess within half the threshold (the clearing level)."""
         window = self._window_rates() if self.baseline is not None else None
         if window is None or self.alarm or any(self._since[k] is not None
                                                 for k in ("kick", "losses")):
             return
         raw, phi = window
-        if abs(raw - self.baseline.baseline_m3s(phi)) < self.config.flow_threshold_m3s:
+        if abs(raw - self.baseline.baseline_m3s(phi)) < 0.5 * self.config.flow_threshold_m3s:
             self.baseline.learn(phi, raw, dt_s)
 
     def _observe_pit(self, s: FlowSample, known_m3: float) -> None:
