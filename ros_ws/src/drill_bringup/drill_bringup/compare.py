@@ -154,6 +154,7 @@ def _legs(rows, key) -> str:
 
 def markdown(rows: list[dict], plot_name: str | None) -> str:
     """The comparison document."""
+    every = rows
     mismatched = [r for r in rows if r.get("mismatch")]
     rows = [r for r in rows if not r.get("mismatch")]
     by = {}
@@ -241,7 +242,7 @@ def markdown(rows: list[dict], plot_name: str | None) -> str:
     if plot_name:
         lines += ["", f"![One Case 2 trip per controller]({plot_name})"]
     lines += ["", f"Seeds: {', '.join(str(s) for s in seeds)}. Run directories (MCAP, plots, "
-              "logs; not committed): " + ", ".join(f"`{Path(r['run_dir']).name}`" for r in rows),
+              "logs; not committed): " + ", ".join(f"`{Path(r['run_dir']).name}`" for r in every),
               ""]
     return "\n".join(lines)
 
