@@ -152,18 +152,16 @@ class Supervisor:
         assert np.all(np.isfinite(u)), "NMPC command is not finite"
         return u
 
-    def setpoint_vector(self, x_full, setpoints: ActiveSetpoints) -> np.ndarray:
+    def setpoint_vector(self, x_full, setpoints: ActiveSetpoints, par) -> np.ndarray:
         """y_sp = [block target, choke dp target, BHP ref] (NaN BHP: the first estimate's
         BHP). The choke dp target is the setpoints' reference following the steady dp that
-        holds the BHP reference at rest with the estimated friction (clamped as the
-        prediction clamps it) and density (ActiveSetpoints.following_rest)."""
+        holds the BHP reference at rest with the prediction's parameters ``par`` (friction
+        clamped, density offset: ActiveSetpoints.following_rest)."""
         bhp = setpoints.bhp_ref_pa
         if not math.isfinite(bhp):
             if self.bhp_ref_default is None:
                 self.bhp_ref_default = float(outputs(self.em, x_full)[2])
             bhp = self.bhp_ref_default
-        par = x_full[self.model.nd_model:].copy()
-        self._clamp_friction(x_full, par)
         rest = self.rest_choke_dp(x_full, par, bhp, bool(setpoints.mud_pump_on),
                                   (-math.inf, math.inf))
         dp = setpoints.following_rest(rest, self.cfg.choke_dp_min_pa).choke_dp_ref_pa
@@ -320,7 +318,7 @@ class Supervisor:
         par = x[self.model.nd_model:].copy()
         clamped = self._clamp_friction(x, par)
         y_now = np.array([float(v) for v in outputs(em, x)])
-        y_sp = self.setpoint_vector(x, setpoints)
+        y_sp = self.setpoint_vector(x, setpoints, par)
         # reference trajectory (59), anchored at the estimated output
         y_ref = np.array([self.alpha ** j * y_now + (1.0 - self.alpha ** j) * y_sp
                           for j in range(pb.N + 1)])
