@@ -236,6 +236,14 @@ class Actuators:
                                        doc="pressure mode: PI integral time")
     choke_pressure_scale_pa: float = param("Pa", 0.0, 1.0e7, lo_open=True, default=1.0e5,
                                            doc="pressure mode: choke-dp error normalisation")
+    choke_bhp_kp: float = param("1", 0.0, 10.0, default=0.3,
+                                doc="BHP mode (emergency stop): choke-dp set-point change per "
+                                    "BHP error")
+    choke_bhp_ti_s: float = param("s", 0.0, 1000.0, lo_open=True, default=5.0,
+                                  doc="BHP mode: the outer loop's integral time")
+    brake_deceleration_mps2: float = param(
+        "m/s^2", 0.0, 20.0, lo_open=True, default=1.0,
+        doc="emergency stop: the drawworks brake decelerates the block at this rate to rest")
 
 
 # ---------------------------------------------------------------------- estimator

@@ -1,7 +1,8 @@
 """Scenario files (config/scenarios/*.yaml): initial operating point, controller,
 configuration overrides, a timed schedule of setpoints, or of commands for the
 ``open_loop`` controller (drill_core.open_loop), and events that happen to the rig
-(faults, formation changes: drill_core.events) (docs/design.md §8).
+(faults, formation changes: drill_core.events) and the operator's actions (emergency stop,
+automation level: drill_core.operator_actions) (docs/design.md §8).
 
 A schedule entry changes only the fields it names; the rest carry over. Times are
 simulated seconds from the start of the run.
@@ -17,6 +18,7 @@ from drill_core.config import ConfigError, RigConfig, load_rig
 from drill_core.yaml_files import load_yaml, merge
 from drill_core.events import ScenarioEvent
 from drill_core.mismatch import Mismatch, resolve
+from drill_core.operator_actions import OperatorAction
 from drill_core.open_loop import OpenLoopPlan, start_command
 from drill_core.schema import FieldError, build, param
 
@@ -89,6 +91,9 @@ class Scenario:
     baseline_trip_speed_mps: float = param("m/s", 0.0, 5.0, lo_open=True, default=0.5)
     events: tuple[ScenarioEvent, ...] = param(default=(), doc="faults and formation changes "
                                                                "(drill_core.events)")
+    operator: tuple[OperatorAction, ...] = param(
+        default=(), doc="emergency stop, release, automation level at a time "
+                        "(drill_core.operator_actions)")
 
     def validate(self) -> None:
         times = [c.time_s for c in self.schedule]
@@ -106,11 +111,12 @@ class Scenario:
                     else f"only used with controller open_loop, not {self.controller}"))
         if open_loop:
             OpenLoopPlan(self.schedule, start_command(self.initial))
-        for i, event in enumerate(self.events):
-            if event.time_s >= self.duration_s:
-                raise FieldError(f"events[{i}].time_s", f"value {event.time_s} s must come "
-                                                        f"before the end of the run, duration_s "
-                                                        f"{self.duration_s} s")
+        for key, timed in (("events", self.events), ("operator", self.operator)):
+            for i, entry in enumerate(timed):
+                if entry.time_s >= self.duration_s:
+                    raise FieldError(f"{key}[{i}].time_s", f"value {entry.time_s} s must come "
+                                                           f"before the end of the run, "
+                                                           f"duration_s {self.duration_s} s")
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,9 @@ from the sample they were computed at. The choke honours the command's manual mo
 (``choke_pressure_control``: hold the measured choke dp at ``choke_dp_ref_pa``, ramped at
 ``choke_dp_ref_rate_pa_s``, with ``choke_flow_ref_m3s`` as flow feedforward) and otherwise
 its PI flow controller on ``choke_flow_ref_m3s`` against the measured return flow (the
-valve law when that sample is bad: counted as ``valve_law_frames`` on its status). If
+valve law when that sample is bad: counted as ``valve_law_frames`` on its status). Under
+the command's emergency stop the drawworks sets its brake (the block decelerates to rest
+and is held) and the choke holds the BHP at ``emergency_bhp_pa`` on its BHP loop. If
 commands stop for longer than the watchdog timeout it holds a safe state (block held where
 it is, choke opening and pumps held) and says so on its status topic. A scenario's actuator faults
 (drill_core.events) act here: ``stuck`` freezes the output, ``trip`` stops a pump whatever
@@ -115,7 +117,7 @@ class ActuatorNode(RigNode):
         target = self.safe_hold if tripped else self._command_value(self.command)
         fault = self._fault(to_ns(measurement.header.stamp))
         if fault == "stuck":
-            out = FrameOutput(target, target, np.full(self.steps, self.model.lag.value))
+            out = FrameOutput(target, target, self.model.lag.hold(self.steps))
         else:
             out = self._frame(0.0 if fault == "trip" else target, measurement, hold=tripped)
         frame = ActuatorFrame(actuator=self.actuator, unit=UNITS[self.actuator],
@@ -151,9 +153,16 @@ class ActuatorNode(RigNode):
         return self._command_value(self.command)
 
     def _frame(self, target: float, m: RigMeasurement, hold: bool) -> FrameOutput:
+        stop = self.command is not None and self.command.emergency_stop   # even if then silent
         if self.actuator == "drawworks":
+            if stop:
+                return self.model.brake(self.step_s, self.steps)
             return self.model.frame(target, m.block_position_m, self.step_s, self.steps)
         if self.actuator == "choke":
+            if stop:
+                cmd = self.command
+                return self.model.bhp_frame(cmd.emergency_bhp_pa, m.bhp_pa, cmd.choke_dp_ref_pa,
+                                            target, m.choke_dp_pa, self.step_s, self.steps)
             if hold:
                 opening = self.model.lag.value
                 return FrameOutput(opening, target, self.model.lag.advance(opening, self.step_s,

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drill_core import hydraulics as hy
-from drill_core.block_control import block_command, integral_rate
+from drill_core.block_control import block_command, integral_for_command, integral_rate
 from drill_core.channel_watch import ChannelWatch
 from drill_core.config import Actuators, Lag
 
@@ -30,6 +30,7 @@ class FirstOrderLag:
     def __init__(self, lag: Lag, initial: float):
         self.lag = lag
         self.value = clamp(initial, lag.minimum, lag.maximum)
+        self.rate_per_s = 0.0       # the output's rate over the last step [unit/s]
 
     def limit(self, command: float) -> float:
         return clamp(command, self.lag.minimum, self.lag.maximum)
@@ -45,8 +46,28 @@ class FirstOrderLag:
             out.append(value)
             value = clamp(value + clamp((target - value) * gain, -max_change, max_change),
                           lo, hi)
-        self.value = value
+        self._moved_to(value, out[-1], step_s)
         return np.array(out)
+
+    def decelerate(self, deceleration_per_s2: float, step_s: float, steps: int) -> np.ndarray:
+        """Outputs at the start of each step while the output's rate falls to zero at
+        ``deceleration_per_s2`` and then stays there (a brake); the state moves to the frame end."""
+        value, rate, out = self.value, self.rate_per_s, []
+        for _ in range(steps):
+            out.append(value)
+            rate = math.copysign(max(abs(rate) - deceleration_per_s2 * step_s, 0.0), rate)
+            value = clamp(value + rate * step_s, self.lag.minimum, self.lag.maximum)
+        self._moved_to(value, out[-1], step_s)
+        return np.array(out)
+
+    def hold(self, steps: int) -> np.ndarray:
+        """The output frozen where it is for ``steps`` steps (a stuck actuator)."""
+        self.rate_per_s = 0.0
+        return np.full(steps, self.value)
+
+    def _moved_to(self, value: float, before: float, step_s: float) -> None:
+        self.rate_per_s = (value - before) / step_s
+        self.value = value
 
 
 class Watchdog:
@@ -72,7 +93,10 @@ class FrameOutput:
 
 
 class Drawworks:
-    """Block-position controller + drawworks lag; the reference is u_r [m]."""
+    """Block-position controller + drawworks lag; the reference is u_r [m]. The emergency
+    brake (``brake``) bypasses the controller: the block decelerates at the brake's limit
+    to rest and is held there; the first frame after it takes the controller back from the
+    held block without a jump (its integral set so that it commands where the block is)."""
 
     def __init__(self, config: Actuators, static_stretch_m: float, initial_block_m: float):
         self.config = config
@@ -80,15 +104,30 @@ class Drawworks:
         self.lag = FirstOrderLag(config.drawworks, initial_block_m)
         self.integral_m_s = 0.0
         self.command_m = self.lag.value
+        self.braked = False
 
     def safe_reference(self, measured_position_m: float) -> float:
         """Hold the string where it is."""
         return measured_position_m
 
+    def brake(self, step_s: float, steps: int) -> FrameOutput:
+        """One frame with the brake set; the frame's reference is NaN (none is followed)."""
+        self.braked = True
+        out = self.lag.decelerate(self.config.brake_deceleration_mps2, step_s, steps)
+        self.command_m = self.lag.value
+        return FrameOutput(self.command_m, math.nan, out)
+
     def frame(self, reference_m: float, measured_position_m: float, step_s: float,
               steps: int) -> FrameOutput:
         """One frame; a non-finite reference or position holds the last command (the
         controller's integral untouched, so one bad sample does not poison it)."""
+        if self.braked and math.isfinite(reference_m) and math.isfinite(measured_position_m) \
+                and self.config.block_ki_per_s > 0.0:
+            c = self.config          # released: bumpless from the held block
+            self.integral_m_s = integral_for_command(self.lag.value, reference_m, measured_position_m,
+                                                     self.static_stretch_m, c.block_kp,
+                                                     c.block_ki_per_s)
+        self.braked = False
         if math.isfinite(reference_m) and math.isfinite(measured_position_m):
             command = block_command(reference_m, measured_position_m, self.integral_m_s,
                                     self.static_stretch_m, self.config.block_kp,
@@ -113,9 +152,11 @@ class Choke:
     Pressure mode (an MPD choke controller's surface back-pressure loop): at every sensor
     frame a PI on the measured choke dp against a set-point that ramps from the command's
     value at its rate, plus the opening the valve law gives for a feedforward flow at that
-    set-point. Manual mode drives the valve to a given opening (the paper's estimation
-    study, sec. 4.3, holds the choke at 50 %). Every switch is bumpless: each mode
-    continues from the opening the valve was left at.
+    set-point. BHP mode (the emergency stop's hold): the same loop on the measured BHP, its
+    set-point the BHP to hold, as a cascade: an outer PI on the BHP sets the pressure loop's
+    choke-dp set-point (while the BHP sample is bad the set-point stands). Manual mode drives the valve to a given opening
+    (the paper's estimation study, sec. 4.3, holds the choke at 50 %). Every switch is
+    bumpless: each mode continues from the opening the valve was left at.
     """
 
     def __init__(self, config: Actuators, wm: hy.WellModel, initial_opening: float):
@@ -124,7 +165,10 @@ class Choke:
         self.lag = FirstOrderLag(config.choke, initial_opening)
         self.opening_command = self.lag.value
         self.previous_error: float | None = None
-        self.pressure_integral: float | None = None     # pressure mode's integral [1]
+        self.pressure_integral: float | None = None     # pressure and BHP modes' integral [1]
+        self.pressure_mode = ""                         # "dp" or "bhp" while one runs, else ""
+        self.bhp_dp_integral_pa = math.nan              # BHP mode: the outer loop's integral
+        self.bhp_dp_setpoint_pa = math.nan              # and the choke-dp set-point it sets [Pa]
         self.flow_watch = ChannelWatch(("return_flow_m3s",), config.choke_flow_frozen_after_samples)
         self.valve_law_frames = 0     # flow-mode frames on the valve law (bad return-flow sample)
 
@@ -143,7 +187,7 @@ class Choke:
         """One frame; ``return_flow_m3s`` is the return-flow sample the flow loop controls
         (the valve law when it is bad); ``manual_opening`` [1] (not None) is manual mode
         and the frame's reference is then NaN (no flow reference)."""
-        self.pressure_integral = None            # leaving pressure mode
+        self._enter("")
         if manual_opening is not None:
             self.opening_command = self.lag.limit(manual_opening)
             self.previous_error = None
@@ -172,6 +216,42 @@ class Choke:
         """One frame in pressure mode; the frame's reference is the choke-dp set-point [Pa]
         in force, dp_ref + rate * (time since the command). A non-finite input (a bad
         sample or set-point) holds the opening and leaves the controller's state as it was."""
+        self._enter("dp")
+        return self._pressure_loop(dp_ref_pa, dp_ref_rate_pa_s, since_command_s,
+                                   flow_feedforward_m3s, measured_dp_pa, step_s, steps)
+
+    def bhp_frame(self, bhp_ref_pa: float, measured_bhp_pa: float, dp_start_pa: float,
+                  flow_feedforward_m3s: float, measured_dp_pa: float, step_s: float,
+                  steps: int) -> FrameOutput:
+        """One frame in BHP mode, a cascade: an outer PI on the measured BHP against
+        ``bhp_ref_pa`` sets the choke-dp set-point of the pressure loop (the BHP answers the
+        choke a pressure wave's travel later than the choke dp does). The set-point starts
+        from ``dp_start_pa`` (a feedforward of what the stop changes; NaN: the measured dp);
+        the outer integral stands while the valve is at an end of its range or the
+        BHP sample is bad (the pressure loop then holds the last set-point). The frame's
+        reference is the set-point [Pa]."""
+        c = self.config
+        if self.pressure_mode != "bhp":
+            start = dp_start_pa if math.isfinite(dp_start_pa) else measured_dp_pa
+            self.bhp_dp_integral_pa = self.bhp_dp_setpoint_pa = start
+        self._enter("bhp")
+        error = bhp_ref_pa - measured_bhp_pa                  # BHP low: more back-pressure
+        if math.isfinite(error) and math.isfinite(self.bhp_dp_integral_pa):
+            if self.lag.lag.minimum < self.opening_command < self.lag.lag.maximum:
+                self.bhp_dp_integral_pa += c.choke_bhp_kp * step_s * steps / c.choke_bhp_ti_s * error
+            self.bhp_dp_setpoint_pa = self.bhp_dp_integral_pa + c.choke_bhp_kp * error
+        return self._pressure_loop(self.bhp_dp_setpoint_pa, 0.0, 0.0, flow_feedforward_m3s,
+                                   measured_dp_pa, step_s, steps)
+
+    def _enter(self, mode: str) -> None:
+        """Switching mode: the next pressure loop starts bumpless from the opening in force."""
+        if mode != self.pressure_mode:
+            self.pressure_integral = None
+            self.pressure_mode = mode
+
+    def _pressure_loop(self, dp_ref_pa: float, dp_ref_rate_pa_s: float, since_command_s: float,
+                       flow_feedforward_m3s: float, measured_dp_pa: float, step_s: float,
+                       steps: int) -> FrameOutput:
         c = self.config
         setpoint = max(dp_ref_pa + dp_ref_rate_pa_s * since_command_s, 0.0)
         if not all(math.isfinite(v) for v in (setpoint, flow_feedforward_m3s, measured_dp_pa)):

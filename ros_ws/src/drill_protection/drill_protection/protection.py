@@ -3,7 +3,17 @@ NMPC, the baseline controller or the operator) asks, the command that reaches th
 machines respects the most conservative of
 
 * machine limits: actuator ranges and rate limits,
-* operator limits: the trip-speed limit of the setpoints in force, the emergency stop,
+* operator limits: the trip-speed limit of the setpoints in force,
+* the emergency stop, which acts at the machines: the command says so
+  (``Decision.emergency_stop``), the drawworks sets its brake (the block decelerates at
+  its brake limit to rest and is held) and the choke holds the BHP measured at the stop
+  (kept inside the window in force) on its own BHP loop, starting from the choke dp the
+  model says the stop calls for (the measured one less the surge/swab of the string's
+  speed at the stop, which goes with it), its flow feedforward the flow out of a well at
+  rest (circulation plus back-pressure pump), the pumps held where they were but for a
+  lost circulation's back-pressure pump floor (without circulation the steady model's
+  swab is not the friction that goes, so there is no feedforward then); the block reference follows the measured string, so that the release hands
+  back from where the string is, at rest, without a jump,
 * model-derived surge/swab limits: the largest trip speed, each way, for which the
   steady Herschel-Bulkley surge/swab model keeps the BHP inside the pore/fracture
   window (with margin), and a limit on the change of trip speed (acceleration),
@@ -25,7 +35,7 @@ machines respects the most conservative of
 A manual choke opening (choke panel in manual) is kept inside the choke's range; its
 rate is limited by the choke actuator's own lag. A choke-dp set-point (the choke on its
 pressure loop) passes when finite; a non-finite one puts the choke back on its flow loop.
-Both are held, like the pressures, under an emergency stop or outside closed loop.
+Both are held, like the pressures, outside closed loop.
 
 Every clamp is reported with its reason. Plain Python; the node wires it to topics.
 """
@@ -60,6 +70,9 @@ class Decision:
     standing_speed_limits_mps: tuple[float, float] = (float("inf"), float("inf"))
                                         # the standing part of trip_speed_limits_mps
                                         # (SpeedLimits.standing_mps): the advisors plan within it
+    emergency_stop: bool = False        # the brake set and the choke on its BHP loop
+    emergency_bhp_pa: float = float("nan")  # the BHP the choke holds under it [Pa]
+    emergency_dp_start_pa: float = float("nan")  # its BHP loop's first choke-dp set-point [Pa]
 
 
 @dataclass(frozen=True)
@@ -97,6 +110,9 @@ class ProcessProtection:
         self.previous_dp_setpoint: tuple[float, float] | None = None
         self.previous_speed_mps = 0.0
         self.emergency_stop = False
+        self.emergency_bhp_pa = float("nan")    # BHP held since the stop [Pa]; NaN: no stop
+        self.emergency_dp_start_pa = float("nan")   # the choke dp the stop calls for [Pa]
+        self.last_bhp_pa = float("nan")         # the last finite BHP measurement [Pa]
         self.automation_level = "closed_loop"
         self.trip_hold = ""          # why the trip is stopped (a well-control alarm), "" if not
         # a kick or losses answered (drill_protection.well_control): the window the trip
@@ -167,13 +183,15 @@ class ProcessProtection:
               choke_dp_setpoint: tuple[float, float] | None = None,
               surface_flows: tuple[float, float] | None = None,
               trip_action: TripAction | None = None,
-              advisor_bhp_ref_pa: float = float("nan")) -> Decision:
+              advisor_bhp_ref_pa: float = float("nan"),
+              choke_dp_pa: float = float("nan")) -> Decision:
         """Limit ``request`` [u_r, q_c, q_bpp, p_spp], the requested manual choke opening and
         choke-dp set-point (dp Pa, ramp Pa/s) (both None: the choke on its PI flow
         controller; a manual opening wins); ``surface_flows`` are the measured return and
         back-pressure pump flows [m^3/s] the window guard starts from; ``trip_action`` the
         answer to a lost circulation (drill_protection.pump_trip), None when there is
-        none; ``advisor_bhp_ref_pa`` the BHP the advisor aims at (NaN: none). Returns the
+        none; ``advisor_bhp_ref_pa`` the BHP the advisor aims at (NaN: none);
+        ``choke_dp_pa`` the measured choke dp (the emergency stop's feedforward). Returns the
         command to send and why."""
         p = self.config.protection
         period = p.command_period_s
@@ -185,12 +203,20 @@ class ProcessProtection:
         if manual_choke_opening is not None and not np.isfinite(manual_choke_opening):
             clamps.append("non-finite manual choke opening: holding the last choke mode")
             manual_choke_opening = self.previous_manual_opening
+        if np.isfinite(bhp_pa):
+            self.last_bhp_pa = float(bhp_pa)
+        stopped = self._emergency_bhp(string_velocity_mps, circulation_m3s, choke_dp_pa)
         not_applied = self.emergency_stop or self.automation_level != "closed_loop"
-        if not_applied:
-            why = "emergency stop" if self.emergency_stop else f"automation level {self.automation_level}"
-            clamps.append(f"{why}: advisor command not applied, block held at rest, pressures held")
+        if self.emergency_stop:
+            clamps.append(f"emergency stop: advisor command not applied, drawworks brake set, "
+                          f"BHP held at {stopped / PA_PER_BAR:.1f} bar by the choke")
             request = self.previous.copy()
-            request[0] = position_m if self.emergency_stop else self.previous[0]
+            request[0] = position_m if np.isfinite(position_m) else self.previous[0]
+            manual_choke_opening, choke_dp_setpoint = None, None
+        elif not_applied:
+            clamps.append(f"automation level {self.automation_level}: advisor command not "
+                          "applied, block held at rest, pressures held")
+            request = self.previous.copy()
             manual_choke_opening = self.previous_manual_opening
             held = self.previous_dp_setpoint
             choke_dp_setpoint = (held[0], 0.0) if held is not None else None
@@ -213,11 +239,11 @@ class ProcessProtection:
             command[1] = flowing if np.isfinite(flowing) else self.previous[1]
             clamps.append(hold.reason)
             bhp_ref_pa = hold.target_bhp_pa
-        trip = None if not_applied else trip_action
+        trip = None if not_applied and not self.emergency_stop else trip_action
         friction_free = trip.friction_free_bhp_pa if trip is not None else float("nan")
         resting = abs(self.previous_speed_mps) < RESTING_REFERENCE_SPEED_MPS
         guard = self._window_guard(bhp_pa, clamps, friction_free if resting else float("nan"))
-        shut = trip is not None and trip.choke_flow_m3s is not None
+        shut = trip is not None and trip.choke_flow_m3s is not None and not self.emergency_stop
         if guard or shut:
             manual_choke_opening, choke_dp_setpoint = None, None
 
@@ -230,7 +256,9 @@ class ProcessProtection:
         if guard:
             self._drive_back(guard, command, surface_flows, circulation_m3s)
         if trip is not None:
-            self._answer_trip(trip, guard, command, clamps)
+            self._answer_trip(trip, guard, command, clamps, choke=not self.emergency_stop)
+        if self.emergency_stop and not guard:      # the BHP loop's feedforward: the flow out
+            command[1] = min(circulation_m3s + command[2], self.upper[1])   # at rest
 
         limits = self.speed_limits(bhp_pa, string_velocity_mps, circulation_m3s,
                                    operator_speed_limit_mps, friction_free)
@@ -251,20 +279,40 @@ class ProcessProtection:
         if ref != self.previous[0] + limited_speed * period:
             clamps.append("block reference held inside the drawworks range")
         command[0] = ref
-        self.previous_speed_mps = (ref - self.previous[0]) / period
+        self.previous_speed_mps = 0.0 if self.emergency_stop else (ref - self.previous[0]) / period
         self.previous = command.copy()
         self.previous_manual_opening = manual_choke_opening
         self.previous_dp_setpoint = choke_dp_setpoint
         self.bhp_ref_pa = float(bhp_ref_pa)
         return Decision(command, tuple(clamps), (down, up), manual_choke_opening,
-                        choke_dp_setpoint, float(bhp_ref_pa), limits.standing_mps)
+                        choke_dp_setpoint, float(bhp_ref_pa), limits.standing_mps,
+                        self.emergency_stop, stopped, self.emergency_dp_start_pa)
+
+    def _emergency_bhp(self, string_velocity_mps: float, circulation_m3s: float,
+                       choke_dp_pa: float) -> float:
+        """The BHP the choke holds under the emergency stop [Pa], NaN without one: the last
+        measured BHP when the stop came in, inside the window in force (so a stop while the
+        window is being made good still ends inside it); and, from the same moment, the
+        choke dp the stop calls for: the measured one plus the surge/swab model's BHP change
+        at the string's speed (the change that stops with the string), while circulating."""
+        if not self.emergency_stop:
+            self.emergency_bhp_pa = self.emergency_dp_start_pa = float("nan")
+        elif not np.isfinite(self.emergency_bhp_pa):
+            low, high = self.window_pa
+            self.emergency_bhp_pa = float(np.clip(self.last_bhp_pa, low, high))
+            speed = string_velocity_mps if np.isfinite(string_velocity_mps) else 0.0
+            change = surge_swab_pa(self.wm, np.array([speed]), circulation_m3s)[0] \
+                if circulation_m3s > 0.0 else 0.0
+            self.emergency_dp_start_pa = float(max(choke_dp_pa + change, 0.0))
+        return self.emergency_bhp_pa
 
     def _answer_trip(self, trip: TripAction, guard: int, command: np.ndarray,
-                     clamps: list[str]) -> None:
+                     clamps: list[str], choke: bool = True) -> None:
         """A lost circulation: the choke's flow reference set (held shut) while the friction
-        is made good; the back-pressure pump at least at its flow, unless the window guard
-        is relieving a BHP over the window."""
-        if trip.choke_flow_m3s is not None:
+        is made good (``choke``: not while the choke holds the BHP on its own loop); the
+        back-pressure pump at least at its flow, unless the window guard is relieving a BHP
+        over the window."""
+        if choke and trip.choke_flow_m3s is not None:
             command[1] = float(np.clip(trip.choke_flow_m3s, self.lower[1], self.upper[1]))
             clamps.append(trip.reason)
         floor = min(trip.bpp_flow_min_m3s, self.upper[2])

@@ -5,9 +5,13 @@
 fast mode: the advisor command stamped t_k is limited with the measurement stamped
 t_k and published stamped t_k. realtime mode: each request is limited with the
 latest measurement. The latched /setpoints give the operator's trip-speed limit;
-the latched /operator/emergency_stop (std_msgs/Bool) stops the block and holds pressures;
-the latched /operator/automation_level (std_msgs/String: manual, advisory, closed_loop)
-says whether advisor commands reach the machines (only in closed_loop). Every
+the latched /operator/emergency_stop (std_msgs/Bool) sets the drawworks brake and holds the
+BHP on the choke's own loop (drill_protection.protection; in realtime a command saying so
+goes out at once, not at the next advisor command); the latched
+/operator/automation_level (std_msgs/String: manual, advisory, closed_loop) says whether
+advisor commands reach the machines (only in closed_loop). The scenario's operator
+actions (drill_core.operator_actions) act as the same buttons, at the first command at or
+after their time (scenario time: from the first measurement). Every
 measurement feeds the flow-balance kick detector (drill_protection.kick_detection); a
 kick or losses alarm is raised and cleared as an event and, with ``stop_trip``, holds the
 trip (the block reference brakes to rest within the acceleration limit) until it clears.
@@ -26,13 +30,14 @@ from drill_msgs.msg import OperatorEvent, RigCommand, RigMeasurement, Setpoints
 from std_msgs.msg import Bool, String
 
 from drill_core.automation import AUTOMATION_LEVELS
+from drill_core.operator_actions import OperatorScript
 from drill_core.units import L_PER_M3, LPM_PER_M3S
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
 from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
-from drill_core.ros.stamps import to_ns
+from drill_core.ros.stamps import from_ns, to_ns
 from drill_core.ros.status import StatusReporter
 from drill_protection.kick_detection import FlowSample, detector_for
 from drill_protection.protection import ProcessProtection
@@ -66,6 +71,9 @@ class ProtectionNode(RigNode):
                                      ctx.config.pressure_window_pa)
         self.operator_speed_limit = ctx.config.protection.trip_speed_max_mps
         self.positions: deque = deque()
+        self.script = OperatorScript(ctx.scenario.operator)
+        self._start_ns: int | None = None       # stamp of the first measurement: scenario time 0
+        self.last_request: RigCommand | None = None
         self.inbox = StampedInbox(("command", "measurement"))
         self.clamp_count = 0
         self.alarm_count = 0
@@ -95,11 +103,21 @@ class ProtectionNode(RigNode):
         return limit if math.isfinite(limit) and limit > 0.0 else self.operator_speed_limit
 
     def _on_estop(self, msg: Bool) -> None:
-        if msg.data != self.protection.emergency_stop:
-            self.protection.emergency_stop = msg.data
-            self._event("emergency_stop", "emergency stop " + ("engaged" if msg.data else "released"),
-                        self._now_ns())
-            self._publish_state()
+        now = self._now_ns()
+        if self._set_estop(msg.data, now) and not self.ctx.fast:
+            measurement = self.inbox.latest("measurement")
+            if self.last_request is not None and measurement is not None:
+                self._limit(self.last_request, measurement, now)    # at the machines now
+
+    def _set_estop(self, engaged: bool, stamp: int, by: str = "") -> bool:
+        """Engage or release the emergency stop; whether that changed it."""
+        if engaged == self.protection.emergency_stop:
+            return False
+        self.protection.emergency_stop = engaged
+        self._event("emergency_stop", "emergency stop " + ("engaged" if engaged else "released")
+                    + by, stamp)
+        self._publish_state()
+        return True
 
     def _now_ns(self) -> int:
         """Rig time for operator events: the latest measurement's stamp (simulated time in
@@ -109,15 +127,27 @@ class ProtectionNode(RigNode):
         return 0 if self.ctx.fast else self.get_clock().now().nanoseconds
 
     def _on_level(self, msg: String) -> None:
-        now = self._now_ns()
-        if msg.data not in AUTOMATION_LEVELS:
-            self._event("refusal", f"automation level {msg.data!r} is not one of "
-                                   f"{', '.join(AUTOMATION_LEVELS)}", now)
+        self._set_level(msg.data, self._now_ns())
+
+    def _set_level(self, level: str, stamp: int, by: str = "") -> None:
+        if level not in AUTOMATION_LEVELS:
+            self._event("refusal", f"automation level {level!r} is not one of "
+                                   f"{', '.join(AUTOMATION_LEVELS)}", stamp)
             return
-        if msg.data != self.protection.automation_level:
-            self.protection.automation_level = msg.data
-            self._event("mode", f"automation level {msg.data}", now)
+        if level != self.protection.automation_level:
+            self.protection.automation_level = level
+            self._event("mode", f"automation level {level}{by}", stamp)
             self._publish_state()
+
+    def _press_due(self, stamp: int) -> None:
+        """The scenario's operator actions whose time has come (drill_core.operator_actions)."""
+        time_s = (stamp - (self._start_ns if self._start_ns is not None else stamp)) * 1e-9
+        for action in self.script.due(time_s):
+            by = f" (scenario operator action at {action.time_s:g} s)"
+            if action.action == "automation_level":
+                self._set_level(action.level, stamp, by)
+            else:
+                self._set_estop(action.action == "emergency_stop", stamp, by)
 
     def _publish_state(self) -> None:
         """The automation level and emergency stop in force, latched."""
@@ -126,6 +156,8 @@ class ProtectionNode(RigNode):
 
     def _on_measurement(self, msg: RigMeasurement) -> None:
         stamp = to_ns(msg.header.stamp)
+        if self._start_ns is None:
+            self._start_ns = stamp
         self._detect(msg, stamp)
         self.positions.append((stamp, msg.block_position_m))
         while self.positions and stamp - self.positions[0][0] > VELOCITY_WINDOW_S * 1e9:
@@ -179,6 +211,8 @@ class ProtectionNode(RigNode):
             if measurement is None:
                 return
         self.inbox.take("command", stamp)
+        self.last_request = request
+        self._press_due(stamp)
         self._limit(request, measurement, stamp)
 
     def _velocity(self) -> float:
@@ -198,7 +232,7 @@ class ProtectionNode(RigNode):
             if request.choke_pressure_control else None,
             surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s),
             trip_action=self.circulation.action(stamp * 1e-9),
-            advisor_bhp_ref_pa=request.bhp_ref_pa)
+            advisor_bhp_ref_pa=request.bhp_ref_pa, choke_dp_pa=m.choke_dp_pa)
         manual = decision.manual_choke_opening
         dp_setpoint = decision.choke_dp_setpoint
         out = RigCommand(block_position_ref_m=float(decision.command[0]),
@@ -207,15 +241,18 @@ class ProtectionNode(RigNode):
                          mud_pump_on=request.mud_pump_on, choke_manual=manual is not None,
                          choke_opening_ref=float(manual) if manual is not None else 0.0,
                          choke_pressure_control=dp_setpoint is not None,
-                         choke_dp_ref_pa=float(dp_setpoint[0]) if dp_setpoint else 0.0,
+                         choke_dp_ref_pa=float(dp_setpoint[0]) if dp_setpoint
+                         else decision.emergency_dp_start_pa if decision.emergency_stop else 0.0,
                          choke_dp_ref_rate_pa_s=float(dp_setpoint[1]) if dp_setpoint else 0.0,
                          bhp_ref_pa=decision.bhp_ref_pa,
                          bhp_window_low_pa=float(self.protection.window_pa[0]),
                          bhp_window_high_pa=float(self.protection.window_pa[1]),
                          trip_speed_limit_in_mps=float(decision.standing_speed_limits_mps[0]),
                          trip_speed_limit_out_mps=float(decision.standing_speed_limits_mps[1]),
+                         emergency_stop=decision.emergency_stop,
+                         emergency_bhp_pa=decision.emergency_bhp_pa,
                          source=f"protection<{request.source}")
-        out.header.stamp = request.header.stamp
+        out.header.stamp = from_ns(stamp)
         self.pub_command.publish(out)
         for text in decision.clamps:
             self.clamp_count += 1

@@ -1,4 +1,5 @@
 """Process protection: command it past each limit and check the limit holds and is reported."""
+import math
 import numpy as np
 import pytest
 
@@ -86,16 +87,36 @@ def test_a_non_finite_bhp_holds_the_trip_and_says_why(setup):
     assert not any("model" in c for c in d.clamps)              # not blamed on the surge model
 
 
-def test_emergency_stop_holds_block_and_pressures(setup):
+def test_emergency_stop_sets_the_brake_and_holds_the_bhp_at_the_stop(setup):
     p = fresh(setup)
     for _ in range(5):
         p.apply([10.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
     held = p.previous.copy()
     p.emergency_stop = True
-    d = p.apply([20.0, 0.03, 0.02, 2.0e7], 1.2, 0.3, 6.85e7, CIRCULATION, 0.5)
+    d = p.apply([20.0, 0.03, 0.02, 2.0e7], 1.2, 0.3, 6.86e7, CIRCULATION, 0.5,
+                choke_dp_setpoint=(2.5e6, 0.0))
+    assert d.emergency_stop and d.emergency_bhp_pa == 6.86e7    # the BHP measured at the stop
+    assert d.choke_dp_setpoint is None and d.manual_choke_opening is None   # the BHP loop
     assert d.command[0] == pytest.approx(1.2)             # block reference = where the string is
-    assert np.allclose(d.command[1:], held[1:])            # pumps and choke flow held
-    assert any("emergency stop" in c for c in d.clamps)
+    assert np.allclose(d.command[1:], held[1:])            # pumps and choke feedforward held
+    assert any("brake set" in c for c in d.clamps)
+    later = p.apply([20.0, 0.03, 0.02, 2.0e7], 1.3, 0.0, 6.80e7, CIRCULATION, 0.5)
+    assert later.emergency_bhp_pa == 6.86e7                # held at the stop's, not re-taken
+    p.emergency_stop = False
+    released = p.apply([20.0, CIRCULATION, 0.0, 1.06e7], 1.3, 0.0, 6.85e7, CIRCULATION, 0.5)
+    assert not released.emergency_stop and math.isnan(released.emergency_bhp_pa)
+    period = setup[0].protection.command_period_s
+    speed = setup[0].protection.trip_acceleration_max_mps2 * period    # one period from rest
+    assert released.command[0] == pytest.approx(1.3 + speed * period)  # from the string
+
+
+def test_emergency_stop_keeps_its_bhp_inside_the_window(setup):
+    p = fresh(setup)
+    low, high = setup[0].pressure_window_pa
+    p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, high + 3.0e5, CIRCULATION, 0.5)
+    p.emergency_stop = True
+    d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, float("nan"), CIRCULATION, 0.5)
+    assert d.emergency_bhp_pa == high           # the last BHP seen, brought inside the window
 
 
 def test_non_finite_request_is_refused(setup):
@@ -129,7 +150,7 @@ def test_manual_choke_opening_passes_inside_the_valve_range(setup):
     assert d.manual_choke_opening is None                  # back on the PI flow controller
 
 
-def test_manual_choke_held_by_emergency_stop_and_non_finite_request(setup):
+def test_manual_choke_held_on_a_non_finite_request_and_the_emergency_stop_takes_it(setup):
     p = fresh(setup)
     p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5,
             manual_choke_opening=0.4)
@@ -138,8 +159,9 @@ def test_manual_choke_held_by_emergency_stop_and_non_finite_request(setup):
     assert d.manual_choke_opening == 0.4
     assert any("non-finite manual choke opening" in c for c in d.clamps)
     p.emergency_stop = True
-    d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
-    assert d.manual_choke_opening == 0.4                   # the choke stays where it was put
+    d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5,
+                manual_choke_opening=0.4)
+    assert d.manual_choke_opening is None and d.emergency_stop   # the choke's BHP loop holds
 
 
 def test_choke_dp_set_point_passes_and_a_manual_opening_wins(setup):
@@ -164,15 +186,13 @@ def test_non_finite_choke_dp_set_point_falls_back_to_the_flow_loop(setup):
         assert any("non-finite choke dp set-point" in c for c in d.clamps)
 
 
-def test_choke_dp_set_point_held_without_its_ramp_by_emergency_stop_and_manual_level(setup):
+def test_choke_dp_set_point_held_without_its_ramp_outside_closed_loop(setup):
     p = fresh(setup)
     cmd = [0.0, CIRCULATION, 0.0, 1.06e7]
     p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(2.3e6, 1.0e5))
-    p.emergency_stop = True
+    p.automation_level = "advisory"
     d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(3.0e6, 2.0e5))
     assert d.choke_dp_setpoint == (2.3e6, 0.0)               # held, no longer ramping
-    p.emergency_stop = False
-    p.automation_level = "advisory"
     d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(float("nan"), 0.0))
     assert d.choke_dp_setpoint == (2.3e6, 0.0)               # the advisor's request is not applied
 

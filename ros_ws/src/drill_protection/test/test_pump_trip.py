@@ -4,6 +4,8 @@ held shut once while the BHP without friction is under the window, within the fr
 limit; and how the limiter applies it."""
 from pathlib import Path
 
+import math
+
 import numpy as np
 import pytest
 
@@ -145,13 +147,17 @@ def test_over_the_window_the_guard_relieves_and_the_pump_floor_yields(setup):
     assert d.command[2] < 0.01                            # the guard slows the pump
 
 
-def test_no_answer_under_an_emergency_stop(setup):
+def test_under_an_emergency_stop_only_the_pump_floor_answers(setup):
+    """The choke is on its own BHP loop (from the measured choke dp: the steady model's
+    swab is not what goes without circulation); the back-pressure pump still gives it a
+    flow to hold back-pressure with."""
     config, wm = setup
     p = ProcessProtection(config, wm, np.array([0.0, 0.01, 0.0, SPP_PA]))
     p.emergency_stop = True
-    d = p.apply([0.0, 0.01, 0.0, SPP_PA], 0.0, 0.0, BHP_PA, 0.0, 0.5,
-                trip_action=TripAction(0.0, 0.01, "lost"))
-    assert d.command[1] == pytest.approx(0.01) and d.command[2] == 0.0
+    d = p.apply([0.0, 0.01, 0.0, SPP_PA], 0.0, 0.4, BHP_PA, 0.0, 0.5,
+                trip_action=TripAction(0.0, 0.01, "lost"), choke_dp_pa=2.0e6)
+    assert d.emergency_stop and d.emergency_bhp_pa == BHP_PA and d.emergency_dp_start_pa == 2.0e6
+    assert d.command[1] == pytest.approx(0.01) and d.command[2] == pytest.approx(0.01)
 
 
 def test_while_circulation_is_lost_the_pull_out_limit_stands_on_the_bhp_without_friction(setup):
