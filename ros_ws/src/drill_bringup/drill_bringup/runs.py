@@ -14,8 +14,9 @@ import yaml
 from drill_bringup import launcher, report
 from drill_core.ros import graph as graph_decl
 from drill_core.config import ConfigError
-from drill_core.mismatch import resolve, write_truth_file
-from drill_core.scenario import load_scenario, scenario_kind, scenario_truth, without_truth
+from drill_core.mismatch import resolve, truth_config, write_truth_file
+from drill_core.scenario import (load_scenario, load_scenario_config, scenario_kind,
+                                 scenario_truth, without_truth)
 
 ROOT = Path(os.environ.get("RIG_ROOT", Path.cwd()))
 
@@ -61,10 +62,15 @@ TRUTH_FILE = "truth.json"       # the plant's mismatch in a run directory (drill
 
 def run_truth(path: Path, mismatch: str | None):
     """How the run's plant differs from the model: ``mismatch`` (a suite member or draw:N),
-    else the scenario's ``truth:`` section, as (name, Mismatch); None: the model's own."""
+    else the scenario's ``truth:`` section, as (name, Mismatch); None: the model's own.
+    A mismatch the plant cannot take (a hole list of the wrong length, a flow index past
+    1) is refused here, before anything is launched."""
     config_dir = ROOT / "config"
-    return (resolve(mismatch, config_dir, "--mismatch") if mismatch is not None
-            else scenario_truth(path, config_dir))
+    truth = (resolve(mismatch, config_dir, "--mismatch") if mismatch is not None
+             else scenario_truth(path, config_dir))
+    if truth is not None:
+        truth_config(load_scenario_config(path, config_dir)[1], truth[1])
+    return truth
 
 
 def stage_truth(path: Path, run_dir: Path, truth) -> None:
@@ -100,18 +106,18 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
         scenario, _ = load_scenario(path)
         own_controller = scenario.controller
     controller = controller or own_controller
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    tags = "".join(f"-{tag}" for tag in (
-        controller if controller != own_controller else None,
-        f"seed{seed}" if seed is not None else None,
-        mismatch.replace(":", "") if mismatch else None) if tag)
-    run_dir = (runs_dir or ROOT / "runs") / f"{scenario.name}{tags}-{stamp}-{os.getpid()}"
-    mcap_path = run_dir / f"{scenario.name}.mcap"
-    mode = "realtime" if realtime else "fast"
     if mismatch is not None and kind != "tripping":
         raise ConfigError(f"--mismatch {mismatch}: {path.name} is a {kind} scenario; a "
                           "mismatch changes a tripping run's well (docs/mismatch.md)")
     truth = run_truth(path, mismatch) if kind == "tripping" else None
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    tags = "".join(f"-{tag}" for tag in (
+        controller if controller != own_controller else None,
+        f"seed{seed}" if seed is not None else None,
+        truth[0].replace(":", "") if truth else None) if tag)
+    run_dir = (runs_dir or ROOT / "runs") / f"{scenario.name}{tags}-{stamp}-{os.getpid()}"
+    mcap_path = run_dir / f"{scenario.name}.mcap"
+    mode = "realtime" if realtime else "fast"
     staged = path if truth is None else run_dir / "scenario.yaml"
     common = {"config_dir": str(ROOT / "config"), "scenario": str(staged), "mode": mode}
     nodes = launcher.graph(controller, common, mcap_path, fast=not realtime, layout=layout,
