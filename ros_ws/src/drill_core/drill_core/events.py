@@ -83,12 +83,12 @@ class ScenarioEvent:
             raise FieldError("value", f"event {self.kind} takes no value")
         if spec.value is not None:
             unit, lo, hi = spec.value
+            span = f"[{lo:g}, {hi:g}]" + ("" if unit == "1" else f" {unit}")
             if math.isnan(self.value):
-                raise FieldError("value", f"missing: event {self.kind} needs a value in "
-                                          f"[{lo:g}, {hi:g}] {unit}")
+                raise FieldError("value", f"missing: event {self.kind} needs a value in {span}")
             if not lo <= self.value <= hi:
-                raise FieldError("value", f"value {self.value} must lie in [{lo:g}, {hi:g}] "
-                                          f"{unit} (event {self.kind})")
+                raise FieldError("value", f"value {self.value} must lie in {span} "
+                                          f"(event {self.kind})")
         if spec.timing == SPAN and math.isnan(self.duration_s):
             raise FieldError("duration_s", f"missing: event {self.kind} lasts a duration")
         if spec.timing in (SINGLE, STEP) and not math.isnan(self.duration_s):

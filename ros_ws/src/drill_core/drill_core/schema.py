@@ -43,7 +43,7 @@ def _range_text(meta: Mapping[str, Any]) -> str:
     left = "(" if meta.get("lo_open") else "["
     lo_s = "-inf" if lo is None else f"{lo:g}"
     hi_s = "inf" if hi is None else f"{hi:g}"
-    unit = f" {meta['unit']}" if meta.get("unit") else ""
+    unit = f" {meta['unit']}" if meta.get("unit") not in (None, "", "1") else ""  # "1": none
     return f"{left}{lo_s}, {hi_s}]{unit}"
 
 

@@ -36,7 +36,7 @@ def test_every_kind_builds_from_its_own_table_entry():
     ({"kind": "nan", "target": "bhp_pa", "duration_s": 2.0}, ("duration_s", "one sample")),
     ({"kind": "pore_pressure", "value": 6.9e7, "target": "bhp_pa"}, ("target", "no target")),
     ({"kind": "pore_pressure"}, ("value", "missing", "[0, 5e+08] Pa")),
-    ({"kind": "choke_plugging", "value": 1.5}, ("value", "1.5", "[0, 1] 1")),
+    ({"kind": "choke_plugging", "value": 1.5}, ("value", "1.5", "[0, 1] (event")),
     ({"kind": "trip", "target": "choke"}, ("target", "'choke'", "bpp, mud_pump")),
     ({"kind": "stuck", "target": "choke", "value": 0.3}, ("value", "takes no value")),
     ({"kind": "leak", "target": "choke"}, ("kind", "'leak'", "dropout")),
