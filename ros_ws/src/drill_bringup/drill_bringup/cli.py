@@ -31,12 +31,13 @@
                                    the scenario on N seeds through the graph, on a local pool
                                    or a Dask cluster; mean, spread and worst of each figure
                                    per controller (table, plot); the same --output resumes
-  rig compare [SCENARIO ...] [--seeds N] [--output FILE] [--mismatch SUITE]
+  rig compare [SCENARIO ...] [--seeds N] [--output FILE] [--mismatch SUITE] [--render]
                                    Cases 1-3 and the fault scenarios under the NMPC, automated
                                    MPD and the PI baseline, Case 4 under its NMPC, N seeds
                                    each; write the results (the rows of cases not run are kept);
                                    --mismatch SUITE: Cases 1-3 on plants that are not the model
-                                   (suite: every member of config/mismatch.yaml)
+                                   (suite: every member of config/mismatch.yaml); --render:
+                                   run nothing, write the page again from its JSON table
 """
 from __future__ import annotations
 
@@ -146,6 +147,8 @@ def main(argv=None) -> int:
     comp.add_argument("--mismatch", metavar="SUITE",
                       help="the trip cases on plants that are not the model: suite (every "
                            "member of config/mismatch.yaml) or a comma list of members")
+    comp.add_argument("--render", action="store_true",
+                      help="run nothing: write the page again from its JSON table")
     args, rest = parser.parse_known_args(argv)
     try:
         if args.command == "demo":
@@ -170,6 +173,8 @@ def main(argv=None) -> int:
             return _stability(args)
         if args.command == "compare":
             from drill_bringup import compare
+            if args.render:
+                return compare.render(args.output)
             return compare.main(args.scenarios, args.output, args.seeds,
                                 mismatch=args.mismatch)
         if args.command == "reestimate":

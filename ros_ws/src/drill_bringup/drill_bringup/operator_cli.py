@@ -36,6 +36,7 @@ import threading
 import time
 
 from drill_bringup import console_state as cs
+from drill_core.ros import graph as graph_decl
 
 LEVEL_WORDS = cs.AUTOMATION_LEVELS
 WATCH_EXTRA_WAIT_S = 5.0  # watch: how long to wait for estimate, setpoints, NMPC status
@@ -136,6 +137,23 @@ class Session:
             time.sleep(0.05)
         return predicate()
 
+    def _declared_readers_known(self, topic: str) -> bool:
+        """Every running node that the graph declares a reader of ``topic`` (the recorder:
+        every topic) has its subscription discovered, so the count above includes it: a
+        node's endpoints are discovered one by one, and the recorder's found after we
+        publish would miss the action."""
+        for name, namespace in self.node.get_node_names_and_namespaces():
+            declared = graph_decl.BY_NAME.get(name)
+            if declared is None or not ({topic, graph_decl.EVERY_TOPIC} & set(declared.subscribes)):
+                continue
+            try:
+                found = self.node.get_subscriber_names_and_types_by_node(name, namespace)
+            except Exception:                  # the node vanished meanwhile
+                return False
+            if topic not in {t for t, _ in found}:
+                return False
+        return True
+
     def _endpoints_known(self) -> bool:
         """Every other node's endpoints have been discovered (each rclpy node publishes at
         least /rosout and /parameter_events), so subscriber counts are complete."""
@@ -160,7 +178,8 @@ class Session:
         while time.monotonic() < deadline:
             picture = (len(self.node.get_node_names_and_namespaces()), self.node.count_subscribers(topic),
                        publisher.get_subscription_count())
-            if picture[1] >= 1 and picture[2] >= picture[1] and self._endpoints_known():
+            if picture[1] >= 1 and picture[2] >= picture[1] and self._endpoints_known() \
+                    and self._declared_readers_known(topic):
                 if picture != last:
                     stable_since, last = time.monotonic(), picture
                 elif time.monotonic() - stable_since >= settle_s:

@@ -133,3 +133,22 @@ def test_mismatch_rows_get_their_own_section_with_the_mismatch_targets():
     assert "seed 1002: bhp_time_outside_settled_s, leg_out_s, RMSE not below both baselines, " \
            "false alarms |" in line
     assert "| case2 | nmpc | 0.65 / 0.80 | 6.0 / 12.0 | 0 of 4 | 1 |" in section
+
+
+def test_the_influx_estimates_false_alarms_are_apart_from_the_rigs_and_a_miss(tmp_path):
+    s = _summary(0.6, 0.0, solves=600)
+    s["bhp_rmse_settled_pa"] = 0.4e5
+    s["detection"] = {"kick": {"onset_s": None, "false_alarms": 0},
+                      "kick (estimate)": {"onset_s": None, "false_alarms": 2}}
+    assert compare.false_alarms(s) == 0 and compare.false_alarms(s, estimate=True) == 2
+    others = [{**_summary(0.9, 0.0), "bhp_rmse_settled_pa": 0.8e5}] * 2
+    row = {**_row("case3", "nmpc", 3, s), "mismatch": "thin_report"}
+    rows = [row] + [{**_row("case3", c, 3, o), "mismatch": "thin_report"}
+                    for c, o in zip(("automated_mpd", "baseline"), others)]
+    assert compare.mismatch_misses(compare.figures(s), s, others) == ["influx estimate false alarms"]
+    output = tmp_path / "results.md"
+    output.with_suffix(".json").write_text(json.dumps(rows))
+    assert compare.render(output) == 0                  # the page from its table alone
+    line = next(r for r in output.read_text().splitlines()
+                if r.startswith("| case3 | thin_report | nmpc |"))
+    assert "| 0 (+2 influx estimate) |" in line and "influx estimate false alarms |" in line
