@@ -346,6 +346,9 @@ def test_console_in_a_real_browser(tmp_path):
     assert any("accepted" in t for t in console_events), console_events
     assert any("emergency stop ENGAGED" in t for t in console_events), console_events
     assert any("emergency stop released" in t for t in console_events), console_events
-    assert any(t.startswith("[operator_cli] setpoints refused") for t in texts), texts
+    # the terminal's refused request: the supervisor's refusal of it beside the console's (the
+    # CLI's own echo of it was missing from the recording in about 1 run in 10 while the page
+    # showed it: docs/experiments/2026-12-02-emergency-stop.md)
+    assert sum(t.startswith("operator: refused") and "fracture" in t for t in texts) >= 2, texts
     assert len(shots) >= 4, shots
     print("[console test] screenshots: " + ", ".join(str(p) for p in shots), flush=True)
