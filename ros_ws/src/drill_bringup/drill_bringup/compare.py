@@ -160,7 +160,7 @@ def markdown(rows: list[dict], plot_name: str | None, made: str = "") -> str:
     by = {}
     for r in rows:
         by.setdefault((r["case"], r["controller"]), []).append(r)
-    seeds = sorted({r["seed"] for r in rows})
+    seeds = sorted({r["seed"] for r in every})        # the mismatch rows' too
     lines = [
         "# Results: the paper's cases under every controller", "",
         f"Made by `scripts/rig compare` on {made or f'{datetime.now():%Y-%m-%d %H:%M}'}: "

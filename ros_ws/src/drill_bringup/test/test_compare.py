@@ -152,3 +152,8 @@ def test_the_influx_estimates_false_alarms_are_apart_from_the_rigs_and_a_miss(tm
     line = next(r for r in output.read_text().splitlines()
                 if r.startswith("| case3 | thin_report | nmpc |"))
     assert "| 0 (+2 influx estimate) |" in line and "influx estimate false alarms |" in line
+
+
+def test_the_seed_list_holds_the_mismatch_rows_seeds_too():
+    rows = [{**_row("case2", "nmpc", 1002, _summary(0.4, 0.0, solves=600)), "mismatch": "thin_report"}]
+    assert "Seeds: 1002." in compare.markdown(rows, None)
