@@ -121,14 +121,13 @@ class Drawworks:
               steps: int) -> FrameOutput:
         """One frame; a non-finite reference or position holds the last command (the
         controller's integral untouched, so one bad sample does not poison it)."""
-        if self.braked and math.isfinite(reference_m) and math.isfinite(measured_position_m) \
-                and self.config.block_ki_per_s > 0.0:
-            c = self.config          # released: bumpless from the held block
-            self.integral_m_s = integral_for_command(self.lag.value, reference_m, measured_position_m,
-                                                     self.static_stretch_m, c.block_kp,
-                                                     c.block_ki_per_s)
-        self.braked = False
         if math.isfinite(reference_m) and math.isfinite(measured_position_m):
+            c = self.config
+            if self.braked and c.block_ki_per_s > 0.0:   # released: bumpless from the held block
+                self.integral_m_s = integral_for_command(self.lag.value, reference_m,
+                                                         measured_position_m, self.static_stretch_m,
+                                                         c.block_kp, c.block_ki_per_s)
+            self.braked = False
             command = block_command(reference_m, measured_position_m, self.integral_m_s,
                                     self.static_stretch_m, self.config.block_kp,
                                     self.config.block_ki_per_s)
@@ -154,9 +153,10 @@ class Choke:
     value at its rate, plus the opening the valve law gives for a feedforward flow at that
     set-point. BHP mode (the emergency stop's hold): the same loop on the measured BHP, its
     set-point the BHP to hold, as a cascade: an outer PI on the BHP sets the pressure loop's
-    choke-dp set-point (while the BHP sample is bad the set-point stands). Manual mode drives the valve to a given opening
-    (the paper's estimation study, sec. 4.3, holds the choke at 50 %). Every switch is
-    bumpless: each mode continues from the opening the valve was left at.
+    choke-dp set-point (while the BHP sample is bad the set-point stands). Manual mode
+    drives the valve to a given opening (the paper's estimation study, sec. 4.3, holds the
+    choke at 50 %). Every switch is bumpless: each mode continues from the opening the
+    valve was left at.
     """
 
     def __init__(self, config: Actuators, wm: hy.WellModel, initial_opening: float):

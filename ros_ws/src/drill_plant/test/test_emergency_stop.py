@@ -147,6 +147,16 @@ def test_the_release_hands_the_block_back_without_a_jump(config):
     assert not drawworks.braked
 
 
+def test_a_bad_sample_at_the_release_holds_the_block_and_the_next_one_hands_back(config):
+    _, _, _, drawworks = _pull_out_and_stop(config, seconds=STOP_S + 5.0)
+    held = drawworks.lag.value
+    step, n = config.plant.step_s, config.plant.steps_per_frame
+    out = drawworks.frame(math.nan, held - 2.0, step, n)           # no reference yet: held
+    assert out.output[-1] == pytest.approx(held) and drawworks.braked
+    out = drawworks.frame(held - 3.0, held - 2.0, step, n)         # then bumpless
+    assert out.command == pytest.approx(held, abs=1e-12) and not drawworks.braked
+
+
 def test_the_bhp_loop_enters_bumpless_and_a_bad_sample_changes_nothing(config):
     wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                              config.plant.choke_regularisation_pa)
