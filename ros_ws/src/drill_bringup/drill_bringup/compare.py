@@ -454,10 +454,15 @@ def suite_members(spec: str) -> list[str]:
     return asked
 
 
+def _picture(output: Path) -> Path:
+    """The page's plot of one Case 2 trip per controller, beside it."""
+    return output.with_name(output.stem + "-case2.png")
+
+
 def render(output: Path) -> int:
     """The page again from its JSON table (the runs' figures), running nothing."""
     rows = json.loads(output.with_suffix(".json").read_text())
-    picture = output.with_name(output.stem + "-case2.png")
+    picture = _picture(output)
     made = (f"{datetime.now():%Y-%m-%d %H:%M} (`--render`: the page from the runs' JSON "
             "table, the runs as listed at the end)")
     output.write_text(markdown(rows, picture.name if picture.exists() else None, made))
@@ -480,7 +485,7 @@ def main(cases, output: Path, seeds: int = len(SEED_OFFSETS),
                 if r["case"] not in cases or bool(r.get("mismatch")) != (mismatch is not None)] \
             + rows
     table.write_text(json.dumps([{k: v for k, v in r.items()} for r in rows], indent=1))
-    picture = output.with_name(output.stem + "-case2.png")
+    picture = _picture(output)
     if "case2" in cases and mismatch is None:
         picture = plot_trips([r for r in rows if not r.get("mismatch")], "case2", picture)
     elif not picture.exists():      # kept rows: their recordings may be gone, their plot stays

@@ -103,9 +103,8 @@ def stop_figures(scenario: str, series: report.Series, commands: dict, press_s: 
         float(beyond.sum() * frame))
 
 
-def measure(runs_dir: Path) -> list[StopFigures]:
+def measure(runs_dir: Path, config: RigConfig) -> list[StopFigures]:
     """Run each scenario through the graph (fast mode) and measure every press."""
-    config = load_rig(runs.ROOT / "config")
     out = []
     for name in SCENARIOS:
         code, run_dir = runs.run_scenario(runs.scenario_path(name), runs_dir=runs_dir,
@@ -118,7 +117,7 @@ def measure(runs_dir: Path) -> list[StopFigures]:
     return out
 
 
-def render(figures: list[StopFigures]) -> str:
+def render(figures: list[StopFigures], config: RigConfig) -> str:
     """The page (bar at this display edge)."""
     bar = PA_PER_BAR
     lines = [
@@ -128,7 +127,7 @@ def render(figures: list[StopFigures]) -> str:
         "(the graph in fast mode, the scenarios' seeds). What the stop does: "
         "`docs/faults.md`, *The emergency stop*. Each press is judged over the "
         f"{HOLD_S:g} s it is kept; targets: the block at rest within its brake time "
-        f"(speed / {load_rig(runs.ROOT / 'config').actuators.brake_deceleration_mps2:g} "
+        f"(speed / {config.actuators.brake_deceleration_mps2:g} "
         f"m/s^2) and within {TARGETS['travel_m']:g} m of where it was, the string settled "
         f"within {TARGETS['string_settled_m']:g} m, the BHP within "
         f"{TARGETS['bhp_worst_pa'] / bar:g} bar of its value at the stop for the "
@@ -156,9 +155,10 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--output", type=Path, default=runs.ROOT / "docs" / "emergency-stop.md")
     args = parser.parse_args(argv)
+    config = load_rig(runs.ROOT / "config")
     with tempfile.TemporaryDirectory(prefix="estop-") as tmp:
-        figures = measure(Path(tmp))
-    args.output.write_text(render(figures))
+        figures = measure(Path(tmp), config)
+    args.output.write_text(render(figures, config))
     args.output.with_suffix(".json").write_text(
         json.dumps([asdict(f) for f in figures], indent=1))
     print(f"[estop_study] {args.output}")

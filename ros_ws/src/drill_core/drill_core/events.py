@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from drill_core.schema import FieldError, param
+from drill_core.schema import FieldError, param, range_text
 
 ACTUATORS = ("drawworks", "choke", "bpp", "mud_pump")    # the rig's actuators, plant input order
 # The measured channels (drill_msgs/RigMeasurement's value fields) and their SI units.
@@ -83,7 +83,7 @@ class ScenarioEvent:
             raise FieldError("value", f"event {self.kind} takes no value")
         if spec.value is not None:
             unit, lo, hi = spec.value
-            span = f"[{lo:g}, {hi:g}]" + ("" if unit == "1" else f" {unit}")
+            span = range_text({"lo": lo, "hi": hi, "unit": unit})
             if math.isnan(self.value):
                 raise FieldError("value", f"missing: event {self.kind} needs a value in {span}")
             if not lo <= self.value <= hi:

@@ -38,7 +38,8 @@ def param(unit: str = "", lo: float | None = None, hi: float | None = None, *,
     return dataclasses.field(default=default, metadata=meta)
 
 
-def _range_text(meta: Mapping[str, Any]) -> str:
+def range_text(meta: Mapping[str, Any]) -> str:
+    """'[lo, hi] unit' of a field's metadata (lo, hi, lo_open, unit; unit '1': none)."""
     lo, hi = meta.get("lo"), meta.get("hi")
     left = "(" if meta.get("lo_open") else "["
     lo_s = "-inf" if lo is None else f"{lo:g}"
@@ -71,7 +72,7 @@ def _allowed_text(hint: Any, meta: Mapping[str, Any]) -> str:
         choices = meta.get("choices")
         return f"one of {', '.join(choices)}" if choices else "a string"
     kind = "an integer" if hint is int else "a number"
-    return f"{kind} in {_range_text(meta)}"
+    return f"{kind} in {range_text(meta)}"
 
 
 class _Where:
@@ -99,16 +100,16 @@ class _Where:
 def _check_number(value: Any, meta: Mapping[str, Any], where: _Where, integer: bool) -> float | int:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         kind = "an integer" if integer else "a number"
-        raise where.fail(f"value {value!r} must be {kind} in {_range_text(meta)}")
+        raise where.fail(f"value {value!r} must be {kind} in {range_text(meta)}")
     if integer and not float(value).is_integer():
-        raise where.fail(f"value {value!r} must be an integer in {_range_text(meta)}")
+        raise where.fail(f"value {value!r} must be an integer in {range_text(meta)}")
     number = int(value) if integer else float(value)
     lo, hi = meta.get("lo"), meta.get("hi")
     bad = (not math.isfinite(number)
            or (lo is not None and (number <= lo if meta.get("lo_open") else number < lo))
            or (hi is not None and number > hi))
     if bad:
-        raise where.fail(f"value {value!r} is outside the allowed range {_range_text(meta)}")
+        raise where.fail(f"value {value!r} is outside the allowed range {range_text(meta)}")
     return number
 
 

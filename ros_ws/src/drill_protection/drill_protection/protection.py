@@ -12,8 +12,9 @@ machines respects the most conservative of
   speed at the stop, which goes with it), its flow feedforward the flow out of a well at
   rest (circulation plus back-pressure pump), the pumps held where they were but for a
   lost circulation's back-pressure pump floor (without circulation the steady model's
-  swab is not the friction that goes, so there is no feedforward then); the block reference follows the measured string, so that the release hands
-  back from where the string is, at rest, without a jump,
+  swab is not the friction that goes, so there is no feedforward then); the block
+  reference follows the measured string, so that the release hands back from where the
+  string is, at rest, without a jump,
 * model-derived surge/swab limits: the largest trip speed, each way, for which the
   steady Herschel-Bulkley surge/swab model keeps the BHP inside the pore/fracture
   window (with margin), and a limit on the change of trip speed (acceleration),
@@ -256,7 +257,7 @@ class ProcessProtection:
         if guard:
             self._drive_back(guard, command, surface_flows, circulation_m3s)
         if trip is not None:
-            self._answer_trip(trip, guard, command, clamps, choke=not self.emergency_stop)
+            self._answer_trip(trip, guard, command, clamps, shut)
         if self.emergency_stop and not guard:      # the BHP loop's feedforward: the flow out
             command[1] = min(circulation_m3s + command[2], self.upper[1])   # at rest
 
@@ -307,12 +308,12 @@ class ProcessProtection:
         return self.emergency_bhp_pa
 
     def _answer_trip(self, trip: TripAction, guard: int, command: np.ndarray,
-                     clamps: list[str], choke: bool = True) -> None:
+                     clamps: list[str], shut: bool) -> None:
         """A lost circulation: the choke's flow reference set (held shut) while the friction
-        is made good (``choke``: not while the choke holds the BHP on its own loop); the
-        back-pressure pump at least at its flow, unless the window guard is relieving a BHP
-        over the window."""
-        if choke and trip.choke_flow_m3s is not None:
+        is made good (``shut``: the answer asks it and the choke is not on its emergency
+        stop's BHP loop); the back-pressure pump at least at its flow, unless the window
+        guard is relieving a BHP over the window."""
+        if shut:
             command[1] = float(np.clip(trip.choke_flow_m3s, self.lower[1], self.upper[1]))
             clamps.append(trip.reason)
         floor = min(trip.bpp_flow_min_m3s, self.upper[2])
