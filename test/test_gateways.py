@@ -4,12 +4,15 @@ OPC-UA gateway (``rig run short_trip --realtime --foxglove --opcua``), on ROS do
 * Foxglove: a client speaking the Foxglove WebSocket protocol gets the rig's channels
   with their ros2msg schemas, subscribes to /rig/measurement and decodes its CDR frames:
   a plausible BHP, stamps that advance.
-* OPC-UA: an asyncua client browses to Rig/Measurements/BottomHolePressure by name
-  (the namespace index from the rig's URI), reads it and sees it change through a
+* OPC-UA, the gateway bound to every interface with a security directory (``rig run
+  ... --opcua opc.tcp://0.0.0.0:PORT/drill-rig --security DIR``): an asyncua client
+  signed-and-encrypted as an operator browses to Rig/Measurements/BottomHolePressure by
+  name (the namespace index from the rig's URI), reads it and sees it change through a
   subscription; a valid BHP setpoint reaches the latched /setpoints, one above the
   fracture pressure comes back Bad with the supervisor's reason and changes nothing;
   both are on /operator/events as the console's are; the automation level written goes
-  through the process protection.
+  through the process protection. An anonymous session reads, and its write comes back
+  BadUserAccessDenied, changes nothing and is on /operator/events.
 
 At the end no process of the run, the gateways' included, stops with a failure (an exit
 code > 0).
@@ -23,13 +26,16 @@ import socket
 
 import pytest
 from asyncua import Client, ua
+from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
 from drill_msgs.msg import OperatorEvent, RigMeasurement, Setpoints
 from foxglove_client import FoxgloveClient
 from rclpy.serialization import deserialize_message
 from rig_testing import spinning_node, wait_for
 
 from drill_bringup import cli, launcher
+from drill_core import access
 from drill_core.ros import topics
+from drill_gateway import certificates
 from drill_gateway import opcua_names as names
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow,
@@ -40,6 +46,7 @@ SCENARIO = cli.ROOT / "config" / "scenarios" / "short_trip.yaml"
 TIMEOUT_S = 60.0
 START_TIMEOUT_S = 240.0               # the whole graph up, on a machine that may be busy
 PHYSICAL_BHP_PA = (5.0e7, 8.0e7)      # the reference well's BHP is ~685 bar
+OPERATOR, PASSWORD = "olivia", "olivia-pass"
 
 
 def free_port() -> int:
@@ -60,10 +67,14 @@ def reported(launch, name: str, key: str) -> str:
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("gateways")
+    security = certificates.make(run_dir / "security", [socket.gethostname(), "localhost", "127.0.0.1"])
+    certificates.add_user(security.path, OPERATOR, access.OPERATOR, PASSWORD)
     common = {"config_dir": str(cli.ROOT / "config"), "scenario": str(SCENARIO), "mode": "realtime"}
-    endpoint = f"opc.tcp://127.0.0.1:{free_port()}/drill-rig"
+    port = free_port()
     nodes = launcher.graph("nmpc", common, run_dir / "trip.mcap", fast=False, extras={
-        "foxglove_bridge": {"port": 0}, "opcua_gateway": {"endpoint": endpoint}})
+        "foxglove_bridge": {"port": 0},
+        "opcua_gateway": {"endpoint": f"opc.tcp://0.0.0.0:{port}/drill-rig",
+                          "security_dir": str(security.path)}})
     next(n for n in nodes if n.name == "console").params["port"] = 0
     launch = launcher.Launch(nodes, run_dir, DOMAIN_ID)
     seen = {"setpoints": [], "events": []}
@@ -78,7 +89,8 @@ def live(tmp_path_factory):
                      "the bridge's URL")
             wait_for(lambda: reported(launch, "opcua_gateway", "OPCUA_URL"), START_TIMEOUT_S,
                      "the gateway's endpoint")
-            yield {"launch": launch, "seen": seen, "endpoint": endpoint,
+            yield {"launch": launch, "seen": seen, "security": security,
+                   "endpoint": f"opc.tcp://127.0.0.1:{port}/drill-rig",
                    "foxglove": reported(launch, "foxglove_bridge", "FOXGLOVE_URL")}
         finally:
             codes = launch.stop()
@@ -132,8 +144,29 @@ def test_an_opcua_client_browses_reads_subscribes_and_writes_through_the_supervi
             assert loop.time() < deadline, f"timed out waiting for {what}"
             await asyncio.sleep(0.1)
 
+    async def secured(user: str | None) -> Client:
+        client = Client(live["endpoint"], timeout=TIMEOUT_S)
+        client.application_uri = certificates.CLIENT_URI
+        if user is not None:
+            client.set_user(user)
+            client.set_password(PASSWORD)
+        sec = live["security"]
+        await client.set_security(SecurityPolicyBasic256Sha256, str(sec.client_certificate),
+                                  str(sec.client_private_key),
+                                  server_certificate=str(sec.server_certificate))
+        return client
+
+    async def anonymous_write(target):
+        async with await secured(None) as client:
+            idx = await client.get_namespace_index(names.NAMESPACE_URI)
+            rig = await client.nodes.objects.get_child([f"{idx}:{names.ROOT}"])
+            setpoint = await rig.get_child([f"{idx}:Setpoints", f"{idx}:BottomHolePressureSetpoint"])
+            with pytest.raises(ua.uaerrors.BadUserAccessDenied):
+                await setpoint.write_value(target - 6.0e5)
+            return await setpoint.read_value()
+
     async def session():
-        async with Client(live["endpoint"], timeout=TIMEOUT_S) as client:
+        async with await secured(OPERATOR) as client:
             idx = await client.get_namespace_index(names.NAMESPACE_URI)
             rig = await client.nodes.objects.get_child([f"{idx}:{names.ROOT}"])
             bhp = await rig.get_child([f"{idx}:Measurements", f"{idx}:BottomHolePressure"])
@@ -172,10 +205,16 @@ def test_an_opcua_client_browses_reads_subscribes_and_writes_through_the_supervi
             return refused.value, result, after, target, bad_level.value
 
     refused, result, after, target, bad_level = asyncio.run(session())
+    assert abs(asyncio.run(anonymous_write(target)) - target) < 1.0          # unchanged
     assert refused.code == ua.StatusCodes.BadRequestNotAllowed
     assert "refused" in result and "fracture" in result, result
     assert abs(after - target) < 1.0                                         # unchanged
     assert abs(seen["setpoints"][-1].bhp_ref_pa - target) < 1.0
     assert bad_level.code == ua.StatusCodes.BadOutOfRange
-    texts = [e.text for e in seen["events"] if e.text.startswith("[opcua]")]
-    assert any("accepted" in t for t in texts) and any("refused" in t and "fracture" in t for t in texts), texts
+    texts = lambda: [e.text for e in seen["events"] if e.text.startswith("[opcua]")]
+    all_logged = lambda: (any("accepted" in t for t in texts())
+                          and any("refused" in t and "fracture" in t for t in texts())
+                          and any("anonymous session (anonymous) may not write" in t
+                                  for t in texts()))
+    wait_for(all_logged, TIMEOUT_S,
+             f"the gateway's accepted and refused writes on {topics.OPERATOR_EVENTS}")

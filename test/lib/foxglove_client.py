@@ -1,5 +1,6 @@
 """A minimal Foxglove WebSocket client for the tests (the protocol the Foxglove app
-speaks): serverInfo and advertise in, subscribe out, binary messageData frames in."""
+speaks): serverInfo and advertise in, subscribe out, binary messageData frames in; any
+other frame out as it is, and the server's other answers (status, failures) in."""
 from __future__ import annotations
 
 import asyncio
@@ -20,6 +21,7 @@ class FoxgloveClient:
         self.url = url
         self.server_info: dict | None = None
         self.channels: dict[str, dict] = {}
+        self.answers: list[dict] = []            # other JSON ops the server sent, in order
         self._subscriptions: dict[int, str] = {}
         self._ws = None
 
@@ -38,8 +40,25 @@ class FoxgloveClient:
                 self.server_info = message
             elif message["op"] == "advertise":
                 self.channels.update({c["topic"]: c for c in message["channels"]})
+            else:
+                self.answers.append(message)
             return None
         return frame
+
+    async def send(self, frame: dict | bytes) -> None:
+        """One frame as it is: a JSON op (a dict) or a binary one."""
+        await self._ws.send(json.dumps(frame) if isinstance(frame, dict) else frame)
+
+    async def next_answer(self, timeout_s: float) -> dict:
+        """The next JSON message that is not serverInfo or advertise (status, failures)."""
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout_s
+        while not self.answers:
+            left = deadline - loop.time()
+            if left <= 0:
+                raise TimeoutError(f"no answer within {timeout_s} s")
+            await self._receive(left)
+        return self.answers.pop(0)
 
     async def wait_for_channels(self, topics, timeout_s: float) -> None:
         """Receive until every topic in ``topics`` is advertised."""

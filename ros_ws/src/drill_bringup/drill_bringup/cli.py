@@ -4,6 +4,7 @@
   rig run SCENARIO [--realtime] [--seed N] [--controller NAME] [--layout LAYOUT]
           [--nodes NAMES --domain N --peers ADDR[,ADDR]] [--runs-dir DIR]
           [--foxglove [PORT]] [--opcua [ENDPOINT]] [--mismatch NAME]
+          [--security DIR] [--console-host HOST]
                                    any scenario (name under config/scenarios or a path),
                                    optionally under another controller than its own, with
                                    nodes grouped into processes (separate, actuators, plant,
@@ -14,6 +15,14 @@
                                    (docs/gateways.md)
                                    --mismatch NAME: a plant that is not the model
                                    (config/mismatch.yaml, docs/mismatch.md)
+                                   --security DIR: the console's token and the OPC-UA
+                                   gateway's certificates and users (docs/security.md);
+                                   --console-host HOST: serve the console there (beyond
+                                   loopback only with --security)
+  rig certs DIR [--host HOST ...]  make a security directory: the OPC-UA gateway's and a
+                                   client's certificates, the console's token
+  rig user DIR NAME --role viewer|operator [--password-stdin]
+                                   add a user of the OPC-UA gateway (password hashed)
   rig report RUN_DIR               re-make the summary and plots of a run
   rig replay FILE [options]        republish a recording (see rig replay --help)
   rig reestimate RUN_DIR [--config-dir DIR] [--rate R]
@@ -42,12 +51,14 @@
 from __future__ import annotations
 
 import argparse
+import subprocess
 import sys
 from pathlib import Path
 
 from drill_bringup import launcher, report
 from drill_bringup.runs import ROOT, run_scenario, scenario_path
 from drill_bringup.split_run import split_options
+from drill_core.access import require_security_beyond_loopback
 from drill_core.config import ConfigError
 from drill_core.ros.graph import CONTROLLERS, HOST_GROUPS, LAYOUTS, SelectionError
 
@@ -84,6 +95,14 @@ def _gateways(args) -> dict[str, dict]:
             for name, (parameter, value) in asked.items() if value is not None}
 
 
+def _node_params(args) -> dict[str, dict]:
+    """What ``rig run`` gives nodes of the graph besides the gateways' own options: the
+    console's address, and the security directory to the console and the OPC-UA gateway."""
+    security = {"security_dir": str(args.security.resolve())} if args.security else {}
+    console = {"host": args.console_host} if args.console_host else {}
+    return {"console": {**console, **security}, "opcua_gateway": security}
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="rig", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -118,6 +137,14 @@ def main(argv=None) -> int:
     run.add_argument("--mismatch", metavar="NAME",
                      help="the plant differs from the model: a member of config/mismatch.yaml "
                           "or draw:N (replaces the scenario's truth:, docs/mismatch.md)")
+    run.add_argument("--security", type=Path, metavar="DIR",
+                     help="a security directory (rig certs DIR): the console takes actions "
+                          "with its token, the OPC-UA gateway speaks Basic256Sha256 to its "
+                          "users (docs/security.md)")
+    run.add_argument("--console-host", metavar="HOST",
+                     help="the console's address (default 127.0.0.1; another needs --security)")
+    sub.add_parser("certs", help="make a security directory", add_help=False)
+    sub.add_parser("user", help="add a user to a security directory", add_help=False)
     rep = sub.add_parser("report", help="summary and plots of a run directory")
     rep.add_argument("run_dir", type=Path)
     sub.add_parser("replay", help="republish a recording", add_help=False)
@@ -155,11 +182,16 @@ def main(argv=None) -> int:
             return run_scenario(scenario_path("case2"))[0]
         if args.command == "run":
             peers = split_options(args.nodes, args.domain, args.peers)
+            if args.console_host:
+                require_security_beyond_loopback(args.console_host, args.security, "the console")
             return run_scenario(scenario_path(args.scenario), args.realtime, args.runs_dir,
                                 seed=args.seed, domain_id=args.domain,
                                 controller=args.controller, layout=args.layout,
                                 here=args.nodes, peers=peers, extras=_gateways(args),
-                                mismatch=args.mismatch)[0]
+                                mismatch=args.mismatch, node_params=_node_params(args))[0]
+        if args.command in ("certs", "user"):   # the gateway's package (it has asyncua)
+            return subprocess.call([sys.executable, "-m", "drill_gateway.certificates",
+                                    args.command, *rest])
         if args.command == "report":
             mcap = next(args.run_dir.glob("*.mcap"))
             _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name)

@@ -7,8 +7,10 @@ Run (inside ``source scripts/env.sh``, on the rig's ROS_DOMAIN_ID)::
 
 then open http://127.0.0.1:8080/ on this machine. Parameters: ``port`` (8080; 0 picks a
 free port; a port in use falls back to a free one unless ``port_fallback`` is false —
-the URL is printed as ``CONSOLE_URL http://...``), ``host`` (127.0.0.1: loopback only,
-the page has no login), ``config_dir`` and ``scenario`` (pressure window from
+the URL is printed as ``CONSOLE_URL http://...``), ``host`` (127.0.0.1: loopback only),
+``security_dir`` (a directory of ``rig certs``: every action then needs its
+``console-token``; a ``host`` other machines reach refuses to start without one,
+docs/security.md), ``config_dir`` and ``scenario`` (pressure window from
 protection.yaml with the scenario's overrides), ``mode``, ``stand_length_m`` (28 m,
 the pull-out / run-in step), ``service_timeout_s`` (5 s).
 
@@ -49,9 +51,10 @@ units where the key says so — ``_bar`` keys are bar, converted to Pa here)::
                            clamps and refusals.
 
 Every POST answers {"accepted": bool, "reason": str, ...} with HTTP 200 (a refusal is
-an answer, not an error); malformed requests get 400. POST bodies must be
-``application/json`` (so a cross-site form cannot post), and the Host header must name
-this machine. Every operator action and acknowledgement, accepted or not, is
+an answer, not an error); malformed requests get 400, and with a token a POST without
+``Authorization: Bearer TOKEN`` gets 401 (the page asks for the token once per tab).
+Reads need no token. POST bodies must be ``application/json`` (so a cross-site form
+cannot post), and the Host header must name this machine (or the bound address). Every operator action and acknowledgement, accepted or not, is
 published as drill_msgs/OperatorEvent on /operator/events, so the recorder keeps it.
 """
 from __future__ import annotations
@@ -73,6 +76,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import Bool, String
 
 from drill_bringup import console_state as cs
+from drill_core import access
+from drill_core.access import SecurityDir
 from drill_core.config import load_rig
 from drill_core.ros import graph, topics
 from drill_core.ros.node import RigNode
@@ -84,7 +89,8 @@ from drill_core.scenario import load_scenario_config
 DISPLAY = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
                      reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
 MAX_BODY_BYTES = 16384
-LOOPBACK_NAMES = ("127.0.0.1", "localhost", "::1")
+WILDCARD_HOSTS = ("0.0.0.0", "::")       # bound to every interface: any Host header is ours
+TOKEN_NEEDED = "this console takes an action only with its token (Authorization: Bearer TOKEN)"
 
 
 def status_topics() -> list[str]:
@@ -160,6 +166,14 @@ def frame_dict(m: ActuatorFrame) -> dict:
 def status_dict(m: NodeStatus) -> dict:
     return {"mode": m.mode, "rate_hz": m.rate_hz, "healthy": m.healthy, "last_error": m.last_error,
             "error_count": int(m.error_count), "values": dict(zip(m.keys, (float(v) for v in m.values)))}
+
+
+def console_token(host: str, security_dir: str) -> str | None:
+    """The token every action must carry (the security directory's console-token), None
+    for a console on this machine only without one; ConfigError for a console other
+    machines reach without one."""
+    access.require_security_beyond_loopback(host, security_dir or None, "the console")
+    return SecurityDir(Path(security_dir)).console_token() if security_dir else None
 
 
 class OperatorLink:
@@ -247,6 +261,8 @@ class ConsoleNode(RigNode):
         stand = float(self.declare_parameter("stand_length_m", cs.STAND_LENGTH_M).value)
         timeout = float(self.declare_parameter("service_timeout_s", 5.0).value)
         port_fallback = bool(self.declare_parameter("port_fallback", True).value)
+        security_dir = self.declare_parameter("security_dir", "").value
+        self.token = console_token(host, security_dir)
         config = load_scenario_config(scenario, config_dir)[1] if scenario else load_rig(config_dir)
         self.state = cs.ConsoleState(cs.Window.from_config(config), stand_length_m=stand)
         self.link = OperatorLink(self, timeout, source="console")
@@ -332,6 +348,12 @@ class ConsoleNode(RigNode):
         if result.get("active") is not None:
             self.state.on_setpoints(result["active"])
         return result
+
+    def refuse_unauthorised(self, path: str) -> None:
+        """An action without the console's token: counted and recorded, nothing done."""
+        self.counters["actions"] += 1
+        self.counters["refusals"] += 1
+        self.link.refuse(path.rsplit("/", 1)[-1], "no valid console token")
 
     def _dispatch(self, action: str, body: dict) -> dict:
         state = self.state
@@ -422,7 +444,14 @@ class ConsoleHandler(BaseHTTPRequestHandler):
         name = host.rsplit(":", 1)[0] if not host.endswith("]") else host
         name = name.strip("[]")
         bound = self.server.server_address[0]
-        return name in LOOPBACK_NAMES or name == bound
+        return access.is_loopback(name) or name == bound or bound in WILDCARD_HOSTS
+
+    def _authorised(self) -> bool:
+        token = self.server.node.token
+        if token is None:
+            return True
+        scheme, _, given = (self.headers.get("Authorization") or "").partition(" ")
+        return scheme == "Bearer" and access.token_matches(given.strip(), token)
 
     def do_GET(self):
         self.server.node.counters["http_requests"] += 1
@@ -447,6 +476,9 @@ class ConsoleHandler(BaseHTTPRequestHandler):
         if path not in ("/api/setpoints", "/api/trip", "/api/controller", "/api/level", "/api/estop",
                         "/api/ack"):
             return self._json(404, {"accepted": False, "reason": f"no such action {path}"})
+        if not self._authorised():
+            self.server.node.refuse_unauthorised(path)
+            return self._json(401, {"accepted": False, "reason": TOKEN_NEEDED})
         if not (self.headers.get("Content-Type") or "").startswith("application/json"):
             return self._json(415, {"accepted": False, "reason": "send application/json"})
         try:

@@ -89,17 +89,21 @@ class ProcessSpec:
 
 def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool,
           layout: str = "separate", kind: str = "tripping",
-          extras: dict[str, dict] | None = None) -> list[NodeSpec]:
+          extras: dict[str, dict] | None = None,
+          node_params: dict[str, dict] | None = None) -> list[NodeSpec]:
     """The node set of a run of a ``kind`` scenario (drill_core.ros.graph), recorder first
     and plant last; the plant waits for the lockstep's endpoints of exactly this set in
     this process layout (a container takes some topics on its local bus, not in the
-    middleware). ``extras``: optional nodes (graph OPTIONAL) to add, name -> parameters."""
+    middleware). ``extras``: optional nodes (graph OPTIONAL) to add, name -> parameters;
+    ``node_params``: more parameters of nodes of the set, name -> parameters."""
     extras = extras or {}
     declared = graph_decl.run_nodes(scenario_controller, fast, kind, tuple(extras))
     local = graph_decl.local_subscriptions(layout, declared)
     own = {"recorder": {"output": str(mcap_path)}, "console": {"port": CONSOLE_PORT},
            **{name: {"actuator": name}
               for name in (*topics.ACTUATORS, *topics.DRILLING_ACTUATORS)}, **extras}
+    for name, params in (node_params or {}).items():
+        own[name] = {**own.get(name, {}), **params}
     nodes = []
     for node in declared:
         # the plant ends the run; in fast mode so does the estimator, after the last sample

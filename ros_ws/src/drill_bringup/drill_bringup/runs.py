@@ -86,7 +86,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
                  controller: str | None = None, layout: str = "separate",
                  here: str | None = None, peers: tuple[str, ...] = (),
                  extras: dict[str, dict] | None = None,
-                 pin_cpus: bool = True, mismatch: str | None = None) -> tuple[int, Path]:
+                 pin_cpus: bool = True, mismatch: str | None = None,
+                 node_params: dict[str, dict] | None = None) -> tuple[int, Path]:
     """Launch a scenario, record it and report; returns (exit code, run directory).
     ``seed`` replaces the scenario's plant seed and ``controller`` its controller (the same
     trip under another controller: ``rig compare``); ``layout`` groups nodes into processes
@@ -98,7 +99,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     running at once: launcher.cpu_sets would put their control chains on one CPU).
     ``mismatch`` (a member of config/mismatch.yaml or ``draw:N``) replaces the scenario's
     ``truth:``: how the plant differs from the model; only the plant's side is given it
-    (run_truth, stage_truth)."""
+    (run_truth, stage_truth). ``node_params``: more parameters of nodes of the graph
+    (name -> parameters; the console's host and security directory)."""
     kind = scenario_kind(path)
     if kind == "drilling":
         scenario, own_controller = _drilling_scenario(path, realtime, controller), "none"
@@ -121,7 +123,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     staged = path if truth is None else run_dir / "scenario.yaml"
     common = {"config_dir": str(ROOT / "config"), "scenario": str(staged), "mode": mode}
     nodes = launcher.graph(controller, common, mcap_path, fast=not realtime, layout=layout,
-                           kind=kind, extras=extras)
+                           kind=kind, extras=extras, node_params=node_params)
     if truth is not None:
         for node in nodes:
             if graph_decl.BY_NAME[node.name].truth_side:

@@ -11,6 +11,14 @@ so the server keeps serving), which answer a drill_gateway.opcua_writes.Outcome:
 one lets the value in, a Bad one is the write's status and the variable keeps its value.
 Either way the outcome and its reason go to ``Rig/LastWriteResult`` and out as an
 OPC-UA event (BaseEventType from the Server object, the reason in Message).
+
+Security (docs/security.md): without a security directory the server offers the ``None``
+policy to anonymous sessions that may write, and it binds loopback only (another address
+is refused). With one (drill_core.access.SecurityDir) it offers ``Basic256Sha256`` Sign and
+SignAndEncrypt only, to client certificates in the directory's ``trusted/``; sessions are
+anonymous or a user of ``users.yaml``; anonymous sessions and viewers read, operators
+write. A write the session's role may not make is refused BadUserAccessDenied before any
+handler sees it, and reported to ``on_refused(text)`` to be recorded.
 """
 from __future__ import annotations
 
@@ -22,11 +30,18 @@ from functools import partial
 from urllib.parse import urlparse
 
 from asyncua import Server, ua
+from asyncua.crypto.permission_rules import USER_TYPES, PermissionRuleset, User, UserRole
+from asyncua.crypto.security_policies import SecurityPolicyFactory, SecurityPolicyNone
+from asyncua.crypto.truststore import TrustStore
+from asyncua.crypto.validator import CertificateValidator, CertificateValidatorOptions
 from asyncua.server.address_space import AttributeService
+
+from drill_core import access
 
 from drill_gateway.opcua_names import (LAST_WRITE_RESULT, NAMESPACE_URI, ROOT, UNECE_NAMESPACE,
                                        UNITS, VARIABLES, Unit, Variable, by_source)
-from drill_gateway.opcua_writes import BAD_TYPE_MISMATCH, Outcome
+from drill_gateway.certificates import SERVER_URI
+from drill_gateway.opcua_writes import BAD_TYPE_MISMATCH, BAD_USER_ACCESS_DENIED, Outcome
 
 DEFAULT_ENDPOINT = "opc.tcp://127.0.0.1:4840/drill-rig"   # this machine only (docs/gateways.md)
 SERVER_NAME = "Drill rig OPC-UA gateway"
@@ -34,10 +49,16 @@ VARIANT = {"float": ua.VariantType.Double, "bool": ua.VariantType.Boolean,
            "text": ua.VariantType.String}
 INITIAL = {"float": math.nan, "bool": False, "text": ""}
 START_TIMEOUT_S = 120.0     # asyncua builds the standard address space: seconds on a busy machine
+SECURE_POLICIES = [ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt,
+                   ua.SecurityPolicyType.Basic256Sha256_Sign]
+# the client certificate checks of a secured gateway: in trusted/, in its validity, with
+# the key usages and the application URI OPC UA asks of a client
+CLIENT_CHECKS = CertificateValidatorOptions.TRUSTED_VALIDATION | CertificateValidatorOptions.PEER_CLIENT
 
 
-def check_endpoint(endpoint: str) -> str:
-    """``endpoint`` if it is an ``opc.tcp://host:port/path`` URL; ValueError otherwise."""
+def check_endpoint(endpoint: str, security: access.SecurityDir | None = None) -> str:
+    """``endpoint`` if it is an ``opc.tcp://host:port/path`` URL that may be served with
+    ``security`` (none: loopback only); ValueError otherwise."""
     url = urlparse(endpoint)
     try:
         port = url.port
@@ -46,6 +67,7 @@ def check_endpoint(endpoint: str) -> str:
     if url.scheme != "opc.tcp" or not url.hostname or port is None:
         raise ValueError(f"OPC-UA endpoint {endpoint!r}: expected opc.tcp://HOST:PORT/PATH, "
                          f"e.g. {DEFAULT_ENDPOINT}")
+    access.require_security_beyond_loopback(url.hostname, security, f"OPC-UA endpoint {endpoint}")
     return endpoint
 
 
@@ -67,7 +89,7 @@ class _GatedAttributeService(AttributeService):
     async def write(self, params: ua.WriteParameters, user=None) -> list[ua.StatusCode]:
         results = []
         for item in params.NodesToWrite:
-            refused = await self._gate(item)
+            refused = await self._gate(item, user)
             if refused is not None:
                 results.append(refused)
                 continue
@@ -77,13 +99,59 @@ class _GatedAttributeService(AttributeService):
         return results
 
 
+class _ServiceRuleset(PermissionRuleset):
+    """Every session may call the services a client reads, subscribes and writes with (the
+    gate decides each write by role, so a refused one is recorded); none may change the
+    address space."""
+
+    def __init__(self):
+        self._allowed = frozenset(ua.NodeId(i) for i in USER_TYPES)
+
+    def check_validity(self, user, action_type_id, body) -> bool:
+        return action_type_id in self._allowed
+
+
+class _NoService(PermissionRuleset):
+    """The ruleset of an unsecured channel on a secured gateway: no service at all."""
+
+    def check_validity(self, user, action_type_id, body) -> bool:
+        return False
+
+
+class _UserManager:
+    """asyncua's user manager over drill_core.access.Users: an anonymous session reads, a
+    user's name and password give its role, a wrong one no session (BadUserAccessDenied)."""
+
+    def __init__(self, users: access.Users):
+        self.users = users
+        self.roles: dict[str, str] = {}          # session user name -> role
+
+    def get_user(self, iserver, username=None, password=None, certificate=None) -> User | None:
+        if username is None:
+            return User(role=UserRole.Anonymous)
+        role = self.users.role_of(username, password or "")
+        if role is None:
+            return None
+        self.roles[username] = role
+        return User(role=UserRole.User, name=username)
+
+
 class Gateway:
     """The server on ``endpoint``; ``start`` it, feed it with ``update``, ``stop`` it."""
 
     def __init__(self, endpoint: str = DEFAULT_ENDPOINT,
                  on_setpoint: Callable[[Variable, object], Outcome] | None = None,
-                 on_level: Callable[[object], Outcome] | None = None):
-        self.endpoint = check_endpoint(endpoint)
+                 on_level: Callable[[object], Outcome] | None = None,
+                 security: access.SecurityDir | None = None,
+                 on_refused: Callable[[str], None] | None = None):
+        self.endpoint = check_endpoint(endpoint, security)
+        self.security = security
+        self._users: _UserManager | None = None
+        if security is not None:
+            security.require(security.server_certificate, security.server_private_key,
+                             security.trusted_clients, security.users_file)
+            self._users = _UserManager(access.Users.load(security.users_file))
+        self._on_refused = on_refused or (lambda text: None)
         self._on_setpoint = on_setpoint or (lambda v, value: Outcome("BadNotWritable", "read only"))
         self._on_level = on_level or (lambda value: Outcome("BadNotWritable", "read only"))
         self._lock = threading.Lock()
@@ -135,11 +203,14 @@ class Gateway:
         self._stopped.set()
 
     async def _build(self) -> None:
-        server = self._server = Server()
+        server = self._server = Server(user_manager=self._users)
         await server.init()
         server.set_endpoint(self.endpoint)
         server.set_server_name(SERVER_NAME)
-        server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
+        if self.security is None:
+            server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
+        else:
+            await self._secure(server)
         idx = await server.register_namespace(NAMESPACE_URI)
         rig = await server.nodes.objects.add_object(idx, ROOT)
         folders = {}
@@ -166,6 +237,30 @@ class Gateway:
         self._events = await server.get_event_generator()
         server.iserver.attribute_service = _GatedAttributeService(server.iserver.aspace, self._gate)
         await server.start()
+
+    async def _secure(self, server: Server) -> None:
+        sec = self.security
+        await server.set_application_uri(SERVER_URI)
+        await server.load_certificate(str(sec.server_certificate))
+        await server.load_private_key(str(sec.server_private_key))
+        server.set_security_policy(SECURE_POLICIES, permission_ruleset=_ServiceRuleset())
+        # asyncua keeps an unsecured channel open for discovery (GetEndpoints) although no
+        # None endpoint is offered, and would serve a session on it to a client that ignores
+        # the endpoints: such a channel gets a ruleset that refuses every service
+        server._policies.append(SecurityPolicyFactory(SecurityPolicyNone, ua.MessageSecurityMode.None_,
+                                                      permission_ruleset=_NoService()))
+        server.set_identity_tokens([ua.AnonymousIdentityToken, ua.UserNameIdentityToken])
+        trusted = TrustStore([sec.trusted_clients], [])
+        await trusted.load()
+        server.set_certificate_validator(CertificateValidator(CLIENT_CHECKS, trusted))
+
+    def role(self, user: User | None) -> str:
+        """The role of a session's ``user``: anyone on an open (loopback) gateway writes."""
+        if self._users is None:
+            return access.OPERATOR
+        if user is None or user.role is not UserRole.User:
+            return access.ANONYMOUS
+        return self._users.roles.get(user.name, access.ANONYMOUS)
 
     # ------------------------------------------------------------------ values in
     def update(self, source: str, values: dict) -> None:
@@ -197,22 +292,31 @@ class Gateway:
             nodeid, ua.DataValue(ua.Variant(value, VARIANT[kind])))
 
     # ------------------------------------------------------------------ writes from clients
-    async def _gate(self, item: ua.WriteValue) -> ua.StatusCode | None:
+    async def _gate(self, item: ua.WriteValue, user: User | None) -> ua.StatusCode | None:
         variable = self._writable.get(item.NodeId)
         if variable is None or item.AttributeId != ua.AttributeIds.Value:
             return None
         variant = item.Value.Value if item.Value is not None else None
-        if variant is None or variant.VariantType != VARIANT[variable.kind]:
+        value = variant.Value if variant is not None else None
+        role = self.role(user)
+        handled = False
+        if not access.may_write(role):
+            who = f"user {user.name}" if user is not None and user.name else "an anonymous session"
+            outcome = Outcome(BAD_USER_ACCESS_DENIED,
+                              f"{who} ({role}) may not write: operators write")
+        elif variant is None or variant.VariantType != VARIANT[variable.kind]:
             got = variant.VariantType.name if variant is not None else "nothing"
             outcome = Outcome(BAD_TYPE_MISMATCH,
                               f"expected {VARIANT[variable.kind].name}, got {got}")
         else:
             handler = self._on_level if variable.source == "level" \
                 else partial(self._on_setpoint, variable)
-            outcome = await asyncio.get_running_loop().run_in_executor(None, handler, variant.Value)
-        value = variant.Value if variant is not None else None
+            outcome = await asyncio.get_running_loop().run_in_executor(None, handler, value)
+            handled = True
         text = outcome.describe(f"{'/'.join(variable.path)} = {value!r}")
         self.writes["accepted" if outcome.good else "refused"] += 1
         await self._set(self._last_result, "text", text)
         await self._events.trigger(message=text)
+        if not handled:          # a handler's request records its own outcome (OperatorLink)
+            await asyncio.get_running_loop().run_in_executor(None, self._on_refused, text)
         return None if outcome.good else ua.StatusCode(getattr(ua.StatusCodes, outcome.status))

@@ -5,7 +5,8 @@ docs/gateways.md).
     python -m drill_gateway.opcua_node --ros-args -p endpoint:=opc.tcp://127.0.0.1:4840/drill-rig
 
 Parameters: ``endpoint`` (opc.tcp://127.0.0.1:4840/drill-rig: this machine only),
-``service_timeout_s`` (5 s). Setpoint writes go through the supervisor's validating
+``security_dir`` (a directory of ``rig certs``: Basic256Sha256, users and roles; needed
+for an endpoint other machines reach, docs/security.md), ``service_timeout_s`` (5 s). Setpoint writes go through the supervisor's validating
 /set_setpoints service and the automation level out on /operator/automation_level, both
 through the console's operator link (drill_bringup.console.OperatorLink: the same
 requests, the same recorded operator events, source "opcua"). Display subscriptions are
@@ -17,11 +18,13 @@ from __future__ import annotations
 import logging
 import sys
 import threading
+from pathlib import Path
 
 from drill_msgs.msg import RigMeasurement, Setpoints, StateEstimate
 from std_msgs.msg import String
 
 from drill_bringup import console
+from drill_core.access import SecurityDir
 from drill_core.ros import topics
 from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
@@ -49,12 +52,15 @@ class OpcuaGatewayNode(RigNode):
         endpoint = self.declare_parameter("endpoint", DEFAULT_ENDPOINT).value or DEFAULT_ENDPOINT
         timeout_s = float(self.declare_parameter("service_timeout_s", 5.0).value)
         mode = self.declare_parameter("mode", "fast").value
+        security_dir = self.declare_parameter("security_dir", "").value
         logging.getLogger("asyncua").setLevel(logging.WARNING)
         self.link = console.OperatorLink(self, timeout_s, source="opcua")
         self.status = StatusReporter(self, mode)
         self._active: dict | None = None           # the setpoints in force (latched /setpoints)
         self._lock = threading.Lock()
-        self.gateway = Gateway(endpoint, self._write_setpoint, self._write_level)
+        security = SecurityDir(Path(security_dir)) if security_dir else None
+        self.gateway = Gateway(endpoint, self._write_setpoint, self._write_level, security,
+                               on_refused=lambda text: self.link.refuse("OPC-UA write", text))
 
         where = source_topics()
         sub = self.create_subscription

@@ -20,6 +20,7 @@ from drill_gateway.opcua_names import Variable
 BAD_OUT_OF_RANGE = "BadOutOfRange"              # refused here: not a value the field takes
 BAD_TYPE_MISMATCH = "BadTypeMismatch"           # refused here: not a number / flag / text
 BAD_NOT_ALLOWED = "BadRequestNotAllowed"        # refused by the supervisor (or unreachable)
+BAD_USER_ACCESS_DENIED = "BadUserAccessDenied"  # refused here: the session's role may not write
 # the console's form rules (sign, strictly positive), keyed by setpoint field
 _FIELD_RULES = {spec.setpoint: spec for spec in cs.FORM_FIELDS.values()}
 

@@ -1,6 +1,7 @@
 """The Foxglove bridge's server: channels with the recorder's ros2msg schemas, CDR bytes
 forwarded as they are, decoded by a client speaking the Foxglove WebSocket protocol."""
 import asyncio
+import struct
 
 import pytest
 from drill_msgs.msg import RigMeasurement
@@ -63,3 +64,32 @@ def test_an_unknown_type_is_refused_with_its_name(bridge):
         Bridge(port=70000)
     with pytest.raises(RuntimeError, match=f"127.0.0.1:{bridge.port}: .*in use"):
         Bridge(port=bridge.port)
+
+
+CLIENT_MESSAGE_DATA, SERVICE_CALL_REQUEST = 0x01, 0x02     # client-to-server binary opcodes
+
+
+def test_the_bridge_is_read_only_a_clients_publish_service_call_and_parameters_are_refused(bridge):
+    bridge.add(TOPIC, TYPE)
+
+    async def session():
+        async with FoxgloveClient(bridge.url) as client:
+            await client.wait_for_channels([TOPIC], 10.0)
+            answers = []
+            for frame in (
+                    {"op": "advertise", "channels": [{"id": 7, "topic": "/setpoints", "encoding": "cdr",
+                                                      "schemaName": "drill_msgs/msg/Setpoints"}]},
+                    bytes([CLIENT_MESSAGE_DATA]) + struct.pack("<I", 7) + b"\x00\x01\x00\x00",
+                    bytes([SERVICE_CALL_REQUEST]) + struct.pack("<III", 1, 1, 3) + b"cdr\x00\x01\x00\x00",
+                    {"op": "setParameters", "parameters": [{"name": "bhp_ref_pa", "value": 7.2e7}]}):
+                await client.send(frame)
+                answers.append(await client.next_answer(10.0))
+            return client.server_info, answers
+
+    info, (advertise, publish, call, parameters) = asyncio.run(session())
+    assert info["capabilities"] == []          # no clientPublish, services, parameters
+    assert (advertise["op"], advertise["level"]) == ("status", 2)     # 2: error
+    assert "clientPublish" in advertise["message"]
+    assert publish["op"] == "status" and "Unknown channel" in publish["message"]
+    assert call["op"] == "serviceCallFailure" and "services" in call["message"]
+    assert parameters["op"] == "status" and "parameters" in parameters["message"]
