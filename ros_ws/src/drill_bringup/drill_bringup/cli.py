@@ -47,6 +47,10 @@
                                    --mismatch SUITE: Cases 1-3 on plants that are not the model
                                    (suite: every member of config/mismatch.yaml); --render:
                                    run nothing, write the page again from its JSON table
+  rig compare --fault-matrix [PAIRS] [--render]
+                                   each actuator and sensor fault alone (pull-out, rest,
+                                   run-in) and in pairs (pull-out) under every controller:
+                                   time outside the pore/fracture window per cell
 """
 from __future__ import annotations
 
@@ -170,10 +174,17 @@ def main(argv=None) -> int:
                                                    "choke_plug, sensor_faults)")
     comp.add_argument("--seeds", type=int, default=3, choices=(1, 2, 3),
                       help="seeds per case (the scenario's, and +1000, +2000)")
-    comp.add_argument("--output", type=Path, default=ROOT / "docs" / "results.md")
+    comp.add_argument("--output", type=Path,
+                      help="default docs/results.md (docs/fault-matrix.md with --fault-matrix)")
     comp.add_argument("--mismatch", metavar="SUITE",
                       help="the trip cases on plants that are not the model: suite (every "
                            "member of config/mismatch.yaml) or a comma list of members")
+    from drill_bringup.fault_matrix import PAIRS
+    comp.add_argument("--fault-matrix", nargs="?", const="actuators", choices=PAIRS,
+                      help="each actuator and sensor fault alone in the pull-out, at rest "
+                           "and in the run-in, and pairs in the pull-out (actuators, the "
+                           "default: every pair of actuator faults; all: every pair), under "
+                           "every controller (docs/fault-matrix.md)")
     comp.add_argument("--render", action="store_true",
                       help="run nothing: write the page again from its JSON table")
     args, rest = parser.parse_known_args(argv)
@@ -204,11 +215,16 @@ def main(argv=None) -> int:
         if args.command == "stability":
             return _stability(args)
         if args.command == "compare":
+            if args.fault_matrix is not None:
+                from drill_bringup import fault_matrix
+                output = args.output or ROOT / "docs" / "fault-matrix.md"
+                return fault_matrix.render(output) if args.render \
+                    else fault_matrix.main(output, args.fault_matrix)
             from drill_bringup import compare
+            output = args.output or ROOT / "docs" / "results.md"
             if args.render:
-                return compare.render(args.output)
-            return compare.main(args.scenarios, args.output, args.seeds,
-                                mismatch=args.mismatch)
+                return compare.render(output)
+            return compare.main(args.scenarios, output, args.seeds, mismatch=args.mismatch)
         if args.command == "reestimate":
             from drill_bringup.reestimate import reestimate
             result = reestimate(args.run_dir, args.config_dir, args.rate, launcher.default_domain_id())

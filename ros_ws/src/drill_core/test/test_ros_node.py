@@ -55,3 +55,12 @@ def test_a_first_publish_waits_for_its_readers_to_match(context):
         assert node.budget.callbacks == 1 and node.budget.callback_cpu_s > 0.0
     finally:
         node.destroy_node()
+
+
+def test_the_scenario_clock_counts_from_the_first_measurement():
+    from drill_core.ros.stamps import ScenarioClock
+    clock = ScenarioClock()
+    assert clock.seconds(5_000_000_000) == 0.0          # before the first measurement
+    clock.start(2_000_000_000)
+    clock.start(3_000_000_000)                           # the first one stays
+    assert clock.seconds(4_500_000_000) == 2.5

@@ -29,7 +29,7 @@ from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
 from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
-from drill_core.ros.stamps import to_ns, seconds_to_ns
+from drill_core.ros.stamps import ScenarioClock, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump, Watchdog
 
@@ -64,7 +64,7 @@ class ActuatorNode(RigNode):
         self.safe_hold = None
         self.command = None
         self.faults = of_owner(ctx.scenario.events, "actuator", self.actuator)
-        self._start_ns: int | None = None       # stamp of the first measurement: scenario time 0
+        self.clock = ScenarioClock()             # the faults' times
         self.inbox = StampedInbox(("measurement", "command"))
         self.status = StatusReporter(self, ctx.mode)
         self.pub = self.create_publisher(ActuatorFrame, topics.actuator_frame(self.actuator),
@@ -135,9 +135,8 @@ class ActuatorNode(RigNode):
 
     def _fault(self, stamp_ns: int) -> str:
         """The scenario fault acting at this measurement ('' none)."""
-        if self._start_ns is None:
-            self._start_ns = stamp_ns
-        time_s = (stamp_ns - self._start_ns) * 1e-9
+        self.clock.start(stamp_ns)
+        time_s = self.clock.seconds(stamp_ns)
         return next((e.kind for e in self.faults if e.active(time_s)), "")
 
     def _command_value(self, cmd: RigCommand) -> float:

@@ -37,7 +37,7 @@ from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
 from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
-from drill_core.ros.stamps import from_ns, to_ns
+from drill_core.ros.stamps import ScenarioClock, from_ns, to_ns
 from drill_core.ros.status import StatusReporter
 from drill_protection.kick_detection import FlowSample, detector_for
 from drill_protection.protection import ProcessProtection
@@ -72,7 +72,7 @@ class ProtectionNode(RigNode):
         self.operator_speed_limit = ctx.config.protection.trip_speed_max_mps
         self.positions: deque = deque()
         self.script = OperatorScript(ctx.scenario.operator)
-        self._start_ns: int | None = None       # stamp of the first measurement: scenario time 0
+        self.clock = ScenarioClock()             # the operator actions' times
         self.last_request: RigCommand | None = None
         self.inbox = StampedInbox(("command", "measurement"))
         self.clamp_count = 0
@@ -141,8 +141,7 @@ class ProtectionNode(RigNode):
 
     def _press_due(self, stamp: int) -> None:
         """The scenario's operator actions whose time has come (drill_core.operator_actions)."""
-        time_s = (stamp - (self._start_ns if self._start_ns is not None else stamp)) * 1e-9
-        for action in self.script.due(time_s):
+        for action in self.script.due(self.clock.seconds(stamp)):
             by = f" (scenario operator action at {action.time_s:g} s)"
             if action.action == "automation_level":
                 self._set_level(action.level, stamp, by)
@@ -156,8 +155,7 @@ class ProtectionNode(RigNode):
 
     def _on_measurement(self, msg: RigMeasurement) -> None:
         stamp = to_ns(msg.header.stamp)
-        if self._start_ns is None:
-            self._start_ns = stamp
+        self.clock.start(stamp)
         self._detect(msg, stamp)
         self.positions.append((stamp, msg.block_position_m))
         while self.positions and stamp - self.positions[0][0] > VELOCITY_WINDOW_S * 1e9:

@@ -1,0 +1,205 @@
+"""``rig compare --fault-matrix``: each actuator and sensor fault, alone and in pairs, in
+the pull-out, at rest and in the run-in of Case 2's trip, under every controller, through
+the whole graph in fast mode; per cell the time BHP spent under the pore pressure and over
+the fracture pressure (docs/fault-matrix.md, rendered from its JSON table).
+
+A cell is a short scenario made from Case 2 (its well, mud, setpoints and seed): the
+phase's schedule and the fault's events at the phase's fault time (both faults of a pair
+at once). The cells' scenario files go to runs/fault-matrix/, so each run can be re-run by
+hand (``rig run FILE --controller C``).
+"""
+from __future__ import annotations
+
+import itertools
+import json
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+
+import yaml
+
+from drill_bringup import batch, runs
+from drill_core.units import PA_PER_BAR
+
+CONTROLLERS = ("nmpc", "automated_mpd", "baseline")
+BASE_SCENARIO = "case2"
+SPAN_S = 20.0                     # how long a sensor fault or a stuck pump / choke lasts
+BRAKE_S = 5.0                     # a drawworks stuck with its brake set
+# name -> the fault's events, times from the fault's start
+FAULTS = {
+    "choke stuck": ({"kind": "stuck", "target": "choke", "duration_s": SPAN_S},),
+    "drawworks stuck": ({"kind": "stuck", "target": "drawworks", "duration_s": BRAKE_S},),
+    "BPP stuck": ({"kind": "stuck", "target": "bpp", "duration_s": SPAN_S},),
+    "mud pump stuck": ({"kind": "stuck", "target": "mud_pump", "duration_s": SPAN_S},),
+    "BPP trip": ({"kind": "trip", "target": "bpp"},),
+    "mud pump trip": ({"kind": "trip", "target": "mud_pump"},),
+    "BHP dropout": ({"kind": "dropout", "target": "bhp_pa", "duration_s": SPAN_S},),
+    "BHP frozen": ({"kind": "frozen", "target": "bhp_pa", "duration_s": SPAN_S},),
+    "BHP bias +3 bar": ({"kind": "bias", "target": "bhp_pa", "value": 3.0e5, "duration_s": SPAN_S},),
+    "choke dp frozen": ({"kind": "frozen", "target": "choke_dp_pa", "duration_s": SPAN_S},),
+    "return flow frozen": ({"kind": "frozen", "target": "return_flow_m3s", "duration_s": SPAN_S},),
+    "block position dropout": ({"kind": "dropout", "target": "block_position_m", "duration_s": BRAKE_S},),
+}
+ACTUATOR_FAULTS = tuple(name for name, events in FAULTS.items()
+                        if events[0]["kind"] in ("stuck", "trip"))
+
+
+@dataclass(frozen=True)
+class Phase:
+    """A trip phase: the block targets from the Case 2 start (time s, target m), when the
+    fault comes and when the cell ends."""
+    targets: tuple[tuple[float, float], ...]
+    fault_time_s: float
+    duration_s: float
+
+
+PHASES = {
+    "pull-out": Phase(((5.0, 28.0),), 20.0, 120.0),            # at speed from ~10 s
+    "rest": Phase((), 20.0, 90.0),
+    "run-in": Phase(((5.0, 28.0), (70.0, 0.0)), 85.0, 170.0),  # out by ~65 s, in at speed from ~75 s
+}
+
+
+PAIRS = ("none", "actuators", "all")      # which pairs run in the pull-out
+
+
+def cells(pairs: str = "actuators") -> list[tuple[str, tuple[str, ...]]]:
+    """(phase, faults) of every cell: each fault alone in each phase, and pairs in the
+    pull-out: ``actuators`` (every pair of actuator faults), ``all`` (every pair) or
+    ``none``."""
+    if pairs not in PAIRS:
+        raise ValueError(f"pairs {pairs!r}: expected one of {', '.join(PAIRS)}")
+    alone = [(phase, (fault,)) for phase in PHASES for fault in FAULTS]
+    both = [pair for pair in itertools.combinations(FAULTS, 2)
+            if pairs == "all" or (pairs == "actuators" and set(pair) <= set(ACTUATOR_FAULTS))]
+    return alone + [("pull-out", pair) for pair in both]
+
+
+def cell_name(phase: str, faults: tuple[str, ...]) -> str:
+    words = [phase, *faults]
+    return "fm-" + "+".join(w.replace(" ", "_").replace("+", "p") for w in words).lower()
+
+
+def cell_scenario(base: dict, phase: str, faults: tuple[str, ...]) -> dict:
+    """The scenario of one cell: Case 2's well and start, the phase's schedule, the faults."""
+    p = PHASES[phase]
+    events = [{"time_s": p.fault_time_s, **event} for fault in faults for event in FAULTS[fault]]
+    schedule = [dict(base["schedule"][0])] + [
+        {"time_s": t, "block_position_target_m": target} for t, target in p.targets]
+    return {**{k: v for k, v in base.items() if k not in ("schedule", "events")},
+            "name": cell_name(phase, faults),
+            "description": f"{' and '.join(faults)} in the {phase} of Case 2's trip (fault matrix)",
+            "duration_s": p.duration_s, "schedule": schedule, "events": events}
+
+
+def write_cells(directory: Path, pairs: str) -> list[tuple[str, tuple[str, ...], Path]]:
+    base = yaml.safe_load(runs.scenario_path(BASE_SCENARIO).read_text())
+    directory.mkdir(parents=True, exist_ok=True)
+    out = []
+    for phase, faults in cells(pairs):
+        scenario = cell_scenario(base, phase, faults)
+        path = directory / f"{scenario['name']}.yaml"
+        path.write_text(yaml.safe_dump(scenario, sort_keys=False))
+        out.append((phase, faults, path))
+    return out
+
+
+def cell_figures(summary: dict) -> dict:
+    """What the page shows of a cell's run (SI)."""
+    alarms = [e for e in summary.get("events", []) if e[1] == "protection"]
+    return {key: summary.get(key) for key in (
+        "bhp_under_pore_s", "bhp_over_fracture_s", "worst_underbalance_pa",
+        "worst_overbalance_over_fracture_pa", "bhp_worst_excursion_pa", "influx_volume_m3",
+        "loss_volume_m3")} | {"protection_events": len(alarms)}
+
+
+def run_matrix(pairs: str = "actuators", controllers=CONTROLLERS,
+               run=batch.run_one) -> list[dict]:
+    """Run every cell under every controller, one after another; the table's rows."""
+    scenarios = write_cells(runs.ROOT / "runs" / "fault-matrix", pairs)
+    seed = yaml.safe_load(runs.scenario_path(BASE_SCENARIO).read_text())["seed"]
+    specs = {(path.stem, controller): (phase, faults, batch.RunSpec(path.stem, str(path), controller, seed))
+             for phase, faults, path in scenarios for controller in controllers}
+    rows = []
+
+    def done(row: dict) -> None:
+        phase, faults, spec = specs[(row["case"], row["controller"])]
+        if not row["ok"]:
+            raise RuntimeError(f"{spec.label} failed: {row['message']}")
+        figures = cell_figures(row["summary"])
+        rows.append({"phase": phase, "faults": list(faults), "controller": row["controller"],
+                     "seed": row["seed"], "run_dir": row["run_dir"], "wall_s": row["wall_s"],
+                     **figures})
+        print(f"[fault matrix] {len(rows)}/{len(specs)} {phase} / {' + '.join(faults)} / "
+              f"{row['controller']}: under pore {figures['bhp_under_pore_s']:.1f} s, over "
+              f"fracture {figures['bhp_over_fracture_s']:.1f} s", flush=True)
+    print(f"[fault matrix] {len(specs)} runs, one at a time", flush=True)
+    batch.execute([s for _, _, s in specs.values()], run, on_done=done)
+    return rows
+
+
+def _cell(row: dict | None) -> str:
+    if row is None:
+        return "not run"
+    under, over = row["bhp_under_pore_s"], row["bhp_over_fracture_s"]
+    if under == 0.0 and over == 0.0:
+        return "0"
+    parts = []
+    if under > 0.0:
+        parts.append(f"{under:.1f} s under ({row['worst_underbalance_pa'] / PA_PER_BAR:.1f} bar)")
+    if over > 0.0:
+        parts.append(f"{over:.1f} s over ({row['worst_overbalance_over_fracture_pa'] / PA_PER_BAR:.1f} bar)")
+    return "**" + ", ".join(parts) + "**"
+
+
+def markdown(rows: list[dict], made: str) -> str:
+    by = {(r["phase"], tuple(r["faults"]), r["controller"]): r for r in rows}
+    keys = sorted({(r["phase"], tuple(r["faults"])) for r in rows},
+                  key=lambda k: (len(k[1]), list(PHASES).index(k[0]), [list(FAULTS).index(f) for f in k[1]]))
+    controllers = [c for c in CONTROLLERS if any(r["controller"] == c for r in rows)]
+    outside = [r for r in rows if r["bhp_under_pore_s"] > 0.0 or r["bhp_over_fracture_s"] > 0.0]
+    lines = [
+        "# Fault matrix: the pore/fracture window under actuator and sensor faults", "",
+        f"Generated by `rig compare --fault-matrix` ({made}); the table below is rendered "
+        "from `docs/fault-matrix.json`, the runs' figures. Each cell is one run of the whole "
+        "graph in fast mode: Case 2's well, mud and seed, the phase's trip (pull-out: the "
+        "fault 15 s into the pull-out, at speed; rest: the string at rest, circulating; "
+        "run-in: the fault 15 s into the run-in), the fault (both of a pair at once) and "
+        f"{SPAN_S:.0f} s of it ({BRAKE_S:.0f} s for a stuck drawworks or a position dropout; "
+        "a trip lasts to the end). A cell shows the time BHP spent under the pore pressure "
+        "and over the fracture pressure (660 and 710 bar) and the worst excursion beyond it; "
+        "0: inside the window throughout. The controllers are not told of a fault; the "
+        "process protection sees what the sensors show.", "",
+        f"**{len(outside)} of {len(rows)} runs left the window.**", "",
+        "| phase | faults | " + " | ".join(controllers) + " |",
+        "| --- | --- | " + " | ".join("---" for _ in controllers) + " |"]
+    for phase, faults in keys:
+        lines.append(f"| {phase} | {' + '.join(faults)} | "
+                     + " | ".join(_cell(by.get((phase, faults, c))) for c in controllers) + " |")
+    missing = [(p, f) for p, f in itertools.product(PHASES, itertools.combinations(FAULTS, 2))
+               if (p, f) not in keys]
+    lines += ["", f"Pairs not run: {len(missing)} of the "
+              f"{len(PHASES) * len(list(itertools.combinations(FAULTS, 2)))} (phase, pair) cells "
+              "(`--fault-matrix all` runs every pair in the pull-out; pairs in the other "
+              "phases are not planned).", "",
+              "Protection events per run (alarms, clamps, answers) and each run's directory "
+              "are in the JSON table."]
+    return "\n".join(lines) + "\n"
+
+
+def write(rows: list[dict], output: Path, made: str | None = None) -> None:
+    output.parent.mkdir(parents=True, exist_ok=True)
+    output.with_suffix(".json").write_text(json.dumps(rows, indent=1))
+    output.write_text(markdown(rows, made or f"{datetime.now():%Y-%m-%d %H:%M}"))
+    print(f"[fault matrix] wrote {output}")
+
+
+def main(output: Path, pairs: str = "actuators") -> int:
+    write(run_matrix(pairs), output)
+    return 0
+
+
+def render(output: Path) -> int:
+    rows = json.loads(output.with_suffix(".json").read_text())
+    write(rows, output, f"{datetime.now():%Y-%m-%d %H:%M} (`--render`: the page from its JSON table)")
+    return 0

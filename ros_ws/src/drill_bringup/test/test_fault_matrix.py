@@ -1,0 +1,76 @@
+"""The fault matrix's plan and page, without running a graph: the cells (each fault alone in
+each phase, the pairs asked for in the pull-out), valid scenarios with the faults at the
+phase's fault time, rows per run, and a page that marks every cell outside the window."""
+import itertools
+
+import pytest
+import yaml
+
+from drill_bringup import fault_matrix as fm
+from drill_bringup import runs
+from drill_core.scenario import load_scenario
+
+
+def test_every_fault_alone_in_every_phase_and_the_pairs_asked_for_in_the_pull_out():
+    n, actuators = len(fm.FAULTS), len(fm.ACTUATOR_FAULTS)
+    assert len(fm.cells("none")) == 3 * n
+    assert len(fm.cells("actuators")) == 3 * n + actuators * (actuators - 1) // 2
+    assert len(fm.cells("all")) == 3 * n + n * (n - 1) // 2
+    pairs = [faults for phase, faults in fm.cells("actuators") if len(faults) == 2]
+    assert all(set(p) <= set(fm.ACTUATOR_FAULTS) for p in pairs)
+    assert {phase for phase, faults in fm.cells("all") if len(faults) == 2} == {"pull-out"}
+    with pytest.raises(ValueError, match="expected one of none, actuators, all"):
+        fm.cells("some")
+
+
+def test_a_cell_is_a_valid_case2_scenario_with_its_faults_at_the_phase_time(tmp_path):
+    written = fm.write_cells(tmp_path, "actuators")
+    assert len({path for _, _, path in written}) == len(written)        # one file per cell
+    base = yaml.safe_load(runs.scenario_path(fm.BASE_SCENARIO).read_text())
+    for phase, faults, path in written:
+        scenario, _ = load_scenario(path)             # validated like every scenario
+        p = fm.PHASES[phase]
+        assert scenario.duration_s == p.duration_s and scenario.seed == base["seed"]
+        assert [e.time_s for e in scenario.events] == [p.fault_time_s] * sum(
+            len(fm.FAULTS[f]) for f in faults)
+        assert [(e.kind, e.target) for e in scenario.events] == [
+            (e["kind"], e["target"]) for f in faults for e in fm.FAULTS[f]]
+        targets = [s.block_position_target_m for s in scenario.schedule[1:]]
+        assert targets == [t for _, t in p.targets]
+
+
+def test_the_phases_put_the_fault_where_they_say():
+    pull, rest, run_in = fm.PHASES["pull-out"], fm.PHASES["rest"], fm.PHASES["run-in"]
+    assert pull.targets[0][0] < pull.fault_time_s and pull.targets[-1][1] > 0.0
+    assert rest.targets == ()
+    (out_at, out_to), (in_at, in_to) = run_in.targets
+    assert out_at < in_at < run_in.fault_time_s and (out_to, in_to) == (28.0, 0.0)
+
+
+def fake_run(spec):
+    phase = next(p for p in fm.PHASES if spec.case.startswith(fm.cell_name(p, ())))
+    under = 4.0 if (spec.controller == "baseline" and "trip" in spec.case) else 0.0
+    return {"case": spec.case, "controller": spec.controller, "seed": spec.seed, "ok": True,
+            "message": "", "run_dir": f"/runs/{spec.case}", "wall_s": 1.0,
+            "summary": {"bhp_under_pore_s": under, "bhp_over_fracture_s": 0.0,
+                        "worst_underbalance_pa": 2.5e5 if under else 0.0,
+                        "worst_overbalance_over_fracture_pa": 0.0,
+                        "bhp_worst_excursion_pa": 1.0e5, "influx_volume_m3": 0.0,
+                        "loss_volume_m3": 0.0, "events": [[20.0, "protection", "x", phase]]}}
+
+
+def test_rows_per_run_and_a_page_that_marks_each_cell_outside_the_window(tmp_path, monkeypatch):
+    case2 = runs.scenario_path(fm.BASE_SCENARIO).read_text()
+    monkeypatch.setattr(runs, "ROOT", tmp_path)          # the cells' files go to tmp_path/runs
+    (tmp_path / "config" / "scenarios").mkdir(parents=True)
+    (tmp_path / "config" / "scenarios" / f"{fm.BASE_SCENARIO}.yaml").write_text(case2)
+    rows = fm.run_matrix("none", run=fake_run)
+    assert len(rows) == 3 * len(fm.FAULTS) * len(fm.CONTROLLERS)
+    trips = [r for r in rows if any("trip" in f for f in r["faults"]) and r["controller"] == "baseline"]
+    assert trips and all(r["bhp_under_pore_s"] == 4.0 and r["protection_events"] == 1 for r in trips)
+    page = fm.markdown(rows, "now")
+    outside = len(trips)
+    assert f"**{outside} of {len(rows)} runs left the window.**" in page
+    assert page.count("**4.0 s under (2.5 bar)**") == outside
+    all_pairs = len(fm.PHASES) * len(list(itertools.combinations(fm.FAULTS, 2)))
+    assert f"Pairs not run: {all_pairs} of the {all_pairs}" in page
