@@ -6,7 +6,6 @@ console other machines reach does not start without a security directory."""
 from __future__ import annotations
 
 import json
-import threading
 import urllib.error
 import urllib.request
 
@@ -14,7 +13,6 @@ import pytest
 import rclpy
 from drill_msgs.msg import OperatorEvent
 from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rig_testing import spinning_node, wait_for
 from std_msgs.msg import String
@@ -46,22 +44,10 @@ def security(tmp_path):
 
 @pytest.fixture
 def console(security, monkeypatch):
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    context = Context()
-    rclpy.init(context=context, domain_id=DOMAIN_ID)
-    node = ConsoleNode(context=context, parameter_overrides=console_params(
+    make = lambda context: ConsoleNode(context=context, parameter_overrides=console_params(
         host="0.0.0.0", security_dir=str(security.path)))
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
-    try:
+    with spinning_node(DOMAIN_ID, "console", monkeypatch, make) as node:
         yield node
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.shutdown(context=context)
-        thread.join(timeout=5)
 
 
 def request(node, path: str, body: dict | None = None, token: str | None = None):

@@ -2,6 +2,7 @@
 comparison of two runs' recorded data."""
 from __future__ import annotations
 
+import asyncio
 import math
 import threading
 import time
@@ -22,12 +23,13 @@ DETERMINISTIC_TOPICS = (topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topic
 
 
 @contextmanager
-def spinning_node(domain_id: int, name: str, monkeypatch):
-    """A node on ``domain_id`` (localhost discovery), spun by a background thread."""
+def spinning_node(domain_id: int, name: str, monkeypatch, make=None):
+    """A node on ``domain_id`` (localhost discovery), spun by a background thread: a plain
+    one named ``name``, or ``make(context)``'s."""
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     context = Context()
     rclpy.init(context=context, domain_id=domain_id)
-    node = rclpy.create_node(name, context=context)
+    node = make(context) if make else rclpy.create_node(name, context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     thread = threading.Thread(target=executor.spin, daemon=True)
@@ -39,6 +41,17 @@ def spinning_node(domain_id: int, name: str, monkeypatch):
         node.destroy_node()
         rclpy.shutdown(context=context)
         thread.join(timeout=5)
+
+
+async def until(read, predicate, timeout_s: float, what: str = ""):
+    """Await ``read()`` until ``predicate`` holds of its value; the value. Fails naming
+    ``what`` and the last value after ``timeout_s``."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + timeout_s
+    while not predicate(value := await read()):
+        assert loop.time() < deadline, f"timed out waiting for {what}; last {value!r}"
+        await asyncio.sleep(0.02)
+    return value
 
 
 def wait_for(predicate, timeout_s: float, what: str) -> None:

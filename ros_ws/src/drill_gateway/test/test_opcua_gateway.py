@@ -7,6 +7,7 @@ import threading
 
 import pytest
 from asyncua import Client, ua
+from rig_testing import until
 
 from drill_gateway import opcua_names as names
 from drill_gateway.opcua_gateway import Gateway, check_endpoint
@@ -41,15 +42,6 @@ async def child(client, *path):
     return await client.nodes.objects.get_child([f"{idx}:{p}" for p in path])
 
 
-async def until(read, predicate, what):
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + TIMEOUT_S
-    while not predicate(value := await read()):
-        assert loop.time() < deadline, f"timed out waiting for {what}"
-        await asyncio.sleep(0.02)
-    return value
-
-
 def test_browse_read_subscribe_and_gated_writes(served):
     gateway, writes = served
 
@@ -77,13 +69,15 @@ def test_browse_read_subscribe_and_gated_writes(served):
             await subscription.subscribe_events()          # the Server object's events
             threading.Thread(target=gateway.update,
                              args=("measurement", {"bhp_pa": 6.85e7, "choke_dp_pa": 2e6})).start()
-            assert await until(bhp.read_value, lambda v: v == 6.85e7, "BHP 685 bar") == 6.85e7
+            assert await until(bhp.read_value, lambda v: v == 6.85e7, TIMEOUT_S,
+                               "BHP 685 bar") == 6.85e7
             async def notified():
                 return list(changes.values)
-            await until(notified, lambda v: 6.85e7 in v, "the change notified")
+            await until(notified, lambda v: 6.85e7 in v, TIMEOUT_S, "the change notified")
             gateway.update("setpoints", {"bhp_ref_pa": 6.85e7})
             setpoint = await child(client, "Rig", "Setpoints", "BottomHolePressureSetpoint")
-            await until(setpoint.read_value, lambda v: v == 6.85e7, "the setpoint in force")
+            await until(setpoint.read_value, lambda v: v == 6.85e7, TIMEOUT_S,
+                        "the setpoint in force")
 
             await setpoint.write_value(6.88e7)
             assert await setpoint.read_value() == 6.88e7
@@ -96,7 +90,8 @@ def test_browse_read_subscribe_and_gated_writes(served):
 
             async def events():
                 return list(changes.events)
-            assert result in await until(events, lambda e: result in e, "the refusal's event")
+            assert result in await until(events, lambda e: result in e, TIMEOUT_S,
+                                         "the refusal's event")
             with pytest.raises(ua.UaStatusCodeError) as mistyped:
                 await setpoint.write_value(ua.Variant(5, ua.VariantType.Int32))
             assert mistyped.value.code == ua.StatusCodes.BadTypeMismatch

@@ -11,6 +11,7 @@ import pytest
 from asyncua import Client, ua
 from asyncua.client import client as asyncua_client
 from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
+from rig_testing import until
 
 from drill_core import access
 from drill_core.schema import ConfigError
@@ -82,15 +83,6 @@ async def setpoint_node(client):
     return node, result
 
 
-async def until(read, predicate):
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + TIMEOUT_S
-    while not predicate(value := await read()):
-        assert loop.time() < deadline, f"timed out; last {value!r}"
-        await asyncio.sleep(0.02)
-    return value
-
-
 def test_a_gateway_other_machines_reach_does_not_start_without_security():
     for host in ("0.0.0.0", "192.168.1.20"):
         with pytest.raises(ConfigError, match="reachable from other machines.*rig certs"):
@@ -141,7 +133,7 @@ def test_anonymous_sessions_and_viewers_read_but_a_write_is_refused_and_recorded
     async def session():
         async with await secured_client(served["url"], security, user) as client:
             node, result = await setpoint_node(client)
-            before = await until(node.read_value, lambda v: v == IN_FORCE_PA)
+            before = await until(node.read_value, lambda v: v == IN_FORCE_PA, TIMEOUT_S)
             with pytest.raises(ua.uaerrors.BadUserAccessDenied):
                 await node.write_value(6.9e7)
             return before, await node.read_value(), await result.read_value()
