@@ -179,12 +179,17 @@ def main(argv=None) -> int:
     comp.add_argument("--mismatch", metavar="SUITE",
                       help="the trip cases on plants that are not the model: suite (every "
                            "member of config/mismatch.yaml) or a comma list of members")
-    from drill_bringup.fault_matrix import PAIRS
+    from drill_bringup.fault_matrix import CONTROLLERS as MATRIX_CONTROLLERS, PAIRS
     comp.add_argument("--fault-matrix", nargs="?", const="actuators", choices=PAIRS,
                       help="each actuator and sensor fault alone in the pull-out, at rest "
                            "and in the run-in, and pairs in the pull-out (actuators, the "
                            "default: every pair of actuator faults; all: every pair), under "
                            "every controller (docs/fault-matrix.md)")
+    comp.add_argument("--with-fault", metavar="FAULT",
+                      help="with --fault-matrix: run only the cells with this fault (e.g. "
+                           "'mud pump trip'), the table's other rows kept")
+    comp.add_argument("--controller", action="append", choices=MATRIX_CONTROLLERS,
+                      help="with --with-fault: only under this controller (repeatable)")
     comp.add_argument("--render", action="store_true",
                       help="run nothing: write the page again from its JSON table")
     args, rest = parser.parse_known_args(argv)
@@ -218,8 +223,10 @@ def main(argv=None) -> int:
             if args.fault_matrix is not None:
                 from drill_bringup import fault_matrix
                 output = args.output or ROOT / "docs" / "fault-matrix.md"
-                return fault_matrix.render(output) if args.render \
-                    else fault_matrix.main(output, args.fault_matrix)
+                if args.render:
+                    return fault_matrix.render(output)
+                return fault_matrix.main(output, args.fault_matrix, args.with_fault,
+                                         args.controller or fault_matrix.CONTROLLERS)
             from drill_bringup import compare
             output = args.output or ROOT / "docs" / "results.md"
             if args.render:

@@ -19,7 +19,8 @@ from pathlib import Path
 import yaml
 
 from drill_bringup import batch, runs
-from drill_core.units import PA_PER_BAR
+from drill_bringup.compare import false_alarms
+from drill_core.units import L_PER_M3, PA_PER_BAR
 
 CONTROLLERS = ("nmpc", "automated_mpd", "baseline")
 BASE_SCENARIO = "case2"
@@ -110,13 +111,16 @@ def cell_figures(summary: dict) -> dict:
     return {key: summary.get(key) for key in (
         "bhp_under_pore_s", "bhp_over_fracture_s", "worst_underbalance_pa",
         "worst_overbalance_over_fracture_pa", "bhp_worst_excursion_pa", "influx_volume_m3",
-        "loss_volume_m3")} | {"protection_events": len(alarms)}
+        "loss_volume_m3")} | {"protection_events": len(alarms),
+                              "false_alarms": false_alarms(summary)}
 
 
-def run_matrix(pairs: str = "actuators", controllers=CONTROLLERS,
-               run=batch.run_one) -> list[dict]:
-    """Run every cell under every controller, one after another; the table's rows."""
-    scenarios = write_cells(runs.ROOT / "runs" / "fault-matrix", pairs)
+def run_matrix(pairs: str = "actuators", controllers=CONTROLLERS, run=batch.run_one,
+               with_fault: str | None = None) -> list[dict]:
+    """Run every cell (``with_fault``: every cell with that fault) under every controller,
+    one after another; the table's rows."""
+    scenarios = [c for c in write_cells(runs.ROOT / "runs" / "fault-matrix", pairs)
+                 if with_fault is None or with_fault in c[1]]
     seed = yaml.safe_load(runs.scenario_path(BASE_SCENARIO).read_text())["seed"]
     specs = {(path.stem, controller): (phase, faults, batch.RunSpec(path.stem, str(path), controller, seed))
              for phase, faults, path in scenarios for controller in controllers}
@@ -138,18 +142,24 @@ def run_matrix(pairs: str = "actuators", controllers=CONTROLLERS,
     return rows
 
 
+FLOW_SHOWN_M3 = 0.5e-3             # influx or losses shown in a cell from 0.5 L
+
+
 def _cell(row: dict | None) -> str:
     if row is None:
         return "not run"
     under, over = row["bhp_under_pore_s"], row["bhp_over_fracture_s"]
-    if under == 0.0 and over == 0.0:
-        return "0"
     parts = []
     if under > 0.0:
         parts.append(f"{under:.1f} s under ({row['worst_underbalance_pa'] / PA_PER_BAR:.1f} bar)")
     if over > 0.0:
         parts.append(f"{over:.1f} s over ({row['worst_overbalance_over_fracture_pa'] / PA_PER_BAR:.1f} bar)")
-    return "**" + ", ".join(parts) + "**"
+    text = "**" + ", ".join(parts) + "**" if parts else "0"
+    notes = [f"{row[key] * L_PER_M3:.0f} L {word}" for key, word in
+             (("influx_volume_m3", "in"), ("loss_volume_m3", "lost")) if row[key] >= FLOW_SHOWN_M3]
+    if row["false_alarms"]:
+        notes.append(f"{row['false_alarms']} false alarm(s)")
+    return text + (f" ({', '.join(notes)})" if notes else "")
 
 
 def markdown(rows: list[dict], made: str) -> str:
@@ -167,9 +177,11 @@ def markdown(rows: list[dict], made: str) -> str:
         "run-in: the fault 15 s into the run-in), the fault (both of a pair at once) and "
         f"{SPAN_S:.0f} s of it ({BRAKE_S:.0f} s for a stuck drawworks or a position dropout; "
         "a trip lasts to the end). A cell shows the time BHP spent under the pore pressure "
-        "and over the fracture pressure (660 and 710 bar) and the worst excursion beyond it; "
-        "0: inside the window throughout. The controllers are not told of a fault; the "
-        "process protection sees what the sensors show.", "",
+        "and over the fracture pressure (660 and 710 bar) and the worst excursion beyond it "
+        "(0: inside the window throughout), the formation's influx or the mud lost to it "
+        "from 0.5 L, and the kick or losses alarms raised with no formation flow behind "
+        "them. The controllers are not told of a fault; the process protection sees what "
+        "the sensors show.", "",
         f"**{len(outside)} of {len(rows)} runs left the window.**", "",
         "| phase | faults | " + " | ".join(controllers) + " |",
         "| --- | --- | " + " | ".join("---" for _ in controllers) + " |"]
@@ -194,8 +206,19 @@ def write(rows: list[dict], output: Path, made: str | None = None) -> None:
     print(f"[fault matrix] wrote {output}")
 
 
-def main(output: Path, pairs: str = "actuators") -> int:
-    write(run_matrix(pairs), output)
+def main(output: Path, pairs: str = "actuators", with_fault: str | None = None,
+         controllers=CONTROLLERS, run=batch.run_one) -> int:
+    """Run the matrix and write its page; with ``with_fault`` only the cells with that
+    fault under ``controllers``, the table's other rows kept."""
+    if with_fault is not None and with_fault not in FAULTS:
+        raise ValueError(f"fault {with_fault!r}: expected one of {', '.join(FAULTS)}")
+    rows = run_matrix(pairs, controllers, run, with_fault)
+    table = output.with_suffix(".json")
+    if with_fault is not None and table.exists():
+        key = lambda r: (r["phase"], tuple(r["faults"]), r["controller"])
+        fresh = {key(r) for r in rows}
+        rows = [r for r in json.loads(table.read_text()) if key(r) not in fresh] + rows
+    write(rows, output)
     return 0
 
 

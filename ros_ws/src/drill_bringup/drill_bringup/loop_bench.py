@@ -177,7 +177,8 @@ class TruthState:
                             string_velocity_mps=float(x[lay.velocity]),
                             string_flow_m3s=float(x[lay.string_flow]),
                             friction_factor=tuple(float(v) for v in theta),
-                            density_offset_kgm3=float(self.em.density_offset_of(x_hat))), x_hat
+                            density_offset_kgm3=float(self.em.density_offset_of(x_hat)),
+                            string_flow_observable=bool(m.string_flow_valid)), x_hat
 
 
 class UkfState:
@@ -212,7 +213,8 @@ class UkfState:
                             string_velocity_mps=float(x[ukf.em.velocity]),
                             string_flow_m3s=float(x[ukf.em.string_flow]),
                             friction_factor=tuple(float(v) for v in ukf.theta),
-                            density_offset_kgm3=float(ukf.em.density_offset_of(x))), ukf.mean
+                            density_offset_kgm3=float(ukf.em.density_offset_of(x)),
+                            string_flow_observable=circulating), ukf.mean
 
 
 class NmpcController:

@@ -2,6 +2,7 @@
 each phase, the pairs asked for in the pull-out), valid scenarios with the faults at the
 phase's fault time, rows per run, and a page that marks every cell outside the window."""
 import itertools
+import json
 
 import pytest
 import yaml
@@ -74,3 +75,20 @@ def test_rows_per_run_and_a_page_that_marks_each_cell_outside_the_window(tmp_pat
     assert page.count("**4.0 s under (2.5 bar)**") == outside
     all_pairs = len(fm.PHASES) * len(list(itertools.combinations(fm.FAULTS, 2)))
     assert f"Pairs not run: {all_pairs} of the {all_pairs}" in page
+
+
+def test_a_partial_run_replaces_its_cells_rows_and_keeps_the_others(tmp_path, monkeypatch):
+    case2 = runs.scenario_path(fm.BASE_SCENARIO).read_text()
+    monkeypatch.setattr(runs, "ROOT", tmp_path)
+    (tmp_path / "config" / "scenarios").mkdir(parents=True)
+    (tmp_path / "config" / "scenarios" / f"{fm.BASE_SCENARIO}.yaml").write_text(case2)
+    output = tmp_path / "docs" / "fault-matrix.md"
+    fm.main(output, "none", run=fake_run)
+    before = json.loads(output.with_suffix(".json").read_text())
+    fm.main(output, "none", "mud pump trip", ("automated_mpd",), run=fake_run)
+    after = json.loads(output.with_suffix(".json").read_text())
+    assert len(after) == len(before)
+    rerun = after[-len(fm.PHASES):]             # the re-run cells' rows, last
+    assert all("mud pump trip" in r["faults"] and r["controller"] == "automated_mpd" for r in rerun)
+    with pytest.raises(ValueError, match="fault 'pump trip'"):
+        fm.main(output, "none", "pump trip", run=fake_run)

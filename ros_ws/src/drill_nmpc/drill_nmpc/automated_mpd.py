@@ -11,7 +11,9 @@ Each sample (t_s) the controller
    still lets the choke hold the BHP reference with its dp inside the dp limits;
 2. computes the choke-dp set-point that holds the BHP reference at the string speed the
    plan will have ``feedforward_lead_s`` later (preview of the pipe motion), plus a trim:
-   the integral of the estimated BHP error (UKF), which takes up the model's bias;
+   the integral of the estimated BHP error (UKF), which takes up the model's bias; the
+   friction in it is that of the estimated bit flow, low-passed against the hoisting
+   oscillation while the string-flow meter reads and taken as it is when it reads nothing;
 3. sends the set-point at t_k with its rate toward the value at t_k+1, so the choke
    controller ramps it between samples, and the steady choke flow of that motion (plus the
    mud stored by the rising pressure) as the valve's flow feedforward.
@@ -42,6 +44,7 @@ class EstimateView:
     string_flow_m3s: float
     friction_factor: tuple[float, ...]     # theta_2..theta_n of the estimation model
     density_offset_kgm3: float = 0.0       # the estimate's density offset (0: not estimated)
+    string_flow_observable: bool = True    # the string-flow meter reads a flow (False: no circulation)
 
 
 @dataclass(frozen=True)
@@ -135,7 +138,10 @@ class AutomatedMpd:
         theta = est.friction_factor
         bit_flow = self.model.bit_flow_m3s(est.string_flow_m3s, est.string_velocity_mps)
         if math.isfinite(bit_flow):
-            keep = math.exp(-self.sample_s / self.cfg.flow_filter_time_constant_s)
+            # unfiltered while the meter reads nothing (a pump trip): the friction goes with
+            # the pump, and a filtered flow would keep a set-point for friction that is gone
+            keep = math.exp(-self.sample_s / self.cfg.flow_filter_time_constant_s) \
+                if est.string_flow_observable else 0.0
             self.bit_flow_m3s = bit_flow if not math.isfinite(self.bit_flow_m3s) \
                 else keep * self.bit_flow_m3s + (1.0 - keep) * bit_flow
         q = self.bit_flow_m3s if math.isfinite(self.bit_flow_m3s) else 0.0

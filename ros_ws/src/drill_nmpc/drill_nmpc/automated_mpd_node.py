@@ -52,7 +52,8 @@ class AutomatedMpdNode(AdvisorNode):
                             string_flow_m3s=float(mean[self.em.string_flow]),
                             friction_factor=tuple(float(v) for v in msg.friction_parameter),
                             density_offset_kgm3=float(dict(zip(msg.state_names, mean)).get(
-                                DENSITY_OFFSET, 0.0)))
+                                DENSITY_OFFSET, 0.0)),
+                            string_flow_observable=bool(msg.string_flow_observable))
 
     def _on_estimate(self, msg: StateEstimate) -> None:
         stamp = to_ns(msg.header.stamp)

@@ -82,6 +82,24 @@ def test_at_rest_the_set_point_is_the_steady_dp_of_the_reference(rig, em):
     assert (c.bpp_flow_m3s, c.spp_pa) == (0.0, 1.06e7)          # the pumps hold
 
 
+def test_the_flow_filter_holds_while_the_meter_reads_and_lets_go_when_it_reads_nothing(rig, em):
+    """A pump trip: the estimated flow falls to a tenth. While the meter reads, the set-point
+    moves by the filter's first step only; once it reads nothing, it is the steady dp of the
+    fallen flow at once (the friction is gone with the pump)."""
+    model = SurgeSwabModel(em)
+    steady = lambda q: model.choke_dp_for_bhp(6.85e7, (1.0,) * 3, q, 0.0, 0.0)
+    filtered, unfiltered = AutomatedMpd(rig, em, 0.0, 1.06e7), AutomatedMpd(rig, em, 0.0, 1.06e7)
+    sp = _setpoints(upper=6.63e7)                       # Case 2's band: no cap at 25 bar
+    for mpd in (filtered, unfiltered):
+        mpd.step(_estimate(em, 6.85e7), sp, 6.85e7)
+    fallen = dataclasses.replace(_estimate(em, 6.85e7), string_flow_m3s=FLOW / 10)
+    held = filtered.step(fallen, sp, 6.85e7).choke_dp_ref_pa
+    let_go = unfiltered.step(dataclasses.replace(fallen, string_flow_observable=False),
+                             sp, 6.85e7).choke_dp_ref_pa
+    assert let_go == pytest.approx(steady(FLOW / 10))
+    assert steady(FLOW) < held < let_go - 5.0e5         # the filter keeps most of the friction
+
+
 def test_pulling_out_raises_the_set_point_by_the_swab_ahead_of_the_string(rig, em):
     mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
     model = SurgeSwabModel(em)
