@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import re
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -190,6 +191,13 @@ def markdown(rows: list[dict], made: str) -> str:
                      + " | ".join(_cell(by.get((phase, faults, c))) for c in controllers) + " |")
     missing = [(p, f) for p, f in itertools.product(PHASES, itertools.combinations(FAULTS, 2))
                if (p, f) not in keys]
+    stamps = sorted(m.group(1) for r in rows
+                    if (m := re.search(r"-(\d{8}-\d{6})-\d+$", str(r.get("run_dir", "")))))
+    if stamps:
+        made_at = [datetime.strptime(t, "%Y%m%d-%H%M%S").strftime("%Y-%m-%d %H:%M") for t in
+                   (stamps[0], stamps[-1])]
+        lines += ["", f"The runs were made from {made_at[0]} to {made_at[1]} (their run "
+                      "directories' stamps; a `--with-fault` re-run replaces its cells' rows)."]
     lines += ["", f"Pairs not run: {len(missing)} of the "
               f"{len(PHASES) * len(list(itertools.combinations(FAULTS, 2)))} (phase, pair) cells "
               "(`--fault-matrix all` runs every pair in the pull-out; pairs in the other "
