@@ -40,14 +40,15 @@
                                    the scenario on N seeds through the graph, on a local pool
                                    or a Dask cluster; mean, spread and worst of each figure
                                    per controller (table, plot); the same --output resumes
-  rig compare [SCENARIO ...] [--seeds N] [--output FILE] [--mismatch SUITE] [--render]
+  rig compare [SCENARIO ...] [--seeds N] [--output FILE] [--mismatch SUITE] [--resume] [--render]
                                    Cases 1-3 and the fault scenarios under the NMPC, automated
                                    MPD and the PI baseline, Case 4 under its NMPC, N seeds
                                    each; write the results (the rows of cases not run are kept);
                                    --mismatch SUITE: Cases 1-3 on plants that are not the model
-                                   (suite: every member of config/mismatch.yaml); --render:
+                                   (suite: every member of config/mismatch.yaml); --resume:
+                                   the runs the table holds are not run again; --render:
                                    run nothing, write the page again from its JSON table
-  rig compare --fault-matrix [PAIRS] [--render]
+  rig compare --fault-matrix [PAIRS] [--with-fault FAULT [--controller C ...]] [--render]
                                    each actuator and sensor fault alone (pull-out, rest,
                                    run-in) and in pairs (pull-out) under every controller:
                                    time outside the pore/fracture window per cell
@@ -179,6 +180,8 @@ def main(argv=None) -> int:
     comp.add_argument("--mismatch", metavar="SUITE",
                       help="the trip cases on plants that are not the model: suite (every "
                            "member of config/mismatch.yaml) or a comma list of members")
+    comp.add_argument("--resume", action="store_true",
+                      help="do not run again a planned run whose row the table already holds")
     from drill_bringup.fault_matrix import CONTROLLERS as MATRIX_CONTROLLERS, PAIRS
     comp.add_argument("--fault-matrix", nargs="?", const="actuators", choices=PAIRS,
                       help="each actuator and sensor fault alone in the pull-out, at rest "
@@ -231,7 +234,8 @@ def main(argv=None) -> int:
             output = args.output or ROOT / "docs" / "results.md"
             if args.render:
                 return compare.render(output)
-            return compare.main(args.scenarios, output, args.seeds, mismatch=args.mismatch)
+            return compare.main(args.scenarios, output, args.seeds, mismatch=args.mismatch,
+                                resume=args.resume)
         if args.command == "reestimate":
             from drill_bringup.reestimate import reestimate
             result = reestimate(args.run_dir, args.config_dir, args.rate, launcher.default_domain_id())

@@ -470,24 +470,42 @@ def render(output: Path) -> int:
     return 0
 
 
+def _key(row_or_item) -> tuple:
+    """(case, controller, seed, mismatch) of a table row or a planned run."""
+    if isinstance(row_or_item, dict):
+        return (row_or_item["case"], row_or_item["controller"], row_or_item["seed"],
+                row_or_item.get("mismatch"))
+    case, controller, seed, *rest = row_or_item
+    return case, controller, seed, rest[0] if rest else None
+
+
 def main(cases, output: Path, seeds: int = len(SEED_OFFSETS),
-         controllers=CONTROLLERS, mismatch: str | None = None) -> int:
+         controllers=CONTROLLERS, mismatch: str | None = None, resume: bool = False) -> int:
+    """Run the plan and write the page. ``resume``: a planned run whose row the table
+    already holds is not run again (its row is kept)."""
+    table = output.with_suffix(".json")
+    old = json.loads(table.read_text()) if table.exists() else []
     if mismatch is not None:
         cases = cases or TRIP_CASES
-        rows = run_all(plan_mismatch(cases, controllers, seeds, suite_members(mismatch)))
+        items = plan_mismatch(cases, controllers, seeds, suite_members(mismatch))
     else:
         cases = cases or (*TRIP_CASES, *STEP_CASES, *FAULT_CASES)
-        rows = run_all(plan(cases, controllers, seeds))
+        items = plan(cases, controllers, seeds)
+    done = {_key(r): r for r in old} if resume else {}
+    kept = [done[_key(i)] for i in items if _key(i) in done]
+    if kept:
+        print(f"[compare] {len(kept)} of the {len(items)} runs are in {table.name}: kept", flush=True)
+    fresh = run_all([i for i in items if _key(i) not in done])
+    rows = kept + fresh
     output.parent.mkdir(parents=True, exist_ok=True)
-    table = output.with_suffix(".json")
-    if table.exists():        # keep the rows of the cases (on this kind of plant) not run now
-        rows = [r for r in json.loads(table.read_text())
+    if old:                   # keep the rows of the cases (on this kind of plant) not run now
+        rows = [r for r in old
                 if r["case"] not in cases or bool(r.get("mismatch")) != (mismatch is not None)] \
             + rows
     table.write_text(json.dumps([{k: v for k, v in r.items()} for r in rows], indent=1))
     picture = _picture(output)
-    if "case2" in cases and mismatch is None:
-        picture = plot_trips([r for r in rows if not r.get("mismatch")], "case2", picture)
+    if any(r["case"] == "case2" for r in fresh) and mismatch is None:   # from runs made now
+        picture = plot_trips([r for r in fresh if not r.get("mismatch")], "case2", picture)
     elif not picture.exists():      # kept rows: their recordings may be gone, their plot stays
         picture = None
     output.write_text(markdown(rows, picture.name if picture else None))

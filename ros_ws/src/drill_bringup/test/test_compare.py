@@ -112,6 +112,23 @@ def test_a_partial_compare_keeps_the_other_cases_rows(tmp_path, monkeypatch):
     assert "results-case2.png" in output.read_text()
 
 
+def test_a_resumed_compare_runs_only_the_planned_runs_the_table_does_not_hold(tmp_path,
+                                                                             monkeypatch):
+    output = tmp_path / "results.md"
+    old = [_row("kick", "nmpc", 21, _summary(0.5, 0.0, solves=600))]
+    output.with_suffix(".json").write_text(json.dumps(old))
+    ran = []
+
+    def run_all(items):
+        ran.extend(items)
+        return [_row(c, k, s, _summary(0.4, 0.0, solves=600)) for c, k, s in items]
+    monkeypatch.setattr(compare, "run_all", run_all)
+    compare.main(["kick"], output, seeds=2, controllers=("nmpc",), resume=True)
+    assert ran == [("kick", "nmpc", 1021)]                  # seed 21's row was there
+    rows = json.loads(output.with_suffix(".json").read_text())
+    assert [(r["seed"], r["summary"]["bhp_rmse_pa"]) for r in rows] == [(21, 0.5e5), (1021, 0.4e5)]
+
+
 def test_mismatch_rows_get_their_own_section_with_the_mismatch_targets():
     def mismatched(controller, seed, rmse_settled_bar, outside_s=0.0, false=0, legs=(56.0, 57.0)):
         s = _summary(rmse_settled_bar + 0.5, outside_s, legs=legs,
