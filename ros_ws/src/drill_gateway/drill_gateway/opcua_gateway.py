@@ -37,10 +37,9 @@ from asyncua.crypto.validator import CertificateValidator, CertificateValidatorO
 from asyncua.server.address_space import AttributeService
 
 from drill_core import access
-
+from drill_gateway.certificates import SERVER_URI
 from drill_gateway.opcua_names import (LAST_WRITE_RESULT, NAMESPACE_URI, ROOT, UNECE_NAMESPACE,
                                        UNITS, VARIABLES, Unit, Variable, by_source)
-from drill_gateway.certificates import SERVER_URI
 from drill_gateway.opcua_writes import BAD_TYPE_MISMATCH, BAD_USER_ACCESS_DENIED, Outcome
 
 DEFAULT_ENDPOINT = "opc.tcp://127.0.0.1:4840/drill-rig"   # this machine only (docs/gateways.md)
