@@ -21,6 +21,18 @@ from drill_core.scenario import (load_scenario, load_scenario_config, scenario_k
 ROOT = Path(os.environ.get("RIG_ROOT", Path.cwd()))
 
 
+RUN_STAMP = "%Y%m%d-%H%M%S"      # a run directory's name: SCENARIO[-TAGS]-STAMP-PID
+
+
+def run_started(run_dir: str | Path) -> datetime | None:
+    """When the run in ``run_dir`` was launched (its name's stamp), None for another name."""
+    parts = Path(run_dir).name.rsplit("-", 3)
+    try:
+        return datetime.strptime(f"{parts[-3]}-{parts[-2]}", RUN_STAMP) if len(parts) == 4 else None
+    except ValueError:
+        return None
+
+
 def scenario_path(name: str) -> Path:
     path = Path(name)
     if path.suffix in (".yaml", ".yml") and path.exists():
@@ -112,7 +124,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
         raise ConfigError(f"--mismatch {mismatch}: {path.name} is a {kind} scenario; a "
                           "mismatch changes a tripping run's well (docs/mismatch.md)")
     truth = run_truth(path, mismatch) if kind == "tripping" else None
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    stamp = datetime.now().strftime(RUN_STAMP)
     tags = "".join(f"-{tag}" for tag in (
         controller if controller != own_controller else None,
         f"seed{seed}" if seed is not None else None,

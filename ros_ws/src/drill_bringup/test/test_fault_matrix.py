@@ -3,6 +3,8 @@ each phase, the pairs asked for in the pull-out), valid scenarios with the fault
 phase's fault time, rows per run, and a page that marks every cell outside the window."""
 import itertools
 import json
+import shutil
+from datetime import datetime
 
 import pytest
 import yaml
@@ -25,7 +27,7 @@ def test_every_fault_alone_in_every_phase_and_the_pairs_asked_for_in_the_pull_ou
 
 
 def test_a_cell_is_a_valid_case2_scenario_with_its_faults_at_the_phase_time(tmp_path):
-    written = fm.write_cells(tmp_path, "actuators")
+    written = fm.write_cells(tmp_path, "actuators", fm.base_scenario())
     assert len({path for _, _, path in written}) == len(written)        # one file per cell
     base = yaml.safe_load(runs.scenario_path(fm.BASE_SCENARIO).read_text())
     for phase, faults, path in written:
@@ -60,16 +62,21 @@ def fake_run(spec):
                         "loss_volume_m3": 0.0, "events": [[20.0, "protection", "x", phase]]}}
 
 
-def test_rows_per_run_and_a_page_that_marks_each_cell_outside_the_window(tmp_path, monkeypatch):
-    case2 = runs.scenario_path(fm.BASE_SCENARIO).read_text()
-    monkeypatch.setattr(runs, "ROOT", tmp_path)          # the cells' files go to tmp_path/runs
-    (tmp_path / "config" / "scenarios").mkdir(parents=True)
-    (tmp_path / "config" / "scenarios" / f"{fm.BASE_SCENARIO}.yaml").write_text(case2)
+@pytest.fixture
+def checkout(tmp_path, monkeypatch):
+    """A checkout in tmp_path with this one's config: the cells' files go to its runs/."""
+    shutil.copytree(runs.ROOT / "config", tmp_path / "config")
+    monkeypatch.setattr(runs, "ROOT", tmp_path)
+    return tmp_path
+
+
+def test_rows_per_run_and_a_page_that_marks_each_cell_outside_the_window(checkout):
     rows = fm.run_matrix("none", run=fake_run)
     assert len(rows) == 3 * len(fm.FAULTS) * len(fm.CONTROLLERS)
     trips = [r for r in rows if any("trip" in f for f in r["faults"]) and r["controller"] == "baseline"]
     assert trips and all(r["bhp_under_pore_s"] == 4.0 and r["protection_events"] == 1 for r in trips)
-    page = fm.markdown(rows, "now")
+    page = fm.markdown(rows, "now", (6.6e7, 7.1e7))
+    assert "(660 and 710 bar)" in page and "the fault 15 s into the pull-out" in page
     outside = len(trips)
     assert f"**{outside} of {len(rows)} runs left the window.**" in page
     assert page.count("**4.0 s under (2.5 bar)**") == outside
@@ -77,12 +84,8 @@ def test_rows_per_run_and_a_page_that_marks_each_cell_outside_the_window(tmp_pat
     assert f"Pairs not run: {all_pairs} of the {all_pairs}" in page
 
 
-def test_a_partial_run_replaces_its_cells_rows_and_keeps_the_others(tmp_path, monkeypatch):
-    case2 = runs.scenario_path(fm.BASE_SCENARIO).read_text()
-    monkeypatch.setattr(runs, "ROOT", tmp_path)
-    (tmp_path / "config" / "scenarios").mkdir(parents=True)
-    (tmp_path / "config" / "scenarios" / f"{fm.BASE_SCENARIO}.yaml").write_text(case2)
-    output = tmp_path / "docs" / "fault-matrix.md"
+def test_a_partial_run_replaces_its_cells_rows_and_keeps_the_others(checkout):
+    output = checkout / "docs" / "fault-matrix.md"
     fm.main(output, "none", run=fake_run)
     before = json.loads(output.with_suffix(".json").read_text())
     fm.main(output, "none", "mud pump trip", ("automated_mpd",), run=fake_run)
@@ -92,3 +95,16 @@ def test_a_partial_run_replaces_its_cells_rows_and_keeps_the_others(tmp_path, mo
     assert all("mud pump trip" in r["faults"] and r["controller"] == "automated_mpd" for r in rerun)
     with pytest.raises(ValueError, match="fault 'pump trip'"):
         fm.main(output, "none", "pump trip", run=fake_run)
+
+
+def test_the_page_says_when_its_runs_were_made_from_their_run_directories():
+    assert runs.run_started("runs/fm-rest+bpp_trip-baseline-seed2-20261202-035551-13999") \
+        == datetime(2026, 12, 2, 3, 55, 51)
+    assert runs.run_started("/runs/fm-rest+bpp_trip") is None
+    row = fake_run(fm.batch.RunSpec(fm.cell_name("rest", ("BPP trip",)), "", "nmpc", 2))
+    figures = fm.cell_figures(row["summary"])
+    rows = [{"phase": "rest", "faults": ["BPP trip"], "controller": c, "run_dir": d, **figures}
+            for c, d in (("nmpc", "/r/fm-rest-seed2-20261202-045000-1"),
+                         ("baseline", "/r/fm-rest-seed2-20261202-035300-1"))]
+    page = fm.markdown(rows, "now", (6.6e7, 7.1e7))
+    assert "The runs were made from 2026-12-02 03:53 to 2026-12-02 04:50" in page
