@@ -63,8 +63,11 @@ def _messages(path, topic):
 
 
 def test_every_event_is_recorded_when_it_starts_and_ends(run_mcap):
-    texts = [m.text for m in _messages(run_mcap, topics.RIG_EVENTS)]
-    assert texts == ["bhp_pa dropout for 5 s: starts", "bhp_pa dropout for 5 s: ends",
+    events = _messages(run_mcap, topics.RIG_EVENTS)
+    assert [m.code for m in events] == ["dropout", "dropout_ended", "frozen", "frozen_ended", "nan",
+                                        "spike", "pore_pressure"]
+    assert [m.value for m in events][-2:] == [1.0e6, 6.92e7]
+    assert [m.text for m in events] == ["bhp_pa dropout for 5 s: starts", "bhp_pa dropout for 5 s: ends",
                      "choke_dp_pa frozen for 4 s: starts", "choke_dp_pa frozen for 4 s: ends",
                      "bhp_pa nan: starts", "choke_dp_pa spike 1e+06: starts",
                      "pore_pressure to 6.92e+07 Pa: starts"]
@@ -107,8 +110,8 @@ def test_the_kick_is_detected_and_the_trip_stopped(run_mcap):
     # the block reference brakes at 0.1 m/s^2 (5 s from 0.5 m/s), the string follows it, and
     # stays while the alarm stands (once the raised window has stopped the influx it clears
     # and the trip goes on)
-    cleared = [e[0] for e in series.events if e[1] == "protection" and e[2] == "alarm"
-               and e[3].startswith("kick alarm cleared") and e[0] > alarm_s]
+    cleared = [e.t_s for e in series.events if e.source == "protection"
+               and e.code == "kick_cleared" and e.t_s > alarm_s]
     held = (t > alarm_s + 12.0) & (t < (cleared[0] if cleared else math.inf))
     assert held.sum() > 100 and np.abs(velocity[held]).max() < 0.05
     _, position = series.get("position")
@@ -125,7 +128,8 @@ def test_losses_are_answered_and_the_lowered_window_is_the_advisors(losses_mcap)
     losses = summary["detection"]["losses"]
     assert losses["false_alarms"] == 0 and losses["onset_s"] >= 10.0
     assert losses["delay_s"] is not None and losses["delay_s"] < 30.0
-    lowered = [e for e in series.events if e[1] == "protection" and "high edge lowered" in e[3]]
+    lowered = [e for e in series.events if e.source == "protection" and e.code == "window_narrowed"
+               and "high edge lowered" in e.text]
     assert lowered
     machine = _by_stamp(losses_mcap, topics.MACHINE_COMMAND)
     advisor = _by_stamp(losses_mcap, topics.COMMAND)
@@ -170,11 +174,10 @@ def test_a_pump_trip_is_answered_and_bhp_stays_in_the_window(pump_trip_mcap):
     _, pore = series.get("pore")
     _, fracture = series.get("fracture")
     assert np.all((bhp > pore) & (bhp < fracture)), (bhp.min(), bhp.max())
-    alarms = [e for e in series.events if e[1] == "protection" and e[2] == "alarm"]
-    lost = [e for e in alarms if e[3].startswith("circulation lost")]
-    assert len(lost) == 1 and 8.0 < lost[0][0] < 8.5           # the trip at 8 s, found at once
-    clamps = [e[3] for e in series.events if e[1] == "protection" and e[2] == "clamp"]
-    assert any("choke held shut" in c for c in clamps)
+    lost = [e.t_s for e in series.events if e.source == "protection" and e.code == "circulation_lost"]
+    assert len(lost) == 1 and 8.0 < lost[0] < 8.5              # the trip at 8 s, found at once
+    shut = [e.text for e in series.events if e.code == "pump_trip_response"]
+    assert any("choke held shut" in text for text in shut)
     tb, bpp = series.get("bpp")
     assert bpp[tb < 8.0].max() < 1.0e-5 and bpp[-1] > 0.005     # the back-pressure pump runs
     # the pull-out is held on the BHP without friction, and the advisor is told so
@@ -194,7 +197,6 @@ def test_every_controller_keeps_bhp_in_the_window_running_in_after_a_pump_trip(
     _, pore = series.get("pore")
     _, fracture = series.get("fracture")
     assert np.all((bhp > pore) & (bhp < fracture)), (bhp.min(), bhp.max())
-    assert any(e[3].startswith("circulation lost") for e in series.events
-               if e[1] == "protection")
+    assert any(e.code == "circulation_lost" for e in series.events if e.source == "protection")
     legs = report.summarise(series)["trip_legs"]
     assert len(legs) == 2 and all(t is not None for _, t in legs)    # and the trip is done

@@ -211,10 +211,12 @@ def test_an_opcua_client_browses_reads_subscribes_and_writes_through_the_supervi
     assert abs(after - target) < 1.0                                         # unchanged
     assert abs(seen["setpoints"][-1].bhp_ref_pa - target) < 1.0
     assert bad_level.code == ua.StatusCodes.BadOutOfRange
-    texts = lambda: [e.text for e in seen["events"] if e.text.startswith("[opcua]")]
-    all_logged = lambda: (any("accepted" in t for t in texts())
-                          and any("refused" in t and "fracture" in t for t in texts())
-                          and any("anonymous session (anonymous) may not write" in t
-                                  for t in texts()))
+    logged = lambda: [(e.code, e.text) for e in seen["events"] if e.text.startswith("[opcua]")]
+    all_logged = lambda: (any(c == "operator_setpoints_accepted" for c, _ in logged())
+                          and any(c == "operator_setpoints_refused" and "fracture" in t
+                                  for c, t in logged())
+                          and any(c == "request_refused"
+                                  and "anonymous session (anonymous) may not write" in t
+                                  for c, t in logged()))
     wait_for(all_logged, TIMEOUT_S,
              f"the gateway's accepted and refused writes on {topics.OPERATOR_EVENTS}")

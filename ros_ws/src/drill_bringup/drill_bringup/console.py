@@ -79,7 +79,9 @@ from drill_bringup import console_state as cs
 from drill_core import access
 from drill_core.access import SecurityDir
 from drill_core.config import load_rig
+from drill_core.event_codes import Notice
 from drill_core.ros import graph, topics
+from drill_core.ros.events import event_message
 from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
@@ -191,10 +193,9 @@ class OperatorLink:
         self.pub_level = node.create_publisher(String, topics.AUTOMATION_LEVEL, topics.LATCHED)
         self.pub_estop = node.create_publisher(Bool, topics.EMERGENCY_STOP, topics.LATCHED)
 
-    def event(self, kind: str, text: str, accepted: bool = True) -> None:
-        msg = OperatorEvent(kind=kind, text=f"[{self.source}] {text}", accepted=bool(accepted))
-        msg.header.stamp = self.node.get_clock().now().to_msg()
-        self.pub_events.publish(msg)
+    def event(self, notice: Notice, accepted: bool = True) -> None:
+        self.pub_events.publish(event_message(notice, self.node.get_clock().now().to_msg(),
+                                              accepted, f"[{self.source}] "))
 
     def request_setpoints(self, request: dict, what: str) -> dict:
         """Call /set_setpoints with the SI ``request``; publish the outcome as an event."""
@@ -220,32 +221,34 @@ class OperatorLink:
                     if not accepted and not reason:
                         reason = "refused (the supervisor gave no reason)"
             if accepted:
-                self.event("setpoint", f"setpoints accepted: {what}", True)
+                self.event(Notice("operator_setpoints_accepted", f"setpoints accepted: {what}"))
             else:
-                self.event("refusal", f"setpoints refused ({what}): {reason}", False)
+                self.event(Notice("operator_setpoints_refused",
+                                  f"setpoints refused ({what}): {reason}"), False)
             return {"accepted": accepted, "reason": "" if accepted else reason, "active": active,
                     "requested": request, "detail": what}
 
     def set_level(self, level: str, note: str = "") -> dict:
         with self._lock:
             self.pub_level.publish(String(data=level))
-            self.event("mode", f"automation level {level} requested{note}", True)
+            self.event(Notice("level_requested", f"automation level {level} requested{note}"))
             return {"accepted": True, "reason": "", "level": level}
 
     def set_estop(self, engaged: bool) -> dict:
         with self._lock:
             self.pub_estop.publish(Bool(data=bool(engaged)))
-            self.event("emergency_stop", "emergency stop " + ("ENGAGED" if engaged else "released"), True)
+            self.event(Notice("estop_requested" if engaged else "estop_release_requested",
+                              "emergency stop " + ("ENGAGED" if engaged else "released")))
             return {"accepted": True, "reason": "", "engaged": bool(engaged)}
 
     def acknowledge(self, text: str) -> None:
         with self._lock:
-            self.event("acknowledge", text, True)
+            self.event(Notice("acknowledged", text))
 
     def refuse(self, action: str, reason: str) -> dict:
         """An operator input the console could not turn into a request: logged too."""
         with self._lock:
-            self.event("refusal", f"{action} not done: {reason}", False)
+            self.event(Notice("request_refused", f"{action} not done: {reason}"), False)
         return {"accepted": False, "reason": reason}
 
 
@@ -326,7 +329,7 @@ class ConsoleNode(RigNode):
         self.state.on_status(m.node, status_dict(m))
 
     def _on_event(self, source: str, m: OperatorEvent) -> None:
-        self.state.on_event(source, seconds(m.header.stamp), m.kind, m.text, m.accepted)
+        self.state.on_event(source, seconds(m.header.stamp), m.kind, m.code, m.text, m.accepted)
 
     def _tick(self) -> None:
         self.status.values = dict(self.counters, port=float(self.port))

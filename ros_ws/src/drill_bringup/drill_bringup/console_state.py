@@ -367,20 +367,22 @@ class ConsoleState:
             return dict(value) if value is not None else None
 
     # ---------------------------------------------------------------- events
-    def on_event(self, source: str, t: float, kind: str, text: str, accepted: bool) -> dict:
-        """Add an event, or count a repeat of an identical one among the newest few (moved
-        to the end), so a clamp repeated every command period does not flood the list."""
+    def on_event(self, source: str, t: float, kind: str, code: str, text: str,
+                 accepted: bool) -> dict:
+        """Add an event (``code``: drill_core.event_codes), or count a repeat of an identical
+        one among the newest few (moved to the end), so a clamp repeated every command
+        period does not flood the list."""
         with self._lock:
-            key = (source, kind, text)
+            key = (source, code, text)
             for event in list(self._events)[-REPEAT_LOOKBACK:]:
-                if (event["source"], event["kind"], event["text"]) == key:
+                if (event["source"], event["code"], event["text"]) == key:
                     self._events.remove(event)
                     event.update(count=event["count"] + 1, t=t, wall=time.time())
                     self._events.append(event)
                     return dict(event)
             self._event_id += 1
             event = {"id": self._event_id, "t": t, "wall": time.time(), "source": source,
-                     "kind": kind, "text": text, "accepted": bool(accepted), "count": 1,
+                     "kind": kind, "code": code, "text": text, "accepted": bool(accepted), "count": 1,
                      "needs_ack": (source, kind) in ACK_EVENTS, "acked": False}
             self._events.append(event)
             return dict(event)

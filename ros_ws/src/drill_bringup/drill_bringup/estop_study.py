@@ -61,8 +61,7 @@ def machine_commands(path: Path) -> dict[float, object]:
 
 def presses(series: report.Series) -> list[float]:
     """Stamps [s] of the emergency stop's engagements on /protection/events."""
-    return [t for t, source, kind, text in series.events
-            if source == "protection" and kind == "emergency_stop" and "engaged" in text]
+    return [e.t_s for e in series.events if e.source == "protection" and e.code == "estop_engaged"]
 
 
 def stop_figures(scenario: str, series: report.Series, commands: dict, press_s: float,

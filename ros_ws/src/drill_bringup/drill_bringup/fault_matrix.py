@@ -112,7 +112,7 @@ def write_cells(directory: Path, pairs: str, base: dict) -> list[tuple[str, tupl
 
 def cell_figures(summary: dict) -> dict:
     """What the page shows of a cell's run (SI)."""
-    alarms = [e for e in summary.get("events", []) if e[1] == "protection"]
+    alarms = [e for e in summary.get("events", []) if e["source"] == "protection"]
     return {key: summary.get(key) for key in (
         "bhp_under_pore_s", "bhp_over_fracture_s", "worst_underbalance_pa",
         "worst_overbalance_over_fracture_pa", "bhp_worst_excursion_pa", "influx_volume_m3",

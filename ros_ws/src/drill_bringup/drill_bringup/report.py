@@ -9,12 +9,14 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 from pathlib import Path
 
 import numpy as np
 
 from drill_bringup import drilling_report, mcap_io
 from drill_bringup import well_control_report as well_control
+from drill_core.config import load_rig
 from drill_core.ros import topics
 from drill_core.units import LPM_PER_M3S, PA_PER_BAR
 
@@ -23,6 +25,21 @@ FINAL_WINDOW_S = 30.0           # the estimator's final bias: mean error over th
 SETTLE_S = 30.0                 # band time "settled": after the first 30 s of a run (issue targets)
 OPEN_LOOP_ADVISOR = "sequencer"
 EVENT_SOURCES = {topics.RIG_EVENTS: "rig", topics.PROTECTION_EVENTS: "protection"}
+RUN_CONFIG = "config"       # a run directory's copy of the configuration it ran with
+
+
+class RecordedEvent(NamedTuple):
+    """One event of a recording (drill_msgs/OperatorEvent; codes: drill_core.event_codes)."""
+    t_s: float
+    source: str       # "rig" or "protection" (EVENT_SOURCES)
+    kind: str
+    code: str
+    value: float      # the code's SI value, NaN where it carries none
+    text: str
+
+    def as_dict(self) -> dict:
+        """For summary.json (a NaN value as null)."""
+        return self._asdict() | {"value": self.value if math.isfinite(self.value) else None}
 # series key, PlantTruth field of the formation and the pit
 TRUTH_FORMATION_FIELDS = (("pit_gain", "pit_gain_m3"), ("influx_volume", "influx_volume_m3"),
                           ("loss_volume", "loss_volume_m3"), ("pore", "pore_pressure_pa"),
@@ -39,7 +56,7 @@ class Series:
     t: dict = field(default_factory=dict)
     v: dict = field(default_factory=dict)
     advisor: str = ""       # source of the advisor commands (nmpc, baseline, sequencer)
-    events: list = field(default_factory=list)    # (t s, source, kind, text): rig, protection
+    events: list = field(default_factory=list)    # RecordedEvent: rig, protection
     plant_status: dict = field(default_factory=dict)   # the plant's last NodeStatus values
 
     def add(self, key: str, t_s: float, value) -> None:
@@ -78,7 +95,9 @@ def load_series(mcap_path: Path) -> Series:
             s.add("bhp_meas", t, msg.bhp_pa)
             s.add("pit_meas", t, getattr(msg, "pit_volume_m3", math.nan))
         elif rec.topic in EVENT_SOURCES:
-            s.events.append((t, EVENT_SOURCES[rec.topic], msg.kind, msg.text))
+            s.events.append(RecordedEvent(t, EVENT_SOURCES[rec.topic], msg.kind,   # no code
+                                          getattr(msg, "code", ""),                  # before
+                                          getattr(msg, "value", math.nan), msg.text))  # codes
         elif rec.topic == topics.ESTIMATE:
             s.add("bhp_est", t, msg.bhp_pa)
             s.add("friction_est", t, list(msg.friction_pa))
@@ -216,17 +235,20 @@ def _estimation(s: Series, t, bhp) -> dict:
     return out
 
 
-def _detector_config():
-    """The kick detector's thresholds in this checkout's configuration: the estimator's
-    influx estimate is judged against them too."""
+def run_config_dir(run_dir: Path | None) -> Path:
+    """The configuration a run ran with: its directory's copy (RUN_CONFIG), else (a run
+    made before runs kept one, or a recording without its directory) this checkout's."""
+    if run_dir is not None and (run_dir / RUN_CONFIG).is_dir():
+        return run_dir / RUN_CONFIG
     from drill_bringup.runs import ROOT       # (runs imports this module)
-    from drill_core.config import load_rig
-    return load_rig(ROOT / "config").protection.kick_detection
+    return ROOT / "config"
 
 
-def summarise(s: Series) -> dict:
+def summarise(s: Series, config_dir: Path | None = None) -> dict:
     """The run's numbers (SI): the paper's Table 7 form and window statistics (runs that
-    track setpoints), surge/swab, estimator errors and solve times."""
+    track setpoints), surge/swab, estimator errors and solve times. The kick detector's
+    thresholds, against which the estimator's influx estimate is judged too, are those of
+    ``config_dir`` (None: run_config_dir's fallback)."""
     t, bhp = s.get("bhp")
     _, pos = s.get("position")
     _, solve = s.get("solve_time")
@@ -240,7 +262,8 @@ def summarise(s: Series) -> dict:
     }
     if tracks_setpoints(s):
         out.update(_tracking(s, t, bhp, pos))
-    out.update(well_control.summarise(s, t, bhp, _detector_config()))
+    detector = load_rig(config_dir or run_config_dir(None)).protection.kick_detection
+    out.update(well_control.summarise(s, t, bhp, detector))
     out.update(_estimation(s, t, bhp))
     out.update({key: float(s.plant_status[key]) for key in REALTIME_MARGINS
                 if key in s.plant_status})
@@ -443,7 +466,7 @@ def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | Non
         summary, plots, table = drilling_report.report(mcap_path, out_dir / "plots", name)
     else:
         series = load_series(mcap_path)
-        summary = summarise(series)
+        summary = summarise(series, run_config_dir(out_dir))
         recorded = mcap_io.read_metadata(mcap_path, mcap_io.TRUTH_METADATA)
         summary["plant_mismatch"] = json.loads(recorded["truth"]) if recorded else None
         plots = plot(series, out_dir / "plots")

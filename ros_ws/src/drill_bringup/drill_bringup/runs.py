@@ -72,6 +72,17 @@ def _drilling_scenario(path: Path, realtime: bool, controller: str | None):
 TRUTH_FILE = "truth.json"       # the plant's mismatch in a run directory (drill_core.mismatch)
 
 
+def stage_config(run_dir: Path) -> Path:
+    """Copy the checkout's rig configuration (config/*.yaml) into ``run_dir`` and return
+    the copy's directory: the nodes launched here read it and the report judges the run
+    with it (report.RUN_CONFIG), so a run keeps what it ran with."""
+    target = run_dir / report.RUN_CONFIG
+    target.mkdir(parents=True, exist_ok=True)
+    for source in sorted((ROOT / "config").glob("*.yaml")):
+        (target / source.name).write_bytes(source.read_bytes())
+    return target
+
+
 def run_truth(path: Path, mismatch: str | None):
     """How the run's plant differs from the model: ``mismatch`` (a suite member or draw:N),
     else the scenario's ``truth:`` section, as (name, Mismatch); None: the model's own.
@@ -133,7 +144,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     mcap_path = run_dir / f"{scenario.name}.mcap"
     mode = "realtime" if realtime else "fast"
     staged = path if truth is None else run_dir / "scenario.yaml"
-    common = {"config_dir": str(ROOT / "config"), "scenario": str(staged), "mode": mode}
+    common = {"config_dir": str(run_dir / report.RUN_CONFIG), "scenario": str(staged), "mode": mode}
     nodes = launcher.graph(controller, common, mcap_path, fast=not realtime, layout=layout,
                            kind=kind, extras=extras, node_params=node_params)
     if truth is not None:
@@ -150,6 +161,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     launch = launcher.Launch(nodes, run_dir, domain_id, layout,
                              None if here is None else names, peers, pin_cpus=pin_cpus)
     run_dir.mkdir(parents=True, exist_ok=True)
+    stage_config(run_dir)
     if truth is not None:
         stage_truth(path, run_dir, truth)
     say = (lambda *_: None) if quiet else (lambda text: print(text, flush=True))

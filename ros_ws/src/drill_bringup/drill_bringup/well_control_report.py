@@ -14,7 +14,7 @@ from drill_core.units import L_PER_M3, PA_PER_BAR
 TIMELINE_KINDS = {("rig", "fault"), ("rig", "formation"), ("protection", "alarm")}
 # The protection's detector alarms (drill_protection.kick_detection), the truth volume they
 # answer to, and the volume below which an alarm is a false one.
-DETECTIONS = {"kick": ("kick detected", "influx_volume"), "losses": ("losses detected", "loss_volume")}
+DETECTIONS = {"kick": ("kick_detected", "influx_volume"), "losses": ("losses_detected", "loss_volume")}
 FALSE_ALARM_BELOW_M3 = 1.0e-3
 
 
@@ -58,9 +58,9 @@ def detections(s, t, config) -> dict:
     estimated = len(influx) > 0 and np.any(np.nan_to_num(influx) != 0.0)
     by_estimate = estimate_alarms(t_est, np.nan_to_num(influx), config.flow_threshold_m3s,
                                   config.confirm_s) if estimated else {}
-    for kind, (prefix, key) in DETECTIONS.items():
+    for kind, (code, key) in DETECTIONS.items():
         _, volume = s.get(key)
-        alarms = [e[0] for e in s.events if e[1] == "protection" and e[3].startswith(prefix)]
+        alarms = [e.t_s for e in s.events if e.source == "protection" and e.code == code]
         out[kind] = _judged(alarms, t, volume)
         if estimated:
             out[f"{kind} (estimate)"] = _judged(by_estimate[kind], t, volume)
@@ -86,7 +86,7 @@ def summarise(s, t, bhp, detection_config) -> dict:
         "bhp_over_fracture_s": float(np.count_nonzero(bhp > fracture) * dt),
         "worst_underbalance_pa": float(max(np.max(pore - bhp), 0.0)),
         "worst_overbalance_over_fracture_pa": float(max(np.max(bhp - fracture), 0.0)),
-        "events": [list(e) for e in s.events if (e[1], e[2]) in TIMELINE_KINDS],
+        "events": [e.as_dict() for e in s.events if (e.source, e.kind) in TIMELINE_KINDS],
         "detection": detections(s, t, detection_config),
     }
 
@@ -113,8 +113,8 @@ def format_rows(summary: dict) -> list[str]:
     events = summary["events"]
     if events:
         rows.append(f"  event timeline                {len(events)} events")
-        rows += [f"    t = {t:7.1f} s  {source:<10} {kind:<9} {text}"
-                 for t, source, kind, text in events]
+        rows += [f"    t = {e['t_s']:7.1f} s  {e['source']:<10} {e['code']:<18} {e['text']}"
+                 for e in events]
     return rows
 
 
@@ -130,8 +130,9 @@ def plot(s, ax_pressure, ax_volume) -> bool:
     ax_pressure.plot(t, pore / PA_PER_BAR, "r-", lw=0.9, label="pore pressure")
     ax_pressure.plot(t, fracture / PA_PER_BAR, "m-", lw=0.9, label="fracture pressure")
     ax_pressure.set(ylabel="pressure [bar]", title="Bottom-hole pressure in the formation window")
-    for time_s, _, _, _ in (e for e in s.events if (e[1], e[2]) in TIMELINE_KINDS):
-        ax_pressure.axvline(time_s, color="0.5", ls=":", lw=0.8)
+    for e in s.events:
+        if (e.source, e.kind) in TIMELINE_KINDS:
+            ax_pressure.axvline(e.t_s, color="0.5", ls=":", lw=0.8)
     ax_pressure.legend(fontsize=7, loc="best")
     tm, pit = s.get("pit_meas")
     if len(pit):

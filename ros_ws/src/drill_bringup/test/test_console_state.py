@@ -145,15 +145,15 @@ def test_snapshot_is_strict_json():
 # --------------------------------------------------------------------------- events
 def test_events_collapse_repeats_and_acknowledge():
     state = cs.ConsoleState(WINDOW)
-    a = state.on_event("protection", 1.0, "alarm", "BHP 712 bar outside the window", False)
-    state.on_event("protection", 2.0, "clamp", "automation level manual: held", True)
-    state.on_event("protection", 3.0, "clamp", "automation level manual: held", True)
-    state.on_event("operator", 3.5, "setpoint", "[console] setpoints accepted", True)
+    a = state.on_event("protection", 1.0, "alarm", "window_exit", "BHP 712 bar outside the window", False)
+    state.on_event("protection", 2.0, "clamp", "level_hold", "automation level manual: held", True)
+    state.on_event("protection", 3.0, "clamp", "level_hold", "automation level manual: held", True)
+    state.on_event("operator", 3.5, "setpoint", "operator_setpoints_accepted", "[console] setpoints accepted", True)
     events = state.events()
     assert [e["kind"] for e in events] == ["alarm", "clamp", "setpoint"]
     assert events[1]["count"] == 2 and events[1]["t"] == 3.0
     assert [e["needs_ack"] for e in events] == [True, True, False]
-    state.on_event("protection", 4.0, "clamp", "automation level manual: held", True)   # interleaved repeat
+    state.on_event("protection", 4.0, "clamp", "level_hold", "automation level manual: held", True)   # interleaved repeat
     events = state.events()
     assert [e["kind"] for e in events] == ["alarm", "setpoint", "clamp"]
     assert events[-1]["count"] == 3 and events[-1]["t"] == 4.0
@@ -169,9 +169,9 @@ def test_events_collapse_repeats_and_acknowledge():
 
 def test_the_rigs_faults_and_formation_changes_are_alarms_to_acknowledge():
     state = cs.ConsoleState(WINDOW)
-    state.on_event("rig", 60.0, "fault", "mud_pump trip: starts", True)
-    state.on_event("rig", 90.0, "formation", "pore_pressure to 6.9e+07 Pa: starts", True)
-    state.on_event("operator", 95.0, "setpoint", "[console] setpoints accepted", True)
+    state.on_event("rig", 60.0, "fault", "trip", "mud_pump trip: starts", True)
+    state.on_event("rig", 90.0, "formation", "pore_pressure", "pore_pressure to 6.9e+07 Pa: starts", True)
+    state.on_event("operator", 95.0, "setpoint", "operator_setpoints_accepted", "[console] setpoints accepted", True)
     assert [e["needs_ack"] for e in state.events()] == [True, True, False]
     assert state.unacknowledged() == 2
 

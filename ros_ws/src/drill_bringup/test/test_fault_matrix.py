@@ -59,7 +59,9 @@ def fake_run(spec):
                         "worst_underbalance_pa": 2.5e5 if under else 0.0,
                         "worst_overbalance_over_fracture_pa": 0.0,
                         "bhp_worst_excursion_pa": 1.0e5, "influx_volume_m3": 0.0,
-                        "loss_volume_m3": 0.0, "events": [[20.0, "protection", "x", phase]]}}
+                        "loss_volume_m3": 0.0,
+                        "events": [{"t_s": 20.0, "source": "protection", "kind": "alarm",
+                                    "code": "window_exit", "value": 6.7e7, "text": phase}]}}
 
 
 @pytest.fixture

@@ -2,7 +2,7 @@
 import numpy as np
 
 from drill_bringup import well_control_report as wc
-from drill_bringup.report import Series
+from drill_bringup.report import RecordedEvent, Series
 from drill_core.config import KickDetection
 
 DETECTOR = KickDetection(window_s=20.0, pressure_average_s=1.0, flow_threshold_m3s=3.3e-4,
@@ -21,8 +21,10 @@ def series(influx_from_s=None, alarms=(), estimate=None):
             s.add(key, t, value)
         if estimate is not None:
             s.add("influx_est", t, estimate(t))
-    s.events += [(a, "protection", "alarm", f"kick detected: excess flow +60 L/min") for a in alarms]
-    s.events.append((50.0, "rig", "formation", "pore_pressure to 6.84e+07 Pa: starts"))
+    s.events += [RecordedEvent(a, "protection", "alarm", "kick_detected", 1.0e-3,
+                               "kick detected: excess flow +60 L/min") for a in alarms]
+    s.events.append(RecordedEvent(50.0, "rig", "formation", "pore_pressure", 6.84e7,
+                                  "pore_pressure to 6.84e+07 Pa: starts"))
     return s
 
 

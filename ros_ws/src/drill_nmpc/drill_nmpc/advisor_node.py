@@ -18,6 +18,7 @@ from drill_msgs.msg import OperatorEvent, RigCommand, Setpoints
 
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
+from drill_core.ros.events import event_message
 from drill_core.ros.node import RigNode
 from drill_core.ros.sampling import SampleGate
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
@@ -117,9 +118,7 @@ class AdvisorNode(RigNode):
     def publish_events(self, events: list[Event], stamp_ns: int, source: str = "scenario") -> None:
         """The book's events on /operator/events, then its setpoints if they changed."""
         for e in events:
-            msg = OperatorEvent(kind=e.kind, text=e.text, accepted=e.accepted)
-            msg.header.stamp = from_ns(stamp_ns)
-            self.event_pub.publish(msg)
+            self.event_pub.publish(event_message(e.notice, from_ns(stamp_ns), e.accepted))
         if self.book.changed:
             self.sp_pub.publish(to_msg(self.book.active, stamp_ns, source))
             self.book.changed = False

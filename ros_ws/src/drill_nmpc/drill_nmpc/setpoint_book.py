@@ -19,15 +19,24 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+from drill_core.event_codes import Notice
 from drill_core.scenario import SETPOINT_FIELDS, ActiveSetpoints, Scenario
 from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
 
 
 @dataclass(frozen=True)
 class Event:
-    kind: str          # "setpoint" (accepted) or "refusal"
-    text: str
+    """A change of the setpoints in force, or a refused one (drill_core.event_codes)."""
+    notice: Notice
     accepted: bool
+
+    @property
+    def kind(self) -> str:
+        return self.notice.kind      # "setpoint" (accepted) or "refusal"
+
+    @property
+    def text(self) -> str:
+        return self.notice.text
 
 
 APPLIED_BLOCK_TOLERANCE_M = 1.0e-3  # the protection's applied block reference this far from
@@ -108,13 +117,13 @@ class SetpointBook:
         ok, reason = validate_setpoints(candidate, self.envelope)
         window = f"window {low / 1e5:.1f}-{high / 1e5:.1f} bar"
         if not ok:
-            return [Event("refusal", f"protection: well-control target refused ({window}): "
-                                     f"{reason}", False)]
+            return [Event(Notice("well_control_refused", f"protection: well-control target "
+                                                         f"refused ({window}): {reason}"), False)]
         self.active = candidate
         self.bhp_resolved = True
         self.changed = True
-        return [Event("setpoint", f"protection: well control ({window}): "
-                                  f"{describe(candidate)}", True)]
+        return [Event(Notice("well_control_setpoints", f"protection: well control ({window}): "
+                                                       f"{describe(candidate)}", bhp_ref_pa), True)]
 
     def advance(self, t_s: float) -> list[Event]:
         """Apply every schedule entry due by scenario time ``t_s``, in order."""
@@ -128,13 +137,13 @@ class SetpointBook:
             if math.isfinite(candidate.bhp_ref_pa):
                 ok, reason = validate_setpoints(candidate, self.envelope)
                 if not ok:
-                    events.append(Event("refusal", f"scenario entry at {entry.time_s:g} s "
-                                                   f"refused: {reason}", False))
+                    events.append(Event(Notice("schedule_refused", f"scenario entry at "
+                                                   f"{entry.time_s:g} s refused: {reason}"), False))
                     continue
             self.active = candidate
             applied = True
         if applied and self.bhp_resolved:
-            events.append(Event("setpoint", f"scenario: {describe(self.active)}", True))
+            events.append(self._schedule_event())
             self.changed = True
         return events
 
@@ -147,7 +156,11 @@ class SetpointBook:
             self.active = dataclasses.replace(self.active, bhp_ref_pa=float(bhp_pa))
         self.bhp_resolved = True
         self.changed = True
-        return [Event("setpoint", f"scenario: {describe(self.active)}", True)]
+        return [self._schedule_event()]
+
+    def _schedule_event(self) -> Event:
+        return Event(Notice("schedule_setpoints", f"scenario: {describe(self.active)}",
+                            self.active.bhp_ref_pa), True)
 
     def request(self, candidate: ActiveSetpoints, source: str) -> tuple[bool, str, Event]:
         """An operator request, already merged over the setpoints in force."""
@@ -156,8 +169,10 @@ class SetpointBook:
         else:
             ok, reason = validate_setpoints(candidate, self.envelope)
         if not ok:
-            return False, reason, Event("refusal", f"{source}: refused: {reason}", False)
+            return False, reason, Event(Notice("setpoints_refused", f"{source}: refused: {reason}"),
+                                        False)
         self.active = candidate
         self.bhp_resolved = True
         self.changed = True
-        return True, reason, Event("setpoint", f"{source}: {describe(candidate)}", True)
+        return True, reason, Event(Notice("setpoints_accepted", f"{source}: {describe(candidate)}",
+                                          candidate.bhp_ref_pa), True)

@@ -20,9 +20,10 @@ import numpy as np
 from drill_msgs.msg import ActuatorFrame, OperatorEvent, PlantTruth, RigMeasurement
 from rosgraph_msgs.msg import Clock
 
-from drill_core.events import EVENT_KINDS
+from drill_core.event_codes import scenario_notice
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
+from drill_core.ros.events import event_message
 from drill_core.ros.inbox import StampedInbox
 from drill_core.ros.lockstep import LockstepStart, flush
 from drill_core.ros.node import RigNode
@@ -179,10 +180,7 @@ class PlantNode(RigNode):
                 self._announced.add((i, edge))
                 if edge == "starts" and event.kind in EVENT_PARAMETERS:
                     self.sim.set_parameter(EVENT_PARAMETERS[event.kind], event.value)
-                msg = OperatorEvent(kind=EVENT_KINDS[event.kind].category,
-                                    text=f"{event.describe()}: {edge}", accepted=True)
-                msg.header.stamp = stamp
-                self.pub_events.publish(msg)
+                self.pub_events.publish(event_message(scenario_notice(event, edge == "ends"), stamp))
 
     def _truth_msg(self, stamp) -> PlantTruth:
         t = self.sim.truth()

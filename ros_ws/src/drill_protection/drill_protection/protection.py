@@ -48,6 +48,7 @@ import numpy as np
 
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
+from drill_core.event_codes import Notice
 from drill_core.units import PA_PER_BAR
 from drill_protection.pump_trip import TripAction
 from drill_protection.well_control import Hold
@@ -61,7 +62,7 @@ RESTING_REFERENCE_SPEED_MPS = 0.05   # a block reference slower than this is com
 class Decision:
     """The command that goes to the machines and why it differs from the request."""
     command: np.ndarray                 # [u_r m, q_c m^3/s, q_bpp m^3/s, p_spp Pa]
-    clamps: tuple[str, ...]             # one reason per limit that acted
+    clamps: tuple[Notice, ...]          # one per limit that acted (drill_core.event_codes)
     trip_speed_limits_mps: tuple[float, float]  # allowed speed running in, pulling out
     manual_choke_opening: float | None = None   # choke in manual at this opening [1]; None: PI
     choke_dp_setpoint: tuple[float, float] | None = None  # pressure loop: (dp set-point Pa,
@@ -197,33 +198,35 @@ class ProcessProtection:
         p = self.config.protection
         period = p.command_period_s
         request = np.asarray(request, dtype=float)
-        clamps: list[str] = []
+        clamps: list[Notice] = []
         if not np.all(np.isfinite(request)):
-            clamps.append("non-finite request: holding the last command")
+            clamps.append(Notice("non_finite_request", "non-finite request: holding the last command"))
             request = self.previous.copy()
         if manual_choke_opening is not None and not np.isfinite(manual_choke_opening):
-            clamps.append("non-finite manual choke opening: holding the last choke mode")
+            clamps.append(Notice("non_finite_manual_choke",
+                                 "non-finite manual choke opening: holding the last choke mode"))
             manual_choke_opening = self.previous_manual_opening
         if np.isfinite(bhp_pa):
             self.last_bhp_pa = float(bhp_pa)
         stopped = self._emergency_bhp(string_velocity_mps, circulation_m3s, choke_dp_pa)
         not_applied = self.emergency_stop or self.automation_level != "closed_loop"
         if self.emergency_stop:
-            clamps.append(f"emergency stop: advisor command not applied, drawworks brake set, "
-                          f"BHP held at {stopped / PA_PER_BAR:.1f} bar by the choke")
+            clamps.append(Notice("estop_hold", f"emergency stop: advisor command not applied, "
+                                 f"drawworks brake set, BHP held at {stopped / PA_PER_BAR:.1f} "
+                                 "bar by the choke", stopped))
             request = self.previous.copy()
             request[0] = position_m if np.isfinite(position_m) else self.previous[0]
             manual_choke_opening, choke_dp_setpoint = None, None
         elif not_applied:
-            clamps.append(f"automation level {self.automation_level}: advisor command not "
-                          "applied, block held at rest, pressures held")
+            clamps.append(Notice("level_hold", f"automation level {self.automation_level}: "
+                                 "advisor command not applied, block held at rest, pressures held"))
             request = self.previous.copy()
             manual_choke_opening = self.previous_manual_opening
             held = self.previous_dp_setpoint
             choke_dp_setpoint = (held[0], 0.0) if held is not None else None
         elif choke_dp_setpoint is not None and not np.all(np.isfinite(choke_dp_setpoint)):
-            clamps.append(f"non-finite choke dp set-point {choke_dp_setpoint[0]} Pa: choke on "
-                          "its flow controller")
+            clamps.append(Notice("non_finite_dp_setpoint", f"non-finite choke dp set-point "
+                                 f"{choke_dp_setpoint[0]} Pa: choke on its flow controller"))
             choke_dp_setpoint = None
         command = request.copy()
         manual_choke_opening = self._limit_opening(manual_choke_opening, clamps)
@@ -238,7 +241,7 @@ class ProcessProtection:
             manual_choke_opening, choke_dp_setpoint = None, (hold.choke_dp_pa, 0.0)
             flowing = (surface_flows or (np.nan,))[0]      # the pressure loop's feed-forward
             command[1] = flowing if np.isfinite(flowing) else self.previous[1]
-            clamps.append(hold.reason)
+            clamps.append(Notice("well_control_hold", hold.reason, hold.target_bhp_pa))
             bhp_ref_pa = hold.target_bhp_pa
         trip = None if not_applied and not self.emergency_stop else trip_action
         friction_free = trip.friction_free_bhp_pa if trip is not None else float("nan")
@@ -252,7 +255,8 @@ class ProcessProtection:
             limited = np.clip(command[i], self.previous[i] - self.slew[i], self.previous[i] + self.slew[i])
             limited = float(np.clip(limited, self.lower[i], self.upper[i]))
             if limited != command[i] and not (guard and i in (1, 2)) and not (shut and i == 1):
-                clamps.append(f"{INPUTS[i]} {command[i]:.6g} -> {limited:.6g} (machine range/rate)")
+                clamps.append(Notice("machine_limit", f"{INPUTS[i]} {command[i]:.6g} -> "
+                                     f"{limited:.6g} (machine range/rate)"))
             command[i] = limited
         if guard:
             self._drive_back(guard, command, surface_flows, circulation_m3s)
@@ -274,11 +278,13 @@ class ProcessProtection:
             limited_speed = float(np.clip(speed, lowest[0], max(lowest[0], highest[0])))
             if limited_speed != speed:
                 why = lowest[1] if limited_speed == lowest[0] else highest[1]
-                clamps.append(f"block reference speed {speed:+.3f} -> {limited_speed:+.3f} m/s ({why})")
+                clamps.append(Notice("speed_clamp", f"block reference speed {speed:+.3f} -> "
+                                     f"{limited_speed:+.3f} m/s ({why})", limited_speed))
         ref = self.previous[0] + limited_speed * period
         ref = float(np.clip(ref, self.lower[0], self.upper[0]))
         if ref != self.previous[0] + limited_speed * period:
-            clamps.append("block reference held inside the drawworks range")
+            clamps.append(Notice("drawworks_range", "block reference held inside the drawworks "
+                                 "range", ref))
         command[0] = ref
         self.previous_speed_mps = 0.0 if self.emergency_stop else (ref - self.previous[0]) / period
         self.previous = command.copy()
@@ -308,18 +314,19 @@ class ProcessProtection:
         return self.emergency_bhp_pa
 
     def _answer_trip(self, trip: TripAction, guard: int, command: np.ndarray,
-                     clamps: list[str], shut: bool) -> None:
+                     clamps: list[Notice], shut: bool) -> None:
         """A lost circulation: the choke's flow reference set (held shut) while the friction
         is made good (``shut``: the answer asks it and the choke is not on its emergency
         stop's BHP loop); the back-pressure pump at least at its flow, unless the window
         guard is relieving a BHP over the window."""
         if shut:
             command[1] = float(np.clip(trip.choke_flow_m3s, self.lower[1], self.upper[1]))
-            clamps.append(trip.reason)
+            clamps.append(Notice("pump_trip_response", trip.reason))
         floor = min(trip.bpp_flow_min_m3s, self.upper[2])
         if guard <= 0 and command[2] < floor:
-            clamps.append(f"{INPUTS[2]} {command[2]:.6g} -> {floor:.6g} ({trip.reason}: the "
-                          "back-pressure pump gives the choke a flow)")
+            clamps.append(Notice("pump_trip_floor", f"{INPUTS[2]} {command[2]:.6g} -> {floor:.6g} "
+                                 f"({trip.reason}: the back-pressure pump gives the choke a "
+                                 "flow)", floor))
             command[2] = floor
 
     def _drive_back(self, guard: int, command: np.ndarray, surface_flows,
@@ -342,7 +349,7 @@ class ProcessProtection:
         command[2] = min(command[2], pump) if guard > 0 else max(command[2], pump)
         command[1:3] = np.clip(command[1:3], self.lower[1:3], self.upper[1:3])
 
-    def _window_guard(self, bhp_pa: float, clamps: list[str],
+    def _window_guard(self, bhp_pa: float, clamps: list[Notice],
                       friction_free_bhp_pa: float = float("nan")) -> int:
         """+1 while the measured BHP is over the fracture pressure less the margin (relieve:
         more choke flow, less back-pressure pump), -1 under the pore pressure plus the margin
@@ -359,18 +366,21 @@ class ProcessProtection:
         over = bhp_pa > high
         what = "BHP" if over or judged == bhp_pa else "BHP without friction"
         value = bhp_pa if over else judged
-        clamps.append(f"{what} {value / PA_PER_BAR:.1f} bar {'over' if over else 'under'} the "
-                      f"window's {'fracture' if over else 'pore'} limit "
-                      f"{(high if over else low) / PA_PER_BAR:.1f} bar: choke flow reference "
-                      f"{'up' if over else 'down'}, back-pressure pump {'down' if over else 'up'}")
+        clamps.append(Notice("window_guard", f"{what} {value / PA_PER_BAR:.1f} bar "
+                             f"{'over' if over else 'under'} the window's "
+                             f"{'fracture' if over else 'pore'} limit "
+                             f"{(high if over else low) / PA_PER_BAR:.1f} bar: choke flow "
+                             f"reference {'up' if over else 'down'}, back-pressure pump "
+                             f"{'down' if over else 'up'}", value))
         return 1 if over else -1
 
-    def _limit_opening(self, opening: float | None, clamps: list[str]) -> float | None:
+    def _limit_opening(self, opening: float | None, clamps: list[Notice]) -> float | None:
         """A manual choke opening inside the choke's range [1] (None stays None)."""
         if opening is None:
             return None
         lag = self.config.actuators.choke
         limited = float(np.clip(opening, lag.minimum, lag.maximum))
         if limited != opening:
-            clamps.append(f"choke_opening_ref {opening:.6g} -> {limited:.6g} (machine range)")
+            clamps.append(Notice("machine_limit", f"choke_opening_ref {opening:.6g} -> "
+                                 f"{limited:.6g} (machine range)"))
         return limited

@@ -30,10 +30,12 @@ from drill_msgs.msg import OperatorEvent, RigCommand, RigMeasurement, Setpoints
 from std_msgs.msg import Bool, String
 
 from drill_core.automation import AUTOMATION_LEVELS
+from drill_core.event_codes import Notice
 from drill_core.operator_actions import OperatorScript
-from drill_core.units import L_PER_M3, LPM_PER_M3S
+from drill_core.units import L_PER_M3, LPM_PER_M3S, PA_PER_BAR
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
+from drill_core.ros.events import event_message
 from drill_core.ros.inbox import StampedInbox
 from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
@@ -114,8 +116,8 @@ class ProtectionNode(RigNode):
         if engaged == self.protection.emergency_stop:
             return False
         self.protection.emergency_stop = engaged
-        self._event("emergency_stop", "emergency stop " + ("engaged" if engaged else "released")
-                    + by, stamp)
+        self._event(Notice("estop_engaged" if engaged else "estop_released", "emergency stop "
+                           + ("engaged" if engaged else "released") + by), stamp)
         self._publish_state()
         return True
 
@@ -131,12 +133,12 @@ class ProtectionNode(RigNode):
 
     def _set_level(self, level: str, stamp: int, by: str = "") -> None:
         if level not in AUTOMATION_LEVELS:
-            self._event("refusal", f"automation level {level!r} is not one of "
-                                   f"{', '.join(AUTOMATION_LEVELS)}", stamp)
+            self._event(Notice("level_refused", f"automation level {level!r} is not one of "
+                               f"{', '.join(AUTOMATION_LEVELS)}"), stamp)
             return
         if level != self.protection.automation_level:
             self.protection.automation_level = level
-            self._event("mode", f"automation level {level}{by}", stamp)
+            self._event(Notice("automation_level", f"automation level {level}{by}"), stamp)
             self._publish_state()
 
     def _press_due(self, stamp: int) -> None:
@@ -171,10 +173,12 @@ class ProtectionNode(RigNode):
             m.bpp_flow_m3s, m.block_position_m, m.choke_dp_pa, m.bhp_pa, m.pit_volume_m3))
         if reading.raised:
             self.alarm_count += 1
-            self._event("alarm", f"{reading.alarm} detected: {_flows(reading)}, "
-                                 f"{reading.volume_at_alarm_m3 * L_PER_M3:+.0f} L since it began", stamp)
+            self._event(Notice(f"{reading.alarm}_detected", f"{reading.alarm} detected: "
+                               f"{_flows(reading)}, {reading.volume_at_alarm_m3 * L_PER_M3:+.0f} L "
+                               "since it began", reading.volume_at_alarm_m3), stamp)
         elif before and not reading.alarm:
-            self._event("alarm", f"{before} alarm cleared: {_flows(reading)}", stamp)
+            self._event(Notice(f"{before}_cleared", f"{before} alarm cleared: {_flows(reading)}"),
+                        stamp)
         detection = self.ctx.config.protection.kick_detection
         if detection.stop_trip:
             self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" if reading.alarm else ""
@@ -183,13 +187,13 @@ class ProtectionNode(RigNode):
                                        self.protection.bhp_ref_pa)
         if narrowed:
             self.alarm_count += 1
-            self._event("alarm", narrowed, stamp)
+            self._event(narrowed, stamp)
         self.protection.window_pa = self.window.window_pa
         self.protection.well_control = self.window.hold()
         change = self.circulation.observe(stamp * 1e-9, m.string_flow_valid, m.choke_dp_pa, m.bhp_pa)
         if change:
             self.alarm_count += self.circulation.lost
-            self._event("alarm", change, stamp)
+            self._event(change, stamp)
 
     def _on_command(self, msg: RigCommand) -> None:
         self.inbox.put("command", msg)
@@ -252,9 +256,9 @@ class ProtectionNode(RigNode):
                          source=f"protection<{request.source}")
         out.header.stamp = from_ns(stamp)
         self.pub_command.publish(out)
-        for text in decision.clamps:
+        for notice in decision.clamps:
             self.clamp_count += 1
-            self._event("clamp", text, stamp)
+            self._event(notice, stamp)
         self._check_window(m.bhp_pa, stamp)
         level = "emergency_stop" if self.protection.emergency_stop else self.protection.automation_level
         self.status.mode = f"{self.ctx.mode}/{level}"
@@ -274,14 +278,13 @@ class ProtectionNode(RigNode):
             self.in_window = inside
             if not inside:
                 self.alarm_count += 1
-            self._event("alarm", f"BHP {bhp_pa / 1e5:.1f} bar " + (
-                "back inside" if inside else "outside") + f" the pore/fracture window "
-                f"{p.pore_pressure_pa / 1e5:.0f}-{p.fracture_pressure_pa / 1e5:.0f} bar", stamp)
+            self._event(Notice("window_return" if inside else "window_exit", f"BHP "
+                               f"{bhp_pa / PA_PER_BAR:.1f} bar " + ("back inside" if inside else "outside")
+                               + f" the pore/fracture window {p.pore_pressure_pa / PA_PER_BAR:.0f}-"
+                               f"{p.fracture_pressure_pa / PA_PER_BAR:.0f} bar", bhp_pa), stamp)
 
-    def _event(self, kind: str, text: str, stamp: int) -> None:
-        msg = OperatorEvent(kind=kind, text=text, accepted=kind != "alarm")
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
-        self.pub_events.publish(msg)
+    def _event(self, notice: Notice, stamp: int) -> None:
+        self.pub_events.publish(event_message(notice, from_ns(stamp), notice.kind != "alarm"))
 
 
 def main(args=None) -> None:

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 from drill_core import hydraulics as hy
 from drill_core.config import PumpTrip
+from drill_core.event_codes import Notice
 from drill_core.units import PA_PER_BAR
 
 
@@ -64,21 +65,22 @@ class PumpTripResponse:
         self.requested = bool(mud_pump_on) and spp_pa > 0.0
 
     def observe(self, time_s: float, string_flow_valid: bool, choke_dp_pa: float,
-                bhp_pa: float) -> str:
-        """Take one measurement; the alarm text when circulation is found lost or back
-        ("" otherwise)."""
+                bhp_pa: float) -> Notice | None:
+        """Take one measurement; the alarm when circulation is found lost or back (None
+        otherwise)."""
         self.choke_dp_pa, self.bhp_pa = choke_dp_pa, bhp_pa
         if string_flow_valid:
             self.circulated = True
             if self.lost_at_s is not None:
                 self.lost_at_s, self.trapping = None, False
-                return "circulation back: the string-flow meter reads a flow again"
-            return ""
+                return Notice("circulation_restored",
+                              "circulation back: the string-flow meter reads a flow again")
+            return None
         if self.lost_at_s is None and self.requested and self.circulated:
             self.lost_at_s, self.trapping = time_s, True
-            return ("circulation lost: the mud pump is asked for but the string-flow meter "
-                    "reads nothing (pump trip)")
-        return ""
+            return Notice("circulation_lost", "circulation lost: the mud pump is asked for but "
+                                              "the string-flow meter reads nothing (pump trip)")
+        return None
 
     @property
     def lost(self) -> bool:

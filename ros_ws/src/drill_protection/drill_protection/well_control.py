@@ -43,6 +43,7 @@ from collections import deque
 from dataclasses import dataclass
 
 from drill_core.config import WellControl
+from drill_core.event_codes import Notice
 from drill_core.units import LPM_PER_M3S, PA_PER_BAR
 from drill_protection.slope import LeastSquaresSlope
 
@@ -107,10 +108,10 @@ class WindowResponse:
 
     def observe(self, time_s: float, bhp_pa: float, choke_dp_pa: float, alarm: str,
                 excess_volume_m3: float, flow_threshold_m3s: float,
-                reference_pa: float = math.nan) -> str:
+                reference_pa: float = math.nan) -> Notice | None:
         """Take one measurement, the detector's reading after it (its alarm and excess
-        volume) and the BHP reference in force (NaN: none); the event text when an edge
-        moved ("" otherwise)."""
+        volume) and the BHP reference in force (NaN: none); the event when an edge moved
+        (None otherwise)."""
         if math.isfinite(bhp_pa):
             self._bhp.append((time_s, bhp_pa))
         if math.isfinite(bhp_pa) and math.isfinite(choke_dp_pa):
@@ -122,7 +123,7 @@ class WindowResponse:
         while self._bhp and self._bhp[0][0] < time_s - BHP_MEDIAN_S + 1e-9:
             self._bhp.popleft()
         if not self._bhp:
-            return ""
+            return None
         bhp = statistics.median(p for _, p in self._bhp)
         if alarm in ("kick", "losses") and alarm != self._answering:    # the alarm's first step
             self._answering, self._margin_taken = alarm, False
@@ -131,18 +132,18 @@ class WindowResponse:
                 else min(self.high_pa, *flowed_at)
             return self._step(start, time_s, bhp, "")
         if not self._answering:
-            return ""
+            return None
         kick = self._answering == "kick"
         since = time_s - self._stepped_at_s
         if since >= self.config.settle_s - 1e-9 and math.isfinite(excess_volume_m3):
             self._volumes.append(since, excess_volume_m3)
         if since < self.config.interval_s - 1e-9:
-            return ""
+            return None
         flow = self._volumes.slope
         self._stepped_at_s = time_s             # the next judgement an interval from now
         self._volumes.clear()
         if math.isnan(flow):
-            return ""
+            return None
         flowing = flow > 0.5 * flow_threshold_m3s if kick else flow < -0.5 * flow_threshold_m3s
         why = f"; {flow * LPM_PER_M3S:+.0f} L/min since the last step"
         step = self.config.step_pa
@@ -151,7 +152,7 @@ class WindowResponse:
         elif self._margin_taken:
             if not alarm:                       # answered, and the detector agrees
                 self._answering = ""
-            return ""
+            return None
         else:
             self._margin_taken = True
             step = self.config.kick_margin_pa if kick else self.config.losses_margin_pa
@@ -159,9 +160,9 @@ class WindowResponse:
         return self._step(self.low_pa if kick else self.high_pa, time_s, bhp, why, step)
 
     def _step(self, start_pa: float, time_s: float, bhp_pa: float, why: str,
-              step_pa: float | None = None) -> str:
+              step_pa: float | None = None) -> Notice | None:
         """Move the answered alarm's edge ``step_pa`` (a step if None) from ``start_pa``;
-        the event text ("" if it did not move)."""
+        the event (None if it did not move)."""
         c = self.config
         step_pa = c.step_pa if step_pa is None else step_pa
         kick = self._answering == "kick"
@@ -175,9 +176,10 @@ class WindowResponse:
         self._stepped_at_s = time_s
         self._volumes.clear()
         if not moved:
-            return ""
+            return None
         which = "low edge raised" if kick else "high edge lowered"
-        return (f"{self._answering}: BHP window's {which} to {edge / PA_PER_BAR:.1f} bar (window "
-                f"{self.low_pa / PA_PER_BAR:.1f}-{self.high_pa / PA_PER_BAR:.1f} bar; BHP "
-                f"{bhp_pa / PA_PER_BAR:.1f} bar{why})")
+        return Notice("window_narrowed", f"{self._answering}: BHP window's {which} to "
+                      f"{edge / PA_PER_BAR:.1f} bar (window {self.low_pa / PA_PER_BAR:.1f}-"
+                      f"{self.high_pa / PA_PER_BAR:.1f} bar; BHP {bhp_pa / PA_PER_BAR:.1f} "
+                      f"bar{why})", edge)
 

@@ -11,6 +11,7 @@ import pytest
 
 from drill_core import hydraulics as hy
 from drill_core.config import load_rig
+from drill_core.event_codes import Notice
 from drill_protection.protection import ProcessProtection
 from drill_protection.pump_trip import PumpTripResponse, TripAction
 
@@ -37,7 +38,7 @@ def circulate(r: PumpTripResponse, seconds: float, start_s: float = 0.0) -> floa
     """Circulation read for ``seconds``; the time reached."""
     t = start_s
     while t < start_s + seconds - 1e-9:
-        assert r.observe(t, True, 2.0e6, BHP_PA) == ""
+        assert r.observe(t, True, 2.0e6, BHP_PA) is None
         t += PERIOD_S
     return t
 
@@ -62,11 +63,10 @@ def test_a_blank_meter_while_the_pump_is_asked_for_is_a_lost_circulation(setup):
     r.request(True, SPP_PA)
     t = circulate(r, 2.0)
     assert r.action(t) is None                                 # circulating: nothing to do
-    text = r.observe(t, False, 2.0e6, BHP_PA)
-    assert text.startswith("circulation lost") and r.lost
-    assert r.observe(t + PERIOD_S, False, 2.0e6, BHP_PA) == ""   # said once
+    assert r.observe(t, False, 2.0e6, BHP_PA).code == "circulation_lost" and r.lost
+    assert r.observe(t + PERIOD_S, False, 2.0e6, BHP_PA) is None   # said once
     assert r.action(t + 1.0) is not None
-    assert r.observe(t + 2.0, True, 2.0e6, BHP_PA).startswith("circulation back")
+    assert r.observe(t + 2.0, True, 2.0e6, BHP_PA).code == "circulation_restored"
     assert not r.lost and r.action(t + 2.0) is None
 
 
@@ -81,7 +81,7 @@ def test_a_planned_stop_or_a_well_never_circulated_is_no_loss(setup, mud_pump_on
     r.request(mud_pump_on, spp_pa)
     t = circulate(r, circulated_s)
     for k in range(20):
-        assert r.observe(t + k * PERIOD_S, False, 2.0e6, BHP_PA) == ""
+        assert r.observe(t + k * PERIOD_S, False, 2.0e6, BHP_PA) is None
     assert not r.lost and r.action(t + 2.0) is None
 
 
@@ -129,8 +129,8 @@ def test_the_limiter_shuts_the_choke_past_its_slew_and_keeps_the_pump_going(setu
                 choke_dp_setpoint=(2.0e6, 0.0), trip_action=action)
     assert d.command[1] == 0.0 and d.choke_dp_setpoint is None     # on its flow loop, shut
     assert d.command[2] == pytest.approx(0.01)                      # past the pump's slew
-    assert action.reason in d.clamps
-    assert any(c.startswith("bpp_flow_m3s 0 -> 0.01") for c in d.clamps)
+    assert Notice("pump_trip_response", action.reason) in d.clamps
+    assert any(c.text.startswith("bpp_flow_m3s 0 -> 0.01") for c in d.clamps)
     # the advisor's choke again: it moves from the shut choke at its slew
     d = p.apply([0.0, flow, 0.0, SPP_PA], 0.0, 0.0, BHP_PA, 0.0, 0.5,
                 trip_action=TripAction(None, 0.01, "circulation lost 2 s ago"))
@@ -211,9 +211,9 @@ def test_a_string_coming_to_rest_is_guarded_on_the_bhp_without_friction(setup):
     d = p.apply([0.0, 0.02, 0.01, SPP_PA], 0.0, -0.2, 680.0e5, 0.0, 0.5,
                 surface_flows=(0.013, 0.01), trip_action=lost)
     assert d.command[1] == pytest.approx(0.01 - slew)
-    assert any(c.startswith("BHP without friction 655.0 bar under") for c in d.clamps)
+    assert any(c.text.startswith("BHP without friction 655.0 bar under") for c in d.clamps)
     moving = ProcessProtection(config, wm, np.array([0.0, 0.02, 0.01, SPP_PA]))
     moving.previous_speed_mps = -0.3
     d = moving.apply([-0.3, 0.02, 0.01, SPP_PA], 0.0, -0.3, 680.0e5, 0.0, 0.5,
                      surface_flows=(0.013, 0.01), trip_action=lost)
-    assert d.command[1] == pytest.approx(0.02) and not any("window" in c for c in d.clamps)
+    assert d.command[1] == pytest.approx(0.02) and not any("window" in c.text for c in d.clamps)

@@ -34,10 +34,11 @@ class Well:
         while self.t < start + seconds - 1e-9:
             flow = excess_m3s(self.t - start) if callable(excess_m3s) else excess_m3s
             self.volume_m3 += flow * PERIOD_S
-            text = self.r.observe(self.t, bhp_pa, 2.0e6, alarm, self.volume_m3, THRESHOLD_M3S,
+            notice = self.r.observe(self.t, bhp_pa, 2.0e6, alarm, self.volume_m3, THRESHOLD_M3S,
                                   reference_pa)
-            if text:
-                events.append((round(self.t, 1), text))
+            if notice:
+                assert notice.code == "window_narrowed"
+                events.append((round(self.t, 1), notice.text))
             self.t += PERIOD_S
         return events
 
@@ -150,14 +151,15 @@ def test_the_limiter_holds_the_choke_until_the_advisor_aims_inside_the_window():
                             advisor_bhp_ref_pa=6.85e7)
     assert held.choke_dp_setpoint == (3.0e6, 0.0)
     assert held.command[1] == pytest.approx(0.016)
-    assert "well control: test" in held.clamps and held.bhp_ref_pa == 6.8825e7
+    assert [("well_control_hold", "well control: test")] == [(c.code, c.text) for c in held.clamps] and held.bhp_ref_pa == 6.8825e7
     handed = protection.apply(request, 0.0, 0.0, 6.85e7, 0.0167, 0.6,
                               surface_flows=(0.016, 0.0), advisor_bhp_ref_pa=6.8825e7)
     assert handed.choke_dp_setpoint is None and handed.bhp_ref_pa == 6.8825e7
-    assert handed.command[1] == pytest.approx(0.0167) and "well control: test" not in handed.clamps
+    assert handed.command[1] == pytest.approx(0.0167) \
+        and not any(c.code == "well_control_hold" for c in handed.clamps)
     assert handed.trip_speed_limits_mps == held.trip_speed_limits_mps
     # a BHP 2 bar under the raised edge: pulling out (swab) is limited, running in is not
     assert held.trip_speed_limits_mps[1] < free.trip_speed_limits_mps[1]
     protection.automation_level = "advisory"
     manual = protection.apply(request, 0.0, 0.0, 6.85e7, 0.0167, 0.6, surface_flows=(0.016, 0.0))
-    assert not any("well control" in c for c in manual.clamps)
+    assert not any("well control" in c.text for c in manual.clamps)
