@@ -44,6 +44,7 @@ from drill_estimator.ukf import RigUkf
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.baseline import Baseline
 from drill_nmpc.inputs import choke_command, choke_input
+from drill_nmpc.prediction_model import nmpc_estimation_model
 from drill_nmpc.setpoint_book import SetpointBook, protection_changed, within_speed_limits
 from drill_nmpc.setpoint_validation import Envelope
 from drill_nmpc.supervisor import Supervisor
@@ -226,8 +227,7 @@ class NmpcController:
                  op):
         self.rig = rig
         self.block_integral = block_integral_from_drawworks
-        self.sup = Supervisor(config, build_estimation_model(
-            config, with_disturbance=config.nmpc.configuration == "NMPC2"))
+        self.sup = Supervisor(config, nmpc_estimation_model(config))
         self.cfg = config.nmpc
         u_b, opening, bpp, spp = (float(v) for v in op.inputs)
         self.operating_flow_m3s = float(op.choke_flow_m3s)   # before any solve

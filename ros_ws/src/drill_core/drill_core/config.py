@@ -283,7 +283,8 @@ class Estimator:
             "theta_i |v_e| v_e (paper eq. 46) or scaled_rheology theta_i F_nom,i (docs/model.md)")
     annular_friction_smoothing_mps: float = param(
         "m/s", 0.0, 1.0, lo_open=True,
-        doc="scaled_rheology: yield-jump smoothing velocity of F_nom (RK4 stiffness, docs/nmpc.md)")
+        doc="scaled_rheology: yield-jump smoothing velocity of F_nom (the UKF's RK4 steps' "
+            "stiffness; the NMPC predicts with nmpc.prediction_friction_smoothing_mps)")
     quadratic_friction: FrictionLawTuning = param(doc="tuning under the quadratic law")
     scaled_rheology_friction: FrictionLawTuning = param(doc="tuning under the scaled_rheology law")
     initial_pressure_std_pa: float = param("Pa", 0.0, lo_open=True)
@@ -386,6 +387,10 @@ class Nmpc:
     control_horizon_s: float = param("s", 0.0, 120.0, lo_open=True)
     substeps: int = param("1", 1, 100)
     integrator: str = param(choices=("rk4", "euler"))
+    prediction_friction_smoothing_mps: float = param(
+        "m/s", 0.0, 1.0, lo_open=True,
+        doc="scaled_rheology: the prediction model's yield-jump smoothing velocity, wider "
+            "than the estimator's for the RK4 steps' stability (docs/nmpc.md)")
     reference_smoothing: OutputVector = param(doc="alpha_i of eq. 59, each in [0, 1)")
     output_weight: OutputVector = param(doc="w_c tilde (eq. 55)")
     output_span: OutputVector = param(doc="y_span (eq. 55)")

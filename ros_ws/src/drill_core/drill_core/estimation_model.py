@@ -210,14 +210,18 @@ class EstimationModel(WellboreLayout):
         return s
 
 
-def build_estimation_model(config: RigConfig, with_disturbance: bool = False) -> EstimationModel:
-    """The shared model of ``config`` with the annular friction law of config/estimator.yaml."""
+def build_estimation_model(config: RigConfig, with_disturbance: bool = False,
+                           smoothing_mps: float | None = None) -> EstimationModel:
+    """The shared model of ``config`` with the annular friction law of config/estimator.yaml;
+    ``smoothing_mps`` the yield jump's smoothing velocity of scaled_rheology (None: the
+    configured ``annular_friction_smoothing_mps``; the NMPC's prediction takes its wider
+    ``nmpc.prediction_friction_smoothing_mps``)."""
     wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                              config.plant.choke_regularisation_pa)
     est = config.estimator
     law = est.annular_friction_law                # validated by the config (FRICTION_LAWS)
-    nominal = NominalFriction(wm, est.annular_friction_smoothing_mps) \
-        if law == "scaled_rheology" else None
+    smoothing = est.annular_friction_smoothing_mps if smoothing_mps is None else smoothing_mps
+    nominal = NominalFriction(wm, smoothing) if law == "scaled_rheology" else None
     return EstimationModel(wm, config.actuators.block_kp, config.actuators.block_ki_per_s,
                            with_disturbance, law, nominal, est.estimate_density_offset,
                            est.estimate_string_friction)

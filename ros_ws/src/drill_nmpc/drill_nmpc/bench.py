@@ -27,13 +27,12 @@ import numpy as np
 
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, load_rig
-from drill_core.estimation_model import (EstimationModel, build_estimation_model,
-                                         fitted_friction_parameters)
+from drill_core.estimation_model import EstimationModel, fitted_friction_parameters
 from drill_core.operating_point import initial_operating_point
 from drill_core.scenario import ActiveSetpoints, Initial
 from drill_nmpc.inputs import choke_input, choke_time_constant
 from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
-                                         full_state, outputs)
+                                         full_state, nmpc_estimation_model, outputs)
 from drill_nmpc.supervisor import Supervisor
 
 PAPER_SOLVE_TIME_S = 16.4          # Tengesdal & Holden 2020, sec. 6.3.4 (MATLAB fmincon, NMPC0)
@@ -156,7 +155,7 @@ def closed_loop(config: RigConfig, configuration: str, samples: int, *, out_at: 
     """Run ``samples`` supervisor steps on the model plant (perfect state feedback)."""
     initial = initial or Initial(circulation_m3s=1000.0 / 60000.0, choke_dp_pa=2.0e6,
                                  bpp_flow_m3s=0.0)
-    em = build_estimation_model(config, with_disturbance=(configuration == "NMPC2"))
+    em = nmpc_estimation_model(config, configuration)
     x0, u = steady_estimate(em, initial)
     sup = supervisor or Supervisor(config, em, configuration=configuration, solver=solver, jit=jit)
     plant = ModelPlant(config, em, x0, u, friction_factor=friction_factor)
@@ -215,7 +214,7 @@ def run_benchmark(samples: int = 150, configurations=("NMPC0", "NMPC1", "NMPC2")
                  "paper_solve_time_s": PAPER_SOLVE_TIME_S}
     met = True
     for conf in configurations:
-        em = build_estimation_model(config, with_disturbance=(conf == "NMPC2"))
+        em = nmpc_estimation_model(config, conf)
         t0 = time.perf_counter()
         sup = Supervisor(config, em, configuration=conf, solver=solver, jit=jit)
         build_s = time.perf_counter() - t0

@@ -41,12 +41,13 @@ import numpy as np
 from drill_msgs.msg import ActuatorFrame, NmpcStatus, RigCommand, StateEstimate
 from drill_msgs.srv import SetSetpoints
 
-from drill_core.estimation_model import BOTTOM_INFLUX, build_estimation_model
+from drill_core.estimation_model import BOTTOM_INFLUX
 from drill_core.ros import topics
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_nmpc.advisor_node import AdvisorNode
 from drill_nmpc.inputs import choke_command, choke_input
+from drill_nmpc.prediction_model import nmpc_estimation_model
 from drill_nmpc.setpoint_book import protection_changed, within_speed_limits
 from drill_nmpc.setpoint_messages import merge_request, to_msg
 from drill_nmpc.soft_constraints import SLACK_NAMES
@@ -58,7 +59,7 @@ class NmpcNode(AdvisorNode):
         super().__init__("nmpc", status_topic=topics.NMPC_NODE_STATUS, **node_options)
         ctx = self.ctx
         cfg = ctx.config
-        self.em = build_estimation_model(cfg, with_disturbance=cfg.nmpc.configuration == "NMPC2")
+        self.em = nmpc_estimation_model(cfg)
         # Build (and, with jit, compile) the solver before any subscription exists, so the
         # graph's lockstep starts only once the supervisor can answer.
         self.supervisor = Supervisor(cfg, self.em)

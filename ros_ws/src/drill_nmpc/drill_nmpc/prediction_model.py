@@ -20,7 +20,7 @@ from drill_core.backend import CASADI, NUMPY
 from drill_core.block_control import (block_command, integral_for_command, integral_rate,
                                        reference_for_command)
 from drill_core.config import RigConfig
-from drill_core.estimation_model import EstimationModel, drift, measurement
+from drill_core.estimation_model import EstimationModel, build_estimation_model, drift, measurement
 from drill_core.integrators import euler_step, rk4_step
 
 OUTPUT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa")
@@ -260,6 +260,15 @@ class PredictionModel:
                                                   x[self.block]))
             worst = max(worst, abs(acc - ref) / max(1.0, abs(ref)))
         return worst
+
+
+def nmpc_estimation_model(config: RigConfig, configuration: str | None = None) -> EstimationModel:
+    """The estimation model the NMPC predicts with: the shared one with the influx state
+    under NMPC2 (``configuration``, None: config/nmpc.yaml's) and the yield jump smoothed
+    over ``prediction_friction_smoothing_mps`` for its RK4 steps."""
+    configuration = configuration or config.nmpc.configuration
+    return build_estimation_model(config, configuration == "NMPC2",
+                                  config.nmpc.prediction_friction_smoothing_mps)
 
 
 def full_state(em: EstimationModel, x_hat, disturbance=None) -> np.ndarray:

@@ -14,13 +14,12 @@ import numpy as np
 import pytest
 
 from drill_core.config import load_rig
-from drill_core.estimation_model import build_estimation_model
 from drill_core.scenario import ActiveSetpoints, Initial
 from drill_nmpc.bench import (ModelPlant, closed_loop, steady_estimate, supervisor_input,
                               trip_setpoints)
 from drill_nmpc.inputs import choke_command, input_arrays
 from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
-                                         outputs)
+                                         nmpc_estimation_model, outputs)
 from drill_nmpc.soft_constraints import SLACK_NAMES
 from drill_nmpc.supervisor import Supervisor
 from drill_nmpc.transcription import GAP_TOLERANCE
@@ -37,7 +36,7 @@ def config():
 
 @pytest.fixture(scope="module")
 def em(config):
-    return build_estimation_model(config)
+    return nmpc_estimation_model(config)
 
 
 def _steady(config, em):
@@ -106,7 +105,7 @@ def test_trip_out_and_back_nmpc0(config):
     """Pull a stand out (28 m) and run it back in: BHP in its band, velocity limit, bounds, slew."""
     log, sup = closed_loop(config, "NMPC0", 380, out_at=2.0, in_at=190.0)
     a = log.arrays()
-    x0, u0 = _steady(config, build_estimation_model(config))
+    x0, u0 = _steady(config, nmpc_estimation_model(config))
     _check_inputs(config, a["inputs"], u0)
     assert np.all(a["fallback"] == "none"), set(a["fallback"])
     assert np.max(np.abs(a["velocity_mps"])) <= config.nmpc.velocity_limit_mps + 0.03
@@ -126,7 +125,7 @@ def test_offset_free_configurations_run(config, configuration):
                            friction_factor=1.3 if configuration == "NMPC1" else 1.0,
                            influx_m3s=2.0e-4 if configuration == "NMPC2" else 0.0)
     a = log.arrays()
-    _, u0 = _steady(config, build_estimation_model(config))
+    _, u0 = _steady(config, nmpc_estimation_model(config))
     _check_inputs(config, a["inputs"], u0)
     assert sup.configuration == configuration
     assert np.all(a["fallback"] != "hold")
@@ -143,7 +142,7 @@ def test_offset_free_configurations_run(config, configuration):
 
 def test_nmpc2_uses_the_influx_estimate(config):
     """The disturbance estimate enters the prediction: with an influx the plan differs."""
-    em2 = build_estimation_model(config, with_disturbance=True)
+    em2 = nmpc_estimation_model(config, "NMPC2")
     x, u = _steady(config, em2)
     sp = trip_setpoints(0.0, 100.0, 200.0, float(outputs(em2, x)[2]))
     a = Supervisor(config, em2, configuration="NMPC2", jit=False).step(x, sp, u, disturbance=0.0)
