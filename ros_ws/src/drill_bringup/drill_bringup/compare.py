@@ -82,6 +82,7 @@ def run_all(items, runs_dir: Path | None = None, run=batch.run_one) -> list[dict
                            mismatch=rest[0] if rest else None)
              for case, controller, seed, *rest in items]
     rows = []
+    commit = runs.source_commit()
 
     def done(row: dict) -> None:
         plant = f" / {row['mismatch']}" if row.get("mismatch") else ""
@@ -89,7 +90,7 @@ def run_all(items, runs_dir: Path | None = None, run=batch.run_one) -> list[dict
         if not row["ok"]:
             raise RuntimeError(f"{label} failed: {row['message']}")
         rows.append({k: row.get(k) for k in ("case", "controller", "seed", "mismatch",
-                                             "summary", "run_dir", "wall_s")})
+                                             "summary", "run_dir", "wall_s")} | {"commit": commit})
         print(f"[compare] {label}: BHP RMSE {row['summary']['bhp_rmse_pa'] / PA_PER_BAR:.3f} "
               f"bar, {row['wall_s']:.1f} s wall", flush=True)
     print(f"[compare] {len(specs)} runs, one at a time", flush=True)
@@ -245,7 +246,19 @@ def markdown(rows: list[dict], plot_name: str | None, made: str = "") -> str:
     lines += ["", f"Seeds: {', '.join(str(s) for s in seeds)}. Run directories (MCAP, plots, "
               "logs; not committed): " + ", ".join(f"`{Path(r['run_dir']).name}`" for r in every),
               ""]
-    return "\n".join(lines)
+    return "\n".join(lines + provenance(every))
+
+
+def provenance(rows: list[dict]) -> list[str]:
+    """Which commit each case's rows were measured with (rows.commit; none recorded:
+    measured before rows recorded it), per case and plant."""
+    groups: dict[tuple, set] = {}
+    for r in rows:
+        plant = "on a plant that is not the model" if r.get("mismatch") else "on the model's plant"
+        groups.setdefault((r["case"], plant), set()).add(r.get("commit") or "not recorded")
+    return ["## Measured with", "", "| case | plant | commit(s) |", "| --- | --- | --- |",
+            *(f"| {case} | {plant} | {', '.join(sorted(commits))} |"
+              for (case, plant), commits in sorted(groups.items())), ""]
 
 
 # The issue's targets on a plant that is not the model (SI), checked per run; RMSE after the

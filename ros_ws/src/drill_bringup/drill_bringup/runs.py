@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
 import sys
 import time
 from datetime import datetime
@@ -19,6 +20,20 @@ from drill_core.scenario import (load_scenario, load_scenario_config, scenario_k
                                  scenario_truth, without_truth)
 
 ROOT = Path(os.environ.get("RIG_ROOT", Path.cwd()))
+
+
+def source_commit() -> str | None:
+    """The checkout's commit (short hash, ``+changes`` when a tracked file differs from it),
+    None outside a git checkout: what a run was measured with."""
+    def git(*args) -> str:
+        return subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True,
+                              check=True).stdout.strip()
+    try:
+        commit = git("rev-parse", "--short", "HEAD")
+        changed = git("status", "--porcelain", "--untracked-files=no")
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return commit + ("+changes" if changed else "")
 
 
 RUN_STAMP = "%Y%m%d-%H%M%S"      # a run directory's name: SCENARIO[-TAGS]-STAMP-PID

@@ -1,9 +1,10 @@
 """The comparison table: SI summaries shown in bar, ratios against the baseline."""
 import json
+import subprocess
 
 import numpy as np
 
-from drill_bringup import compare, report
+from drill_bringup import compare, report, runs
 
 
 def _summary(bhp_rmse_bar, outside_s, legs=(56.0, 57.0), solves=0, fallbacks=0):
@@ -174,3 +175,28 @@ def test_the_influx_estimates_false_alarms_are_apart_from_the_rigs_and_a_miss(tm
 def test_the_seed_list_holds_the_mismatch_rows_seeds_too():
     rows = [{**_row("case2", "nmpc", 1002, _summary(0.4, 0.0, solves=600)), "mismatch": "thin_report"}]
     assert "Seeds: 1002." in compare.markdown(rows, None)
+
+
+def test_the_page_says_which_commit_each_cases_rows_were_measured_with():
+    s = _summary(0.4, 0.0, solves=600)
+    rows = [{**_row("case2", "nmpc", 2, s), "mismatch": "thin_report", "commit": "ab12cd3"},
+            {**_row("case2", "baseline", 2, s), "mismatch": "thin_report", "commit": "ef45678"},
+            _row("case1", "nmpc", 1, s)]
+    page = compare.markdown(rows, None)
+    assert "| case2 | on a plant that is not the model | ab12cd3, ef45678 |" in page
+    assert "| case1 | on the model's plant | not recorded |" in page
+
+
+def test_a_row_records_the_checkouts_commit_and_whether_it_was_changed(tmp_path, monkeypatch):
+    monkeypatch.setattr(runs, "ROOT", tmp_path)
+    assert runs.source_commit() is None                    # not a git checkout
+    git = lambda *args: subprocess.run(["git", "-C", str(tmp_path), *args], check=True,
+                                       capture_output=True, text=True).stdout.strip()
+    git("init", "-q")
+    (tmp_path / "well.yaml").write_text("a: 1\n")
+    git("add", "well.yaml")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "x")
+    head = git("rev-parse", "HEAD")
+    assert head.startswith(runs.source_commit()) and "+" not in runs.source_commit()
+    (tmp_path / "well.yaml").write_text("a: 2\n")
+    assert runs.source_commit().endswith("+changes")
