@@ -22,15 +22,19 @@ from drill_core.scenario import (load_scenario, load_scenario_config, scenario_k
 ROOT = Path(os.environ.get("RIG_ROOT", Path.cwd()))
 
 
+RUN_SOURCES = ("ros_ws/src", "config", "scripts", "requirements.lock")   # what makes a run
+
+
 def source_commit() -> str | None:
-    """The checkout's commit (short hash, ``+changes`` when a tracked file differs from it),
-    None outside a git checkout: what a run was measured with."""
+    """The checkout's commit (short hash, ``+changes`` when a tracked file of what makes a
+    run, its code, configuration and scripts, differs from it), None outside a git
+    checkout: what a run was measured with."""
     def git(*args) -> str:
         return subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True,
                               check=True).stdout.strip()
     try:
         commit = git("rev-parse", "--short", "HEAD")
-        changed = git("status", "--porcelain", "--untracked-files=no")
+        changed = git("status", "--porcelain", "--untracked-files=no", "--", *RUN_SOURCES)
     except (OSError, subprocess.CalledProcessError):
         return None
     return commit + ("+changes" if changed else "")

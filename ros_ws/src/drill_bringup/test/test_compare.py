@@ -193,10 +193,14 @@ def test_a_row_records_the_checkouts_commit_and_whether_it_was_changed(tmp_path,
     git = lambda *args: subprocess.run(["git", "-C", str(tmp_path), *args], check=True,
                                        capture_output=True, text=True).stdout.strip()
     git("init", "-q")
-    (tmp_path / "well.yaml").write_text("a: 1\n")
-    git("add", "well.yaml")
+    (tmp_path / "config").mkdir()
+    (tmp_path / "config" / "well.yaml").write_text("a: 1\n")
+    (tmp_path / "results.md").write_text("a page\n")
+    git("add", "config/well.yaml", "results.md")
     git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "x")
     head = git("rev-parse", "HEAD")
     assert head.startswith(runs.source_commit()) and "+" not in runs.source_commit()
-    (tmp_path / "well.yaml").write_text("a: 2\n")
+    (tmp_path / "results.md").write_text("a page, rewritten by a comparison\n")
+    assert "+" not in runs.source_commit()                 # not what makes a run
+    (tmp_path / "config" / "well.yaml").write_text("a: 2\n")
     assert runs.source_commit().endswith("+changes")
