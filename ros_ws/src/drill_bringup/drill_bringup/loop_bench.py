@@ -47,7 +47,7 @@ from drill_nmpc.inputs import choke_command, choke_input
 from drill_nmpc.prediction_model import nmpc_estimation_model
 from drill_nmpc.setpoint_book import SetpointBook, protection_changed, within_speed_limits
 from drill_nmpc.setpoint_validation import Envelope
-from drill_nmpc.supervisor import Supervisor
+from drill_nmpc.supervisor import Fallback, Supervisor
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
 from drill_plant.plant_model import EVENT_PARAMETERS, PARAMETER_NAMES, PlantLayout, steady_state
 from drill_plant.sensor_faults import SensorFaults
@@ -251,9 +251,9 @@ class NmpcController:
             "block_command_m": frame.command if frame else None,
             "block_reference_m": frame.reference if frame else None})
         self.solve_times.append(r.solve_time_s)
-        self.fallbacks += r.fallback != "none"
-        if r.fallback != "none":
-            self.statuses.append((t, r.fallback, r.status))
+        if r.fallback is not Fallback.NONE:
+            self.fallbacks += 1
+            self.statuses.append((t, r.fallback.value, r.status, r.reasons))
         u = self.u = np.asarray(r.u, dtype=float)
         choke = choke_command(self.cfg, r, self.operating_flow_m3s)
         if not choke.pressure_control:

@@ -180,7 +180,7 @@ def closed_loop(config: RigConfig, configuration: str, samples: int, *, out_at: 
         log.inputs.append(res.u.copy())
         log.solve_time_s.append(res.solve_time_s)
         log.iterations.append(res.iterations)
-        log.fallback.append(res.fallback)
+        log.fallback.append(res.fallback.value)
         log.status.append(res.status)
         u = res.u
         plant.advance(u)

@@ -51,7 +51,7 @@ from drill_nmpc.prediction_model import nmpc_estimation_model
 from drill_nmpc.setpoint_book import protection_changed, within_speed_limits
 from drill_nmpc.setpoint_messages import merge_request, to_msg
 from drill_nmpc.soft_constraints import SLACK_NAMES
-from drill_nmpc.supervisor import SolveResult, Supervisor
+from drill_nmpc.supervisor import Fallback, SolveResult, Supervisor
 
 
 class NmpcNode(AdvisorNode):
@@ -247,7 +247,8 @@ class NmpcNode(AdvisorNode):
         st.iterations = int(r.iterations)
         st.solver_status = str(r.status)
         st.success = bool(r.success)
-        st.fallback = str(r.fallback)
+        st.fallback = r.fallback.value
+        st.fallback_reasons = list(r.reasons)
         st.fallback_count = int(self.supervisor.fallback_count)
         st.cost = float(r.cost)
         st.slack_names = list(SLACK_NAMES)
@@ -269,9 +270,9 @@ class NmpcNode(AdvisorNode):
         st.block_position_ref_m = float(self.book.active.block_position_target_m)
         self.status_pub.publish(st)
 
-        if r.fallback != "none":
-            self.status.error(f"solve at {stamp * 1e-9:.3f} s: fallback {r.fallback} "
-                              f"({r.status})")
+        if r.fallback is not Fallback.NONE:
+            self.status.error(f"solve at {stamp * 1e-9:.3f} s: fallback {r.fallback.value} "
+                              f"({r.status}; {'; '.join(r.reasons)})")
         mode = "manual" if not self.book.active.controller_enabled else self.supervisor.configuration
         self.status.mode = f"{self.ctx.mode}/{mode}"
         self.status.values = {"solve_time_s": float(r.solve_time_s),

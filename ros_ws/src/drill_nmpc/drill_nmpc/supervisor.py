@@ -16,6 +16,7 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
+from enum import Enum
 
 import numpy as np
 
@@ -34,12 +35,19 @@ THETA_STIFFNESS_LIMIT = 2.0       # |lambda| h of the annular flow modes kept be
 THETA_SPEED_FLOOR_MPS = 0.1       # quadratic law: effective annular speed used for the cap near zero flow
 
 
+class Fallback(str, Enum):
+    """What a step fell back to (a str: NmpcStatus.fallback carries the value)."""
+    NONE = "none"          # the plan of a solve with the configured constraints
+    RELAXED = "relaxed"    # a retry with the relaxed constraint set
+    HOLD = "hold"          # no usable solve: the last input held (Supervisor._hold)
+
+
 @dataclass
 class SolveResult:
     """Outcome of one supervisor step (SI units throughout)."""
     u: np.ndarray                          # command to apply from t_k: [u_r m, q_c m^3/s, q_bpp m^3/s, p_in Pa]
     success: bool                          # True when u comes from a converged solve
-    fallback: str                          # "none", "relaxed" or "hold"
+    fallback: Fallback
     status: str                            # solver return status (last attempt)
     iterations: int                        # solver iterations (last attempt)
     solve_time_s: float                    # wall time of the step, retries included
@@ -54,6 +62,8 @@ class SolveResult:
     choke_flow_m3s: float = float("nan")   # predicted choke flow under u at t_k (pressure-loop feedforward)
     hold_choke_dp_pa: float = float("nan")  # on a hold: the choke dp to hold on the choke's pressure
                                             # loop (Supervisor.rest_choke_dp when the holds began) [Pa]
+    reasons: tuple[str, ...] = ()           # what else the step met: each unusable attempt and why,
+                                            # a friction clamp, a warm start rolled out, a shortened step
 
 
 
@@ -305,7 +315,7 @@ class Supervisor:
         x = full_state(em, x_hat, disturbance)
         self.solve_count += 1
         if not np.all(np.isfinite(x)):
-            return self._hold(u_prev, "invalid_estimate", t0)
+            return self._hold(u_prev, "not solved", t0, reasons=("invalid_estimate",))
         if self.spp_nominal is None:
             self.spp_nominal = float(u_prev[3])
         pump_on = bool(setpoints.mud_pump_on)
@@ -378,7 +388,7 @@ class Supervisor:
             last = sol
             usable, converged, why = pb.assess(sol, lbz, ubz, lbg, ubg)
             if not usable:
-                reasons.append(why)
+                reasons.append(f"{start} attempt: {why}")
                 continue
             X, U, E, slacks = pb.unpack(sol["z"], x0, u_prev, self.integral)
             if not (np.all(np.isfinite(U)) and np.all(np.isfinite(X))):
@@ -400,28 +410,29 @@ class Supervisor:
                 if self.cfg.bhp_bias_gain > 0.0:
                     self._predicted_bhp = float(outputs(em, self.model.full(x1, par))[2]) \
                         + self.bhp_bias
-            result = self._result(u, "relaxed" if relaxed else "none", sol, t0, par, X, U, slacks,
-                                  y_ref, converged)
-            self.choke_flow_m3s = result.choke_flow_m3s = float(self.model.choke_flow(x0, u))
-            self._held_choke_dp = math.nan
-            if clamped:
-                result.status = f"{result.status}; {clamped}"
-            if reasons:
-                what = "first attempt" if relaxed else "warm start rolled out; shifted one"
-                result.status = f"{result.status}; {what}: {reasons[0]}"
+            if start == "rollout":
+                reasons.append("warm start rolled out")
             fraction = sol["stats"].get("step_fraction", 1.0)
             if fraction < 1.0:
-                result.status = f"{result.status}; step shortened to {fraction:g}"
+                reasons.append(f"step shortened to {fraction:g}")
+            result = self._result(u, Fallback.RELAXED if relaxed else Fallback.NONE, sol, t0, par,
+                                  X, U, slacks, y_ref, converged,
+                                  ((clamped,) if clamped else ()) + tuple(reasons))
+            self.choke_flow_m3s = result.choke_flow_m3s = float(self.model.choke_flow(x0, u))
+            self._held_choke_dp = math.nan
             return result
         self._warm = None
-        return self._hold(u_prev, "; ".join(reasons) or "failed", t0,
-                          iterations=int(last["stats"].get("iter_count", -1)))
+        return self._hold(u_prev, str(last["stats"].get("return_status", "failed")), t0,
+                          iterations=int(last["stats"].get("iter_count", -1)),
+                          reasons=((clamped,) if clamped else ()) + tuple(reasons))
 
-    def hold(self, u_prev, status: str) -> SolveResult:
-        """Hold the last input (e.g. the estimate was unusable); counted as a fallback."""
+    def hold(self, u_prev, reason: str) -> SolveResult:
+        """Hold the last input (e.g. the estimate was unusable: ``reason``); counted as a
+        fallback."""
         self._warm = None
         self._applied = None
-        return self._hold(self.safe_input(u_prev), status, time.perf_counter())
+        return self._hold(self.safe_input(u_prev), "not solved", time.perf_counter(),
+                          reasons=(reason,))
 
     def rest_choke_dp(self, x, par, bhp_ref_pa: float, pump_on: bool, dp_band) -> float:
         """The steady choke dp [Pa] that holds ``bhp_ref_pa`` with the string at rest at
@@ -433,7 +444,8 @@ class Supervisor:
                                                float(self.em.density_offset_of(x))))
         return min(max(dp, dp_band[0]), dp_band[1]) if math.isfinite(dp) else math.nan
 
-    def _hold(self, u_prev, status: str, t0: float, iterations: int = -1) -> SolveResult:
+    def _hold(self, u_prev, status: str, t0: float, iterations: int = -1,
+              reasons: tuple[str, ...] = ()) -> SolveResult:
         """The last input held (the block reference braked within the acceleration limit)
         and the choke dp to hold meanwhile, fixed when this run of holds began: the steady
         dp that holds the BHP reference with the string at rest (``rest_choke_dp``). A
@@ -449,14 +461,16 @@ class Supervisor:
                               self._speed)
             u[0] = u_prev[0] + v * self.problem.ts
         u = self.limit(u, u_prev, self._speed)
-        return SolveResult(u=u, success=False, fallback="hold", status=status, iterations=iterations,
+        return SolveResult(u=u, success=False, fallback=Fallback.HOLD, status=status,
+                           reasons=reasons, iterations=iterations,
                            solve_time_s=time.perf_counter() - t0, cost=float("nan"),
                            slacks={n: float("nan") for n in SLACK_NAMES},
                            planned_inputs=np.tile(u, (self.problem.N, 1)),
                            integral=self.integral.copy(), configuration=self.configuration,
                            choke_flow_m3s=self.choke_flow_m3s, hold_choke_dp_pa=self._held_choke_dp)
 
-    def _result(self, u, fallback, sol, t0, par, X, U, slacks, y_ref, converged) -> SolveResult:
+    def _result(self, u, fallback: Fallback, sol, t0, par, X, U, slacks, y_ref, converged,
+                reasons: tuple[str, ...]) -> SolveResult:
         pb, em, model = self.problem, self.em, self.model
         rows = [model.full(row, par) for row in X]
         Y = np.array([[float(v) for v in outputs(em, r)] for r in rows])
@@ -476,4 +490,5 @@ class Supervisor:
                            solve_time_s=time.perf_counter() - t0, cost=float(sol["f"]),
                            slacks=slack_si, predicted_time_s=pb.ts * np.arange(pb.N + 1),
                            predicted=predicted, planned_inputs=U.copy(), reference=y_ref,
-                           integral=self.integral.copy(), configuration=self.configuration)
+                           integral=self.integral.copy(), configuration=self.configuration,
+                           reasons=reasons)

@@ -191,7 +191,7 @@ def test_invalid_estimate_holds_the_last_input(config, em, supervisor):
     x[em.pressure(2)] = math.nan
     count = supervisor.fallback_count
     r = supervisor.step(x, trip_setpoints(0.0, 1.0, 2.0, 7.0e7), u)
-    assert r.fallback == "hold" and not r.success
+    assert r.fallback == "hold" and not r.success and r.reasons == ("invalid_estimate",)
     assert np.array_equal(r.u, np.clip(u, *_bounds(config)[:2]))
     assert supervisor.fallback_count == count + 1
 
@@ -216,6 +216,7 @@ def test_fallback_policy_relaxed_then_hold(config, em, supervisor, monkeypatch):
     monkeypatch.setattr(pb, "solve", failing_first)
     r = supervisor.step(x, sp, u)
     assert r.fallback == "relaxed" and r.success
+    assert r.reasons == ("cold attempt: Infeasible_Problem_Detected",)
     assert calls[1] > calls[0]                     # the retry dropped constraint rows
     _check_inputs(config, [r.u], u)
 
@@ -227,6 +228,8 @@ def test_fallback_policy_relaxed_then_hold(config, em, supervisor, monkeypatch):
     monkeypatch.setattr(pb, "solve", always_nan)
     r = supervisor.step(x, sp, u)
     assert r.fallback == "hold" and not r.success
+    # the relaxed solve before left no warm start: a cold start, then the relaxed set
+    assert [reason.split(":")[0] for reason in r.reasons] == ["cold attempt", "relaxed attempt"]
     assert np.all(np.isfinite(r.u))
 
 
@@ -290,7 +293,7 @@ def test_an_unusable_warm_start_is_rolled_out_again_before_any_fallback(config, 
     r = supervisor.step(x, sp, r.u)
     assert len(starts) == 2 and starts[0][0] > 1e-3
     assert starts[1] == (pytest.approx(0.0, abs=1e-9), True)
-    assert r.fallback == "none" and "warm start rolled out" in r.status
+    assert r.fallback == "none" and "warm start rolled out" in r.reasons
     assert supervisor.fallback_count == fallbacks and supervisor.rollouts == rollouts + 1
 
 
@@ -346,7 +349,7 @@ def test_a_step_too_long_for_the_linearisation_is_shortened(config, em, supervis
     out = seen["out"]
     assert out["stats"]["step_fraction"] == 0.5 and len(calls) == 2
     assert np.allclose(out["z"] - seen["z0"], 0.5 * (calls[0] - seen["z0"]))
-    assert r.fallback == "none" and "step shortened to 0.5" in r.status
+    assert r.fallback == "none" and "step shortened to 0.5" in r.reasons
 
 
 def test_result_fields(config, em, supervisor):
