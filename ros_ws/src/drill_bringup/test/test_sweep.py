@@ -170,7 +170,7 @@ def test_compare_gets_its_runs_through_the_sweep_runner(tmp_path, capsys):
     rows = compare.run_all(items, runs_dir=tmp_path, run=fake)
     assert fake.ran == [("nmpc", 7), ("baseline", 7)]
     assert [list(r) for r in rows] == [["case", "controller", "seed", "mismatch", "summary",
-                                        "run_dir", "wall_s"]] * 2
+                                        "run_dir", "wall_s", "commit"]] * 2
     assert rows[0]["mismatch"] is None
     assert rows[0]["summary"]["bhp_rmse_pa"] == pytest.approx(0.7e5)
     assert "short_trip / baseline / seed 7: BHP RMSE 0.700 bar" in capsys.readouterr().out
