@@ -234,8 +234,7 @@ class NmpcController:
         self.u = None
         self.initial = (choke_input(self.cfg, self.operating_flow_m3s, ini.choke_dp_pa), bpp, spp)
         self.solve_times: list[float] = []
-        self.fallbacks = 0
-        self.statuses: list[tuple[float, str, str]] = []          # (t, fallback, status)
+        self.statuses: list[tuple] = []        # per fallback: (t, fallback, status, reasons)
 
     def step(self, x_hat, sp, inputs, t: float, flow_observable: bool = True) -> Command:
         if self.u is None:
@@ -252,7 +251,6 @@ class NmpcController:
             "block_reference_m": frame.reference if frame else None})
         self.solve_times.append(r.solve_time_s)
         if r.fallback is not Fallback.NONE:
-            self.fallbacks += 1
             self.statuses.append((t, r.fallback.value, r.status, r.reasons))
         u = self.u = np.asarray(r.u, dtype=float)
         choke = choke_command(self.cfg, r, self.operating_flow_m3s)
@@ -440,7 +438,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
     if nmpc is not None:
         out["solve_time_median_s"] = float(np.median(nmpc.solve_times))
         out["solve_time_p99_s"] = float(np.percentile(nmpc.solve_times, 99))
-        out["fallbacks"] = nmpc.fallbacks
+        out["fallbacks"] = len(nmpc.statuses)
         out["fallback_log"] = nmpc.statuses
     if guard is not None:
         out["clamps"], out["alarms"], out["raised"] = guard.clamps, guard.alarms, guard.raised

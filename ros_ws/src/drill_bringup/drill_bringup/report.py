@@ -95,9 +95,10 @@ def load_series(mcap_path: Path) -> Series:
             s.add("bhp_meas", t, msg.bhp_pa)
             s.add("pit_meas", t, getattr(msg, "pit_volume_m3", math.nan))
         elif rec.topic in EVENT_SOURCES:
-            s.events.append(RecordedEvent(t, EVENT_SOURCES[rec.topic], msg.kind,   # no code
-                                          getattr(msg, "code", ""),                  # before
-                                          getattr(msg, "value", math.nan), msg.text))  # codes
+            # a recording made before events had codes reads with an empty code, NaN value
+            s.events.append(RecordedEvent(t, EVENT_SOURCES[rec.topic], msg.kind,
+                                          getattr(msg, "code", ""),
+                                          getattr(msg, "value", math.nan), msg.text))
         elif rec.topic == topics.ESTIMATE:
             s.add("bhp_est", t, msg.bhp_pa)
             s.add("friction_est", t, list(msg.friction_pa))

@@ -272,7 +272,7 @@ class NmpcNode(AdvisorNode):
 
         if r.fallback is not Fallback.NONE:
             self.status.error(f"solve at {stamp * 1e-9:.3f} s: fallback {r.fallback.value} "
-                              f"({r.status}; {'; '.join(r.reasons)})")
+                              f"({'; '.join((r.status, *r.reasons))})")
         mode = "manual" if not self.book.active.controller_enabled else self.supervisor.configuration
         self.status.mode = f"{self.ctx.mode}/{mode}"
         self.status.values = {"solve_time_s": float(r.solve_time_s),

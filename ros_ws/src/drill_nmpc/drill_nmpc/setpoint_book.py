@@ -28,7 +28,10 @@ from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
 class Event:
     """A change of the setpoints in force, or a refused one (drill_core.event_codes)."""
     notice: Notice
-    accepted: bool
+
+    @property
+    def accepted(self) -> bool:
+        return self.kind != "refusal"
 
     @property
     def kind(self) -> str:
@@ -118,12 +121,12 @@ class SetpointBook:
         window = f"window {low / 1e5:.1f}-{high / 1e5:.1f} bar"
         if not ok:
             return [Event(Notice("well_control_refused", f"protection: well-control target "
-                                                         f"refused ({window}): {reason}"), False)]
+                                                         f"refused ({window}): {reason}"))]
         self.active = candidate
         self.bhp_resolved = True
         self.changed = True
         return [Event(Notice("well_control_setpoints", f"protection: well control ({window}): "
-                                                       f"{describe(candidate)}", bhp_ref_pa), True)]
+                                                       f"{describe(candidate)}", bhp_ref_pa))]
 
     def advance(self, t_s: float) -> list[Event]:
         """Apply every schedule entry due by scenario time ``t_s``, in order."""
@@ -138,7 +141,7 @@ class SetpointBook:
                 ok, reason = validate_setpoints(candidate, self.envelope)
                 if not ok:
                     events.append(Event(Notice("schedule_refused", f"scenario entry at "
-                                                   f"{entry.time_s:g} s refused: {reason}"), False))
+                                                   f"{entry.time_s:g} s refused: {reason}")))
                     continue
             self.active = candidate
             applied = True
@@ -160,7 +163,7 @@ class SetpointBook:
 
     def _schedule_event(self) -> Event:
         return Event(Notice("schedule_setpoints", f"scenario: {describe(self.active)}",
-                            self.active.bhp_ref_pa), True)
+                            self.active.bhp_ref_pa))
 
     def request(self, candidate: ActiveSetpoints, source: str) -> tuple[bool, str, Event]:
         """An operator request, already merged over the setpoints in force."""
@@ -169,10 +172,9 @@ class SetpointBook:
         else:
             ok, reason = validate_setpoints(candidate, self.envelope)
         if not ok:
-            return False, reason, Event(Notice("setpoints_refused", f"{source}: refused: {reason}"),
-                                        False)
+            return False, reason, Event(Notice("setpoints_refused", f"{source}: refused: {reason}"))
         self.active = candidate
         self.bhp_resolved = True
         self.changed = True
         return True, reason, Event(Notice("setpoints_accepted", f"{source}: {describe(candidate)}",
-                                          candidate.bhp_ref_pa), True)
+                                          candidate.bhp_ref_pa))
