@@ -3,8 +3,8 @@ scenarios (config/scenarios/estop_*.yaml: at rest, at the trip's speed pulling o
 running in, during a mud-pump trip, during a kick answer) through the graph in fast mode,
 and for every press what the stop did over the 60 s it was kept: the block's speed at the
 press, when it was at rest against the brake's time, how far it went and whether it moved
-after, how far the string went, and the BHP against the hold's target (the command's
-``emergency_bhp_pa``) and the pore/fracture window. The same figures are the DDS test's
+after, how far the string went, and the BHP against the hold's target in force (the
+command's ``emergency_bhp_pa``) and the pore/fracture window. The same figures are the DDS test's
 (test/test_estop.py). The page is rendered from the runs, the figures go to a JSON file
 beside it.
 
@@ -31,6 +31,8 @@ SCENARIOS = ("estop_trip", "estop_pump_trip", "estop_kick")
 HOLD_S = 60.0                 # each press is judged over this long (the issue's 60 s)
 TARGETS = {"travel_m": 0.3, "string_settled_m": 0.3, "bhp_worst_pa": 2.0e5}
 RESTING_MPS = 0.1             # a block slower than this at the press was at rest (a trip: 0.3-0.6)
+MOVE_SETTLE_S = 10.0          # the BHP is judged from this long after each move of the target
+                              # (the BHP loop's answer to a step: docs/faults.md)
 
 
 @dataclass(frozen=True)
@@ -46,8 +48,12 @@ class StopFigures:
     moved_after_rest_m: float  # the block's spread once at rest [m]
     string_m: float           # the string's largest distance from where it was [m]
     string_settled_m: float   # the string's distance over the last 10 s [m]
-    target_bhp_pa: float      # the BHP the choke held (the command's emergency_bhp_pa) [Pa]
-    bhp_worst_pa: float       # the true BHP's largest distance from it [Pa]
+    target_bhp_pa: float      # the BHP the choke held from the press (the command's
+                              # emergency_bhp_pa) [Pa]
+    target_moves: int         # how often the target moved with the window in force (a kick
+                              # or loss answer's steps)
+    bhp_worst_pa: float       # the true BHP's largest distance from the target in force,
+                              # the MOVE_SETTLE_S after each of its moves left out [Pa]
     bhp_outside_s: float      # time more than 2 bar from it [s]
     bhp_last_outside_s: float  # last time after the press it was (0: never) [s]
     outside_window_s: float   # time under the pore or over the fracture pressure [s]
@@ -66,15 +72,20 @@ def presses(series: report.Series) -> list[float]:
 
 def stop_figures(scenario: str, series: report.Series, commands: dict, press_s: float,
                  config: RigConfig) -> StopFigures:
-    """The figures of the press at ``press_s``; the commands over the hold must say the stop
-    is in force with one BHP target (else ValueError)."""
-    held = [commands[k] for k in sorted(commands) if press_s <= k < press_s + HOLD_S]
+    """The figures of the press at ``press_s``, the BHP judged against the target of the
+    command in force at each sample; the commands over the hold must say the stop is in
+    force, its BHP target moving only with the window in force (else ValueError)."""
+    stamps = [k for k in sorted(commands) if press_s <= k < press_s + HOLD_S]
+    held = [commands[k] for k in stamps]
     if not held or not all(c.emergency_stop for c in held):
         raise ValueError(f"{scenario}: the emergency stop is not in force over the "
                          f"{HOLD_S:g} s from {press_s:g} s")
-    target = held[0].emergency_bhp_pa
-    if not all(c.emergency_bhp_pa == target for c in held):
-        raise ValueError(f"{scenario}: the hold's BHP target changed after {press_s:g} s")
+    edges = [(c.bhp_window_low_pa, c.bhp_window_high_pa) for c in held]
+    moves = [i for i in range(1, len(held))
+             if held[i].emergency_bhp_pa != held[i - 1].emergency_bhp_pa]
+    if any(edges[i] == edges[i - 1] for i in moves):
+        raise ValueError(f"{scenario}: the hold's BHP target moved after {press_s:g} s "
+                         "with the window in force as it was")
     t, block = series.get("block")
     _, string = series.get("position")
     _, bhp = series.get("bhp")
@@ -85,7 +96,10 @@ def stop_figures(scenario: str, series: report.Series, commands: dict, press_s: 
     still = np.flatnonzero((rates == 0.0) & window[1:])
     rest = float(t[still[0] + 1]) if still.size else math.inf
     frame = config.plant.sensor_period_s
-    dev = bhp[window] - target
+    in_force = np.maximum(np.searchsorted(np.array(stamps), t[window] + 1e-9) - 1, 0)
+    dev = bhp[window] - np.array([c.emergency_bhp_pa for c in held])[in_force]
+    for i in moves:
+        dev[(t[window] >= stamps[i]) & (t[window] < stamps[i] + MOVE_SETTLE_S)] = 0.0
     outside = np.abs(dev) > TARGETS["bhp_worst_pa"]
     f = config.well.formation
     beyond = (bhp[window] < f.pore_pressure_pa) | (bhp[window] > f.fracture_pressure_pa)
@@ -97,7 +111,7 @@ def stop_figures(scenario: str, series: report.Series, commands: dict, press_s: 
         float(np.ptp(block[window & (t >= rest)])) if math.isfinite(rest) else math.inf,
         float(np.abs(string[window] - string[at]).max()),
         float(abs(np.mean(string[window & (t > press_s + HOLD_S - 10.0)]) - string[at])),
-        float(target), float(np.abs(dev).max()), float(outside.sum() * frame),
+        float(held[0].emergency_bhp_pa), len(moves), float(np.abs(dev).max()), float(outside.sum() * frame),
         float(t[window][outside].max() - press_s) if outside.any() else 0.0,
         float(beyond.sum() * frame))
 
@@ -129,11 +143,12 @@ def render(figures: list[StopFigures], config: RigConfig) -> str:
         f"(speed / {config.actuators.brake_deceleration_mps2:g} "
         f"m/s^2) and within {TARGETS['travel_m']:g} m of where it was, the string settled "
         f"within {TARGETS['string_settled_m']:g} m, the BHP within "
-        f"{TARGETS['bhp_worst_pa'] / bar:g} bar of its value at the stop for the "
-        f"{HOLD_S:g} s.",
+        f"{TARGETS['bhp_worst_pa'] / bar:g} bar of the stop's target in force for the "
+        f"{HOLD_S:g} s (the first {MOVE_SETTLE_S:g} s after each move of the target left "
+        "out: a kick answer's steps go on during the stop).",
         "",
         "| scenario | press | block at the press | at rest after (brake time) | block travel, "
-        "after rest | string: furthest, settled | BHP held | BHP furthest from it | "
+        "after rest | string: furthest, settled | BHP held (moves) | BHP furthest from it | "
         "more than 2 bar off (last) | outside pore/fracture |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
@@ -142,7 +157,7 @@ def render(figures: list[StopFigures], config: RigConfig) -> str:
             f"| `{f.scenario}` | {f.press_s:g} s | {f.state}, {f.speed_mps:.2f} m/s | "
             f"{f.rest_s:.1f} s ({f.brake_s:.1f} s) | {f.travel_m:.3f} m, "
             f"{f.moved_after_rest_m:.3f} m | {f.string_m:.2f} m, {f.string_settled_m:.2f} m | "
-            f"{f.target_bhp_pa / bar:.1f} bar | {f.bhp_worst_pa / bar:.2f} bar | "
+            f"{f.target_bhp_pa / bar:.1f} bar ({f.target_moves}) | {f.bhp_worst_pa / bar:.2f} bar | "
             f"{f.bhp_outside_s:.1f} s ({f.bhp_last_outside_s:.1f} s) | "
             f"{f.outside_window_s:.1f} s |")
     missed = [f for f in figures if f.bhp_worst_pa > TARGETS["bhp_worst_pa"]]

@@ -301,6 +301,7 @@ class Protection:
         alarm = self.trip.observe(t, m.string_flow_valid, m.choke_dp_pa, m.bhp_pa)
         if alarm:
             self.alarms.append((t, alarm))
+        self.protection.observe_bhp(t, m.bhp_pa)
         self.positions.append((t, m.block_position_m))
         while self.positions and t - self.positions[0][0] > VELOCITY_WINDOW_S + 1e-9:
             self.positions.popleft()

@@ -21,13 +21,13 @@ string-flow reading (mud pump off) adds nothing to the balance, so detection pau
 from __future__ import annotations
 
 import math
-import statistics
 from collections import deque
 from dataclasses import dataclass
 
 from drill_core.config import KickDetection, RigConfig
 from drill_core.well import WellGeometry
 from drill_protection.flow_baseline import FlowBaseline
+from drill_protection.recent_median import RecentMedian
 from drill_protection.slope import LeastSquaresSlope
 
 
@@ -68,7 +68,8 @@ class KickDetector:
         self.config = config
         self.area_m2 = net_displacement_area_m2
         self.compliance_m3_pa = (compliance_top_m3_pa, compliance_bottom_m3_pa)
-        self._pressures: deque = deque()        # (time s, choke dp Pa, BHP Pa) of the last second
+        self._pressures = (RecentMedian(config.pressure_average_s),    # choke dp, BHP [Pa]
+                           RecentMedian(config.pressure_average_s))
         self.rejected = 0
         self.rejected_pit = 0                   # pit samples left out (NaN, inf)
         self.alarm = ""
@@ -102,13 +103,11 @@ class KickDetector:
             self._pit.clear()
             self._pit_start = None
             return self._reading(False)
-        if pressures_ok:
-            self._pressures.append((s.time_s, s.choke_dp_pa, s.bhp_pa))
-        while self._pressures and self._pressures[0][0] < s.time_s - self.config.pressure_average_s + 1e-9:
-            self._pressures.popleft()
-        if not self._pressures:
+        for median, value in zip(self._pressures, (s.choke_dp_pa, s.bhp_pa)):
+            median.add(s.time_s, value if pressures_ok else math.nan)
+        if not self._pressures[0]:
             return self._reading(False)           # no pressure reading yet (or for a second)
-        pressures = [statistics.median(p[i] for p in self._pressures) for i in (1, 2)]
+        pressures = [median.value for median in self._pressures]
         if self._first is None:                           # (re)start the balance here
             self._first, self._last_time_s, self._integral_m3 = s, s.time_s, 0.0
             self._first_pressures = pressures

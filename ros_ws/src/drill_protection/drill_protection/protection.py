@@ -6,10 +6,12 @@ machines respects the most conservative of
 * operator limits: the trip-speed limit of the setpoints in force,
 * the emergency stop, which acts at the machines: the command says so
   (``Decision.emergency_stop``), the drawworks sets its brake (the block decelerates at
-  its brake limit to rest and is held) and the choke holds the BHP measured at the stop
-  (kept inside the window in force) on its own BHP loop, starting from the choke dp the
-  model says the stop calls for (the measured one less the surge/swab of the string's
-  speed at the stop, which goes with it), its flow feedforward the flow out of a well at
+  its brake limit to rest and is held) and the choke holds the BHP of the stop on its own
+  BHP loop: the BHP measured at the press (the median of its last second), or while a
+  kick or loss is answered the answer's target, whose steps go on during the stop (the
+  stop stops the block, not the well control); kept inside the window in force. The loop
+  starts from the choke dp the model says the stop calls for (the measured one less the
+  surge/swab of the string's speed at the stop, which goes with it), its flow feedforward the flow out of a well at
   rest (circulation plus back-pressure pump), the pumps held where they were but for a
   lost circulation's back-pressure pump floor (without circulation the steady model's
   swab is not the friction that goes, so there is no feedforward then); the block
@@ -51,6 +53,7 @@ from drill_core.config import RigConfig
 from drill_core.event_codes import Notice
 from drill_core.units import PA_PER_BAR
 from drill_protection.pump_trip import TripAction
+from drill_protection.recent_median import BHP_MEDIAN_S, RecentMedian
 from drill_protection.well_control import Hold
 
 INPUTS = ("block_position_ref_m", "choke_flow_ref_m3s", "bpp_flow_m3s", "spp_pa")
@@ -112,9 +115,11 @@ class ProcessProtection:
         self.previous_dp_setpoint: tuple[float, float] | None = None
         self.previous_speed_mps = 0.0
         self.emergency_stop = False
-        self.emergency_bhp_pa = float("nan")    # BHP held since the stop [Pa]; NaN: no stop
+        self.emergency_bhp_pa = float("nan")    # BHP the stop holds [Pa]; NaN: no stop
+        self.pressed_bhp_pa = float("nan")      # the measured BHP at the press [Pa]
         self.emergency_dp_start_pa = float("nan")   # the choke dp the stop calls for [Pa]
         self.last_bhp_pa = float("nan")         # the last finite BHP measurement [Pa]
+        self.bhp_median = RecentMedian(BHP_MEDIAN_S)    # of every measurement (observe_bhp)
         self.automation_level = "closed_loop"
         self.trip_hold = ""          # why the trip is stopped (a well-control alarm), "" if not
         # a kick or losses answered (drill_protection.well_control): the window the trip
@@ -295,22 +300,33 @@ class ProcessProtection:
                         choke_dp_setpoint, float(bhp_ref_pa), limits.standing_mps,
                         self.emergency_stop, stopped, self.emergency_dp_start_pa)
 
+    def observe_bhp(self, time_s: float, bhp_pa: float) -> None:
+        """Take every BHP measurement (the stop's BHP is the median of the last second's)."""
+        self.bhp_median.add(time_s, bhp_pa)
+
     def _emergency_bhp(self, string_velocity_mps: float, circulation_m3s: float,
                        choke_dp_pa: float) -> float:
-        """The BHP the choke holds under the emergency stop [Pa], NaN without one: the last
-        measured BHP when the stop came in, inside the window in force (so a stop while the
-        window is being made good still ends inside it); and, from the same moment, the
-        choke dp the stop calls for: the measured one plus the surge/swab model's BHP change
-        at the string's speed (the change that stops with the string), while circulating."""
+        """The BHP the choke holds under the emergency stop [Pa], NaN without one: the
+        well-control answer's target while one is held, else the measured BHP when the stop
+        came in (the median of its last second, the last sample without one); inside the
+        window in force (so a stop while the window is being made good still ends inside
+        it). From the press on, the choke dp the stop calls for: the measured one plus the
+        surge/swab model's BHP change at the string's speed (the change that stops with the
+        string), while circulating."""
         if not self.emergency_stop:
-            self.emergency_bhp_pa = self.emergency_dp_start_pa = float("nan")
-        elif not np.isfinite(self.emergency_bhp_pa):
-            low, high = self.window_pa
-            self.emergency_bhp_pa = float(np.clip(self.last_bhp_pa, low, high))
+            self.emergency_bhp_pa = self.pressed_bhp_pa = self.emergency_dp_start_pa = float("nan")
+            return self.emergency_bhp_pa
+        if not np.isfinite(self.pressed_bhp_pa):
+            median = self.bhp_median.value
+            self.pressed_bhp_pa = median if np.isfinite(median) else self.last_bhp_pa
             speed = string_velocity_mps if np.isfinite(string_velocity_mps) else 0.0
             change = surge_swab_pa(self.wm, np.array([speed]), circulation_m3s)[0] \
                 if circulation_m3s > 0.0 else 0.0
             self.emergency_dp_start_pa = float(max(choke_dp_pa + change, 0.0))
+        held = self.well_control.target_bhp_pa if self.well_control is not None \
+            else self.pressed_bhp_pa
+        low, high = self.window_pa
+        self.emergency_bhp_pa = float(np.clip(held, low, high))
         return self.emergency_bhp_pa
 
     def _answer_trip(self, trip: TripAction, guard: int, command: np.ndarray,

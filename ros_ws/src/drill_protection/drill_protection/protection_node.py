@@ -159,6 +159,7 @@ class ProtectionNode(RigNode):
         stamp = to_ns(msg.header.stamp)
         self.clock.start(stamp)
         self._detect(msg, stamp)
+        self.protection.observe_bhp(stamp * 1e-9, msg.bhp_pa)
         self.positions.append((stamp, msg.block_position_m))
         while self.positions and stamp - self.positions[0][0] > VELOCITY_WINDOW_S * 1e9:
             self.positions.popleft()

@@ -38,16 +38,13 @@ there.
 from __future__ import annotations
 
 import math
-import statistics
-from collections import deque
 from dataclasses import dataclass
 
 from drill_core.config import WellControl
 from drill_core.event_codes import Notice
 from drill_core.units import LPM_PER_M3S, PA_PER_BAR
+from drill_protection.recent_median import BHP_MEDIAN_S, RecentMedian
 from drill_protection.slope import LeastSquaresSlope
-
-BHP_MEDIAN_S = 1.0          # the BHP the first step starts from: the median of this long
 
 
 @dataclass(frozen=True)
@@ -65,7 +62,7 @@ class WindowResponse:
         self.config = config
         self.configured_pa = window_pa
         self.low_pa, self.high_pa = window_pa
-        self._bhp: deque = deque()              # (time s, BHP Pa) of the last second
+        self._bhp = RecentMedian(BHP_MEDIAN_S)  # the BHP the first step starts from
         self._answering = ""                      # the alarm being answered ("" none)
         self._stepped_at_s = math.nan             # its last step (or judgement) [s]
         self._volumes = LeastSquaresSlope()       # (time s since it, excess volume m^3)
@@ -112,19 +109,16 @@ class WindowResponse:
         """Take one measurement, the detector's reading after it (its alarm and excess
         volume) and the BHP reference in force (NaN: none); the event when an edge moved
         (None otherwise)."""
-        if math.isfinite(bhp_pa):
-            self._bhp.append((time_s, bhp_pa))
+        self._bhp.add(time_s, bhp_pa)
         if math.isfinite(bhp_pa) and math.isfinite(choke_dp_pa):
             offset = bhp_pa - choke_dp_pa
             if math.isfinite(self.offset_pa):
                 weight = min((time_s - self._offset_at_s) / self.config.offset_time_constant_s, 1.0)
                 offset = self.offset_pa + weight * (offset - self.offset_pa)
             self.offset_pa, self._offset_at_s = offset, time_s
-        while self._bhp and self._bhp[0][0] < time_s - BHP_MEDIAN_S + 1e-9:
-            self._bhp.popleft()
         if not self._bhp:
             return None
-        bhp = statistics.median(p for _, p in self._bhp)
+        bhp = self._bhp.value
         if alarm in ("kick", "losses") and alarm != self._answering:    # the alarm's first step
             self._answering, self._margin_taken = alarm, False
             flowed_at = [bhp] + ([reference_pa] if math.isfinite(reference_pa) else [])

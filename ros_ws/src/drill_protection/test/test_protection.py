@@ -6,6 +6,7 @@ import pytest
 from drill_core import hydraulics as hy
 from drill_core.config import load_rig
 from drill_protection.protection import ProcessProtection, surge_swab_pa
+from drill_protection.well_control import Hold
 
 from pathlib import Path
 
@@ -117,6 +118,29 @@ def test_emergency_stop_keeps_its_bhp_inside_the_window(setup):
     p.emergency_stop = True
     d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, float("nan"), CIRCULATION, 0.5)
     assert d.emergency_bhp_pa == high           # the last BHP seen, brought inside the window
+
+
+def test_emergency_stop_holds_the_median_of_the_last_second_not_one_noisy_sample(setup):
+    p = fresh(setup)
+    for i, bhp in enumerate((6.851e7, 6.849e7, 6.850e7, 6.853e7, 6.870e7)):   # a 2 bar spike last
+        p.observe_bhp(0.1 * i, bhp)
+    p.emergency_stop = True
+    d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.870e7, CIRCULATION, 0.5)
+    assert d.emergency_bhp_pa == 6.851e7
+
+
+def test_emergency_stop_during_a_kick_answer_holds_the_answers_target_as_it_steps(setup):
+    p = fresh(setup)
+    p.emergency_stop = True
+    p.observe_bhp(0.0, 6.86e7)
+    p.well_control = Hold(2.5e6, 6.89e7, "kick answer")
+    first = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.86e7, CIRCULATION, 0.5,
+                    choke_dp_pa=2.4e6)
+    p.well_control = Hold(2.75e6, 6.915e7, "kick answer, a step on")
+    later = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.88e7, CIRCULATION, 0.5,
+                    choke_dp_pa=2.6e6)
+    assert (first.emergency_bhp_pa, later.emergency_bhp_pa) == (6.89e7, 6.915e7)
+    assert later.emergency_dp_start_pa == first.emergency_dp_start_pa == 2.4e6  # at the press
 
 
 def test_non_finite_request_is_refused(setup):
