@@ -89,6 +89,11 @@ def live(tmp_path_factory):
                      "the bridge's URL")
             wait_for(lambda: reported(launch, "opcua_gateway", "OPCUA_URL"), START_TIMEOUT_S,
                      "the gateway's endpoint")
+            # its events are volatile: written before this listener has matched the gateway's
+            # writer (discovery on a busy machine takes seconds), they do not reach it
+            wait_for(lambda: any(i.node_name == "opcua_gateway" for i in
+                                 node.get_publishers_info_by_topic(topics.OPERATOR_EVENTS)),
+                     START_TIMEOUT_S, f"the gateway's writer of {topics.OPERATOR_EVENTS}")
             yield {"launch": launch, "seen": seen, "security": security,
                    "endpoint": f"opc.tcp://127.0.0.1:{port}/drill-rig",
                    "foxglove": reported(launch, "foxglove_bridge", "FOXGLOVE_URL")}

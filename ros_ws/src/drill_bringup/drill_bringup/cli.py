@@ -40,10 +40,12 @@
                                    the scenario on N seeds through the graph, on a local pool
                                    or a Dask cluster; mean, spread and worst of each figure
                                    per controller (table, plot); the same --output resumes
-  rig compare [SCENARIO ...] [--seeds N] [--output FILE] [--mismatch SUITE] [--resume] [--render]
+  rig compare [SCENARIO ...] [--seeds N] [--controller C ...] [--output FILE] [--mismatch SUITE]
+              [--resume] [--render]
                                    Cases 1-3 and the fault scenarios under the NMPC, automated
-                                   MPD and the PI baseline, Case 4 under its NMPC, N seeds
-                                   each; write the results (the rows of cases not run are kept);
+                                   MPD and the PI baseline (--controller: only these), Case 4
+                                   under its NMPC, N seeds each; write the results (the rows of
+                                   cases and controllers not run are kept);
                                    --mismatch SUITE: Cases 1-3 on plants that are not the model
                                    (suite: every member of config/mismatch.yaml); --resume:
                                    the runs the table holds are not run again; --render:
@@ -192,7 +194,8 @@ def main(argv=None) -> int:
                       help="with --fault-matrix: run only the cells with this fault (e.g. "
                            "'mud pump trip'), the table's other rows kept")
     comp.add_argument("--controller", action="append", choices=MATRIX_CONTROLLERS,
-                      help="with --with-fault: only under this controller (repeatable)")
+                      help="only under this controller (repeatable; the other controllers' "
+                           "rows kept); with --fault-matrix, with --with-fault")
     comp.add_argument("--render", action="store_true",
                       help="run nothing: write the page again from its JSON table")
     args, rest = parser.parse_known_args(argv)
@@ -234,8 +237,9 @@ def main(argv=None) -> int:
             output = args.output or ROOT / "docs" / "results.md"
             if args.render:
                 return compare.render(output)
-            return compare.main(args.scenarios, output, args.seeds, mismatch=args.mismatch,
-                                resume=args.resume)
+            return compare.main(args.scenarios, output, args.seeds,
+                                tuple(args.controller or compare.CONTROLLERS),
+                                mismatch=args.mismatch, resume=args.resume)
         if args.command == "reestimate":
             from drill_bringup.reestimate import reestimate
             result = reestimate(args.run_dir, args.config_dir, args.rate, launcher.default_domain_id())

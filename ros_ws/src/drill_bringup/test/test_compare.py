@@ -113,6 +113,21 @@ def test_a_partial_compare_keeps_the_other_cases_rows(tmp_path, monkeypatch):
     assert "results-case2.png" in output.read_text()
 
 
+
+def test_a_compare_under_one_controller_keeps_the_other_controllers_rows(tmp_path, monkeypatch):
+    output = tmp_path / "results.md"
+    old = [_row("kick", "nmpc", 21, _summary(0.5, 0.0, solves=600)),
+           _row("kick", "baseline", 21, _summary(1.5, 60.0))]
+    output.with_suffix(".json").write_text(json.dumps(old))
+    monkeypatch.setattr(compare, "run_all",
+                        lambda items: [_row(c, k, s, _summary(0.4, 0.0, solves=600))
+                                       for c, k, s in items])
+    monkeypatch.setattr(compare, "plot_trips", lambda rows, case, out: out)
+    compare.main(["kick"], output, seeds=1, controllers=("nmpc",))
+    rows = json.loads(output.with_suffix(".json").read_text())
+    assert sorted((r["controller"], r["summary"]["bhp_rmse_pa"]) for r in rows) == \
+        [("baseline", 1.5e5), ("nmpc", 0.4e5)]
+
 def test_a_resumed_compare_runs_only_the_planned_runs_the_table_does_not_hold(tmp_path,
                                                                              monkeypatch):
     output = tmp_path / "results.md"

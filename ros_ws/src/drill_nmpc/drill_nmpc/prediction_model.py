@@ -166,7 +166,11 @@ class PredictionModel:
                 / (w.mud.bulk_modulus_pa * self.choke_time_constant_s))
 
     def function(self, step_s: float, substeps: int, integrator: str) -> ca.Function:
-        """F(x, u, par, pump_on) -> x after one sample (inputs held), ``substeps`` RK4/Euler steps."""
+        """F(x, u, par, pump_on) -> x after one sample (inputs held), ``substeps`` RK4/Euler
+        steps: calls of one step function (its code once, however many steps). F's
+        derivative is its explicit Jacobian, the chain rule over the steps of the step's
+        own (one SX function), so every derivative the NLP needs is one call of it per
+        stage instead of forward sweeps through the integrator."""
         x = ca.SX.sym("x", self.nd)
         u = ca.SX.sym("u", 4)
         par = ca.SX.sym("par", self.npar)
@@ -176,19 +180,26 @@ class PredictionModel:
             return ca.vertcat(*self.rhs([s[i] for i in range(self.nd)], u, par, on))
 
         h = step_s / substeps
-        xn = x
+        xn = rk4_step(f, x, h) if integrator == "rk4" else euler_step(f, x, h)
+        step = ca.Function("predict_step", [x, u, par, on], [xn])
+        step_jacobian = ca.Function("predict_step_jacobian", [x, u, par, on],
+                                    [xn] + [ca.jacobian(xn, a) for a in (x, u, par, on)])
+        args = [ca.MX.sym("x", self.nd), ca.MX.sym("u", 4), ca.MX.sym("par", self.npar),
+                ca.MX.sym("pump_on")]
+        state = args[0]
         for _ in range(substeps):
-            xn = rk4_step(f, xn, h) if integrator == "rk4" else euler_step(f, xn, h)
-        # The explicit Jacobian (one SX function) makes every derivative the NLP needs a call
-        # of it per stage, instead of forward sweeps through the integrator in each direction.
-        out = ca.SX.sym("out", self.nd)
-        jac = ca.Function("jac_predict", [x, u, par, on, out],
-                          [ca.jacobian(xn, x), ca.jacobian(xn, u), ca.jacobian(xn, par),
-                           ca.jacobian(xn, on)],
-                          ["x", "u", "par", "pump_on", "out_x_next"],
-                          ["jac_x_next_x", "jac_x_next_u", "jac_x_next_par", "jac_x_next_pump_on"])
-        return ca.Function("predict", [x, u, par, on], [xn], ["x", "u", "par", "pump_on"],
-                           ["x_next"], {"custom_jacobian": jac, "jac_penalty": 0})
+            state = step(state, *args[1:])
+        xk, chain = args[0], None         # d x_k / d (x, u, par, pump_on)
+        for _ in range(substeps):
+            xk, *local = step_jacobian(xk, *args[1:])
+            chain = local if chain is None else \
+                [ca.mtimes(local[0], chain[0])] + [ca.mtimes(local[0], c) + l
+                                                   for c, l in zip(chain[1:], local[1:])]
+        names = ["x", "u", "par", "pump_on"]
+        jac = ca.Function("jac_predict", [*args, ca.MX.sym("out", self.nd)], chain,
+                          [*names, "out_x_next"], [f"jac_x_next_{n}" for n in names])
+        return ca.Function("predict", args, [state], names, ["x_next"],
+                           {"custom_jacobian": jac, "jac_penalty": 0})
 
     def initial_state(self, x_full, u_prev=None, actuators: dict | None = None,
                       pump_on: bool = True) -> np.ndarray:
@@ -303,3 +314,4 @@ def string_pressure_margin(em: EstimationModel, x):
 def choke_capacity(em: EstimationModel, dp):
     """Flow of the fully open choke at differential pressure dp [m^3/s] (eq. 53)."""
     return hy.choke_flow(em.wm, 1.0, dp)
+

@@ -10,10 +10,12 @@ import dataclasses
 import math
 from pathlib import Path
 
+import casadi as ca
 import numpy as np
 import pytest
 
 from drill_core.config import load_rig
+from drill_core.integrators import rk4_step
 from drill_core.scenario import ActiveSetpoints, Initial
 from drill_nmpc.bench import (ModelPlant, closed_loop, steady_estimate, supervisor_input,
                               trip_setpoints)
@@ -99,6 +101,33 @@ def test_rk4_is_stable_and_accurate_where_forward_euler_is_not(config, em):
     assert not np.all(np.isfinite(euler)) or \
         np.max(np.abs(euler[:, bhp] - reference[:, bhp])) > 5.0e5          # > 5 bar off
 
+
+
+def test_the_sample_maps_jacobian_is_the_chain_of_its_steps(config, em):
+    """F's explicit Jacobian (the chain rule over its RK4 steps) against CasADi's automatic
+    differentiation of the same steps unrolled into one expression, in every argument, at
+    a pull-out's state and inputs."""
+    x, u = steady_estimate(em, INITIAL)
+    model = PredictionModel(em, ActuatorLags.from_config(config), StringFrictionTable(em.wm))
+    x0, par = model.initial_state(x, u), x[model.nd_model:]
+    u = u.copy()
+    u[0] += 0.4                                            # the block reference moving up
+    steps = 5
+    F = model.function(1.0, steps, "rk4")
+    symbols = [ca.SX.sym("x", model.nd), ca.SX.sym("u", 4), ca.SX.sym("par", model.npar),
+               ca.SX.sym("pump_on")]
+    rhs = lambda s: ca.vertcat(*model.rhs([s[i] for i in range(model.nd)], *symbols[1:]))
+    unrolled = symbols[0]
+    for _ in range(steps):
+        unrolled = rk4_step(rhs, unrolled, 1.0 / steps)
+    reference = ca.Function("reference", symbols, [unrolled] + [ca.jacobian(unrolled, s)
+                                                                for s in symbols])
+    args = [x0, u, par, 1.0]
+    value, *expected = reference(*args)
+    assert np.allclose(np.asarray(F(*args)), np.asarray(value), rtol=1e-12, atol=0.0)
+    for ours, theirs in zip(F.jacobian()(*args, value), expected):
+        theirs = np.asarray(theirs)
+        assert np.allclose(np.asarray(ours), theirs, rtol=1e-10, atol=1e-12 * np.max(np.abs(theirs)))
 
 # ----------------------------------------------------------------------------- closed loop
 def test_trip_out_and_back_nmpc0(config):
