@@ -20,7 +20,6 @@ import argparse
 import math
 import dataclasses
 import sys
-from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,6 +33,7 @@ from drill_core.estimation_model import (BLOCK_INTEGRAL, DENSITY_OFFSET, MEASURE
                                          STRING_FRICTION,
                                          build_estimation_model,
                                          fitted_friction_parameters)
+from drill_core.event_codes import Notice
 from drill_core.events import of_owner
 from drill_core.mismatch import Mismatch, resolve, truth_config
 from drill_core.scenario import initial_setpoints, load_scenario_config
@@ -52,15 +52,12 @@ from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
 from drill_plant.plant_model import EVENT_PARAMETERS, PARAMETER_NAMES, PlantLayout, steady_state
 from drill_plant.sensor_faults import SensorFaults
 from drill_plant.simulator import PlantSimulator
-from drill_protection.kick_detection import FlowSample, detector_for
 from drill_protection.protection import ProcessProtection
-from drill_protection.pump_trip import PumpTripResponse
-from drill_protection.well_control import WindowResponse
+from drill_protection.watch import DETECTOR_CODES, MeasurementWatch
 
 CONTROLLERS = ("automated_mpd", "nmpc", "baseline")
 BASELINE_KP_M3S_PER_PA = 5.0e-9     # the baseline node's default gains (30 L/min per bar)
 BASELINE_TI_S = 5.0
-VELOCITY_WINDOW_S = 1.0             # the protection node's block-velocity window
 PORE, FRACTURE = (PARAMETER_NAMES.index(n) for n in ("pore_pressure_pa", "fracture_pressure_pa"))
 
 
@@ -260,66 +257,41 @@ class NmpcController:
 
 
 class Protection:
-    """The protection node in process: the block velocity over its window, the kick
-    detector's trip hold, and the limiter between the advisor's command and the machines."""
+    """The protection node in process: the same measurement watch (drill_protection.watch)
+    and limiter between the advisor's command and the machines."""
 
     def __init__(self, config: RigConfig, scenario, wm: hy.WellModel, op):
         start = np.array([0.0, float(op.choke_flow_m3s), scenario.initial.bpp_flow_m3s,
                           float(op.inputs[3])])
         self.protection = ProcessProtection(config, wm, start)
-        self.detector = detector_for(config, wm.geometry)
-        self.stop_trip = config.protection.kick_detection.stop_trip
+        self.watch = MeasurementWatch(config, wm, self.protection)
         self.speed_limit = config.protection.trip_speed_max_mps
-        self.positions: deque = deque()
         self.clamps: list[tuple[float, str]] = []
-        self.alarms: list[tuple[float, str]] = []
+        self.alarms: list[tuple[float, Notice]] = []     # the answers' events (t, notice)
         self.raised: list[tuple[float, str]] = []        # the detector's alarms (t, kind)
-        self.trip = PumpTripResponse(config.protection.pump_trip, wm,
-                                     config.pressure_window_pa)
-        self.window = WindowResponse(config.protection.well_control, config.pressure_window_pa)
-        self.flow_threshold_m3s = config.protection.kick_detection.flow_threshold_m3s
         self.answer = None          # (window Pa, BHP reference in force Pa, the advisor's Pa)
         self.speed_limits_mps = (math.nan, math.nan)     # of the last answer (running in,
         self.applied_block_m = math.nan                  # pulling out) and its block reference
 
     def measurement(self, m, t: float) -> None:
-        reading = self.detector.update(FlowSample(
-            t, m.return_flow_m3s, m.string_flow_m3s if m.string_flow_valid else math.nan,
-            m.bpp_flow_m3s, m.block_position_m, m.choke_dp_pa, m.bhp_pa, m.pit_volume_m3))
-        if reading.raised:
-            self.raised.append((t, reading.alarm))
-        if self.stop_trip:
-            self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" \
-                if reading.alarm else ""
-        narrowed = self.window.observe(t, m.bhp_pa, m.choke_dp_pa, reading.alarm,
-                                       reading.excess_volume_m3, self.flow_threshold_m3s,
-                                       self.protection.bhp_ref_pa)
-        if narrowed:
-            self.alarms.append((t, narrowed))
-        self.protection.window_pa = self.window.window_pa
-        self.protection.well_control = self.window.hold()
-        alarm = self.trip.observe(t, m.string_flow_valid, m.choke_dp_pa, m.bhp_pa)
-        if alarm:
-            self.alarms.append((t, alarm))
-        self.protection.observe_bhp(t, m.bhp_pa)
-        self.positions.append((t, m.block_position_m))
-        while self.positions and t - self.positions[0][0] > VELOCITY_WINDOW_S + 1e-9:
-            self.positions.popleft()
+        for notice in self.watch.observe(round(t * 1e9), m):
+            if notice.code.endswith("_detected"):
+                self.raised.append((t, notice.code.removesuffix("_detected")))
+            elif notice.code not in DETECTOR_CODES:
+                self.alarms.append((t, notice))
 
     def limit(self, cmd: Command, m, sp, t: float) -> Command:
         if math.isfinite(sp.trip_speed_limit_mps) and sp.trip_speed_limit_mps > 0.0:
             self.speed_limit = sp.trip_speed_limit_mps
-        (t0, x0), (t1, x1) = self.positions[0], self.positions[-1]
-        velocity = (x1 - x0) / (t1 - t0) if t1 > t0 else 0.0
         circulation = m.string_flow_m3s if m.string_flow_valid and math.isfinite(m.string_flow_m3s) \
             else 0.0
         pressure = math.isfinite(cmd.dp_ref_pa)
-        self.trip.request(cmd.mud_pump_on, cmd.spp_pa)
+        self.watch.circulation.request(cmd.mud_pump_on, cmd.spp_pa)
         d = self.protection.apply(
             [cmd.block_ref_m, cmd.choke_flow_m3s, cmd.bpp_m3s, cmd.spp_pa], m.block_position_m,
-            velocity, m.bhp_pa, max(circulation, 0.0), self.speed_limit, None,
+            self.watch.velocity_mps, m.bhp_pa, max(circulation, 0.0), self.speed_limit, None,
             (cmd.dp_ref_pa, cmd.dp_rate_pa_s) if pressure else None,
-            surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s), trip_action=self.trip.action(t),
+            surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s), trip_action=self.watch.circulation.action(t),
             advisor_bhp_ref_pa=sp.bhp_ref_pa)
         self.clamps += [(t, text) for text in d.clamps]
         self.answer = (self.protection.window_pa, d.bhp_ref_pa, sp.bhp_ref_pa)

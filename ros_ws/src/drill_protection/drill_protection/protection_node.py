@@ -11,8 +11,9 @@ goes out at once, not at the next advisor command); the latched
 /operator/automation_level (std_msgs/String: manual, advisory, closed_loop) says whether
 advisor commands reach the machines (only in closed_loop). The scenario's operator
 actions (drill_core.operator_actions) act as the same buttons, at the first command at or
-after their time (scenario time: from the first measurement). Every
-measurement feeds the flow-balance kick detector (drill_protection.kick_detection); a
+after their time (scenario time: from the first measurement). Every measurement feeds
+the protection's measurement watch (drill_protection.watch, which the in-process loop
+bench feeds too): the flow-balance kick detector (drill_protection.kick_detection); a
 kick or losses alarm is raised and cleared as an event and, with ``stop_trip``, holds the
 trip (the block reference brakes to rest within the acceleration limit) until it clears.
 Every measurement also feeds the circulation watch (drill_protection.pump_trip): a lost
@@ -23,7 +24,6 @@ from __future__ import annotations
 
 import math
 import sys
-from collections import deque
 
 import numpy as np
 from drill_msgs.msg import OperatorEvent, RigCommand, RigMeasurement, Setpoints
@@ -32,7 +32,7 @@ from std_msgs.msg import Bool, String
 from drill_core.automation import AUTOMATION_LEVELS
 from drill_core.event_codes import Notice
 from drill_core.operator_actions import OperatorScript
-from drill_core.units import L_PER_M3, LPM_PER_M3S, PA_PER_BAR
+from drill_core.units import PA_PER_BAR
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.events import event_message
@@ -41,19 +41,8 @@ from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import ScenarioClock, from_ns, to_ns
 from drill_core.ros.status import StatusReporter
-from drill_protection.kick_detection import FlowSample, detector_for
 from drill_protection.protection import ProcessProtection
-from drill_protection.pump_trip import PumpTripResponse
-from drill_protection.well_control import WindowResponse
-
-VELOCITY_WINDOW_S = 1.0
-
-
-def _flows(reading) -> str:
-    """The detector's two readings at the display edge."""
-    pit = reading.pit_gain_flow_m3s
-    return (f"excess flow {reading.excess_flow_m3s * LPM_PER_M3S:+.0f} L/min" +
-            (f", pit gain {pit * LPM_PER_M3S:+.0f} L/min" if math.isfinite(pit) else ""))
+from drill_protection.watch import MeasurementWatch
 
 
 class ProtectionNode(RigNode):
@@ -66,19 +55,14 @@ class ProtectionNode(RigNode):
         op = ctx.operating_point
         start = np.array([0.0, op.choke_flow_m3s, ini.bpp_flow_m3s, op.spp_pa])
         self.protection = ProcessProtection(ctx.config, ctx.well_model, start)
-        self.detector = detector_for(ctx.config, ctx.well_model.geometry)
-        self.circulation = PumpTripResponse(ctx.config.protection.pump_trip, ctx.well_model,
-                                            ctx.config.pressure_window_pa)
-        self.window = WindowResponse(ctx.config.protection.well_control,
-                                     ctx.config.pressure_window_pa)
+        self.watch = MeasurementWatch(ctx.config, ctx.well_model, self.protection)
         self.operator_speed_limit = ctx.config.protection.trip_speed_max_mps
-        self.positions: deque = deque()
         self.script = OperatorScript(ctx.scenario.operator)
         self.clock = ScenarioClock()             # the operator actions' times
         self.last_request: RigCommand | None = None
         self.inbox = StampedInbox(("command", "measurement"))
         self.clamp_count = 0
-        self.alarm_count = 0
+        self.window_exits = 0
         self.in_window = True
         self.status = StatusReporter(self, ctx.mode)
         self.pub_command = self.create_publisher(RigCommand, topics.MACHINE_COMMAND, topics.RELIABLE)
@@ -124,8 +108,8 @@ class ProtectionNode(RigNode):
     def _now_ns(self) -> int:
         """Rig time for operator events: the latest measurement's stamp (simulated time in
         fast mode, the plant's wall clock in realtime), so the node needs no /clock."""
-        if self.positions:
-            return self.positions[-1][0]
+        if self.watch.positions:
+            return self.watch.positions[-1][0]
         return 0 if self.ctx.fast else self.get_clock().now().nanoseconds
 
     def _on_level(self, msg: String) -> None:
@@ -158,43 +142,10 @@ class ProtectionNode(RigNode):
     def _on_measurement(self, msg: RigMeasurement) -> None:
         stamp = to_ns(msg.header.stamp)
         self.clock.start(stamp)
-        self._detect(msg, stamp)
-        self.protection.observe_bhp(stamp * 1e-9, msg.bhp_pa)
-        self.positions.append((stamp, msg.block_position_m))
-        while self.positions and stamp - self.positions[0][0] > VELOCITY_WINDOW_S * 1e9:
-            self.positions.popleft()
+        for notice in self.watch.observe(stamp, msg):
+            self._event(notice, stamp)
         self.inbox.put("measurement", msg)
         self._process()
-
-    def _detect(self, m: RigMeasurement, stamp: int) -> None:
-        """Feed the kick detector; raise or clear its alarm (and the trip hold)."""
-        before = self.detector.alarm
-        reading = self.detector.update(FlowSample(
-            stamp * 1e-9, m.return_flow_m3s, m.string_flow_m3s if m.string_flow_valid else math.nan,
-            m.bpp_flow_m3s, m.block_position_m, m.choke_dp_pa, m.bhp_pa, m.pit_volume_m3))
-        if reading.raised:
-            self.alarm_count += 1
-            self._event(Notice(f"{reading.alarm}_detected", f"{reading.alarm} detected: "
-                               f"{_flows(reading)}, {reading.volume_at_alarm_m3 * L_PER_M3:+.0f} L "
-                               "since it began", reading.volume_at_alarm_m3), stamp)
-        elif before and not reading.alarm:
-            self._event(Notice(f"{before}_cleared", f"{before} alarm cleared: {_flows(reading)}"),
-                        stamp)
-        detection = self.ctx.config.protection.kick_detection
-        if detection.stop_trip:
-            self.protection.trip_hold = f"{reading.alarm} alarm: trip stopped" if reading.alarm else ""
-        narrowed = self.window.observe(stamp * 1e-9, m.bhp_pa, m.choke_dp_pa, reading.alarm,
-                                       reading.excess_volume_m3, detection.flow_threshold_m3s,
-                                       self.protection.bhp_ref_pa)
-        if narrowed:
-            self.alarm_count += 1
-            self._event(narrowed, stamp)
-        self.protection.window_pa = self.window.window_pa
-        self.protection.well_control = self.window.hold()
-        change = self.circulation.observe(stamp * 1e-9, m.string_flow_valid, m.choke_dp_pa, m.bhp_pa)
-        if change:
-            self.alarm_count += self.circulation.lost
-            self._event(change, stamp)
 
     def _on_command(self, msg: RigCommand) -> None:
         self.inbox.put("command", msg)
@@ -218,23 +169,20 @@ class ProtectionNode(RigNode):
         self._press_due(stamp)
         self._limit(request, measurement, stamp)
 
-    def _velocity(self) -> float:
-        (t0, x0), (t1, x1) = self.positions[0], self.positions[-1]
-        return (x1 - x0) / ((t1 - t0) * 1e-9) if t1 > t0 else 0.0
-
     def _limit(self, request: RigCommand, m: RigMeasurement, stamp: int) -> None:
         circulation = m.string_flow_m3s if m.string_flow_valid and math.isfinite(m.string_flow_m3s) \
             else 0.0
-        self.circulation.request(request.mud_pump_on, request.spp_pa)
+        self.watch.circulation.request(request.mud_pump_on, request.spp_pa)
         decision = self.protection.apply(
             [request.block_position_ref_m, request.choke_flow_ref_m3s, request.bpp_flow_m3s,
-             request.spp_pa], m.block_position_m, self._velocity(), m.bhp_pa, max(circulation, 0.0),
+             request.spp_pa], m.block_position_m, self.watch.velocity_mps, m.bhp_pa,
+            max(circulation, 0.0),
             self._operator_speed_limit(request),
             request.choke_opening_ref if request.choke_manual else None,
             (request.choke_dp_ref_pa, request.choke_dp_ref_rate_pa_s)
             if request.choke_pressure_control else None,
             surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s),
-            trip_action=self.circulation.action(stamp * 1e-9),
+            trip_action=self.watch.circulation.action(stamp * 1e-9),
             advisor_bhp_ref_pa=request.bhp_ref_pa, choke_dp_pa=m.choke_dp_pa)
         manual = decision.manual_choke_opening
         dp_setpoint = decision.choke_dp_setpoint
@@ -263,9 +211,10 @@ class ProtectionNode(RigNode):
         self._check_window(m.bhp_pa, stamp)
         level = "emergency_stop" if self.protection.emergency_stop else self.protection.automation_level
         self.status.mode = f"{self.ctx.mode}/{level}"
-        self.status.values = {"clamps": float(self.clamp_count), "alarms": float(self.alarm_count),
-                              "rejected_flow_samples": float(self.detector.rejected),
-                              "rejected_pit_samples": float(self.detector.rejected_pit),
+        alarms = self.watch.alarm_count + self.window_exits
+        self.status.values = {"clamps": float(self.clamp_count), "alarms": float(alarms),
+                              "rejected_flow_samples": float(self.watch.detector.rejected),
+                              "rejected_pit_samples": float(self.watch.detector.rejected_pit),
                               "trip_speed_limit_in_mps": decision.trip_speed_limits_mps[0],
                               "trip_speed_limit_out_mps": decision.trip_speed_limits_mps[1]}
         self.status.tick(stamp)
@@ -278,7 +227,7 @@ class ProtectionNode(RigNode):
         if inside != self.in_window:
             self.in_window = inside
             if not inside:
-                self.alarm_count += 1
+                self.window_exits += 1
             self._event(Notice("window_return" if inside else "window_exit", f"BHP "
                                f"{bhp_pa / PA_PER_BAR:.1f} bar " + ("back inside" if inside else "outside")
                                + f" the pore/fracture window {p.pore_pressure_pa / PA_PER_BAR:.0f}-"
