@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import dataclasses
 import sys
 from dataclasses import dataclass
 
@@ -45,7 +44,8 @@ from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.baseline import Baseline
 from drill_nmpc.inputs import choke_command, choke_input
 from drill_nmpc.prediction_model import nmpc_estimation_model
-from drill_nmpc.setpoint_book import SetpointBook, protection_changed, within_speed_limits
+from drill_nmpc.setpoint_book import (SetpointBook, adopt_applied_block, as_delivered,
+                                      within_speed_limits)
 from drill_nmpc.setpoint_validation import Envelope
 from drill_nmpc.supervisor import Fallback, Supervisor
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
@@ -237,12 +237,8 @@ class NmpcController:
         if self.u is None:
             self.u = self.sup.safe_input([x_hat[0], *self.initial])
         frame = self.rig.block_frame if self.block_integral else None
-        if frame is not None and protection_changed(frame.reference, self.u[0]):
-            self.u = self.u.copy()
-            self.u[0] = frame.reference
-        if sp.mud_pump_on and not flow_observable:
-            sp = dataclasses.replace(sp, mud_pump_on=False)
-        r = self.sup.step(x_hat, sp, self.u, actuators={
+        self.u = adopt_applied_block(self.u, frame.reference if frame else None)
+        r = self.sup.step(x_hat, as_delivered(sp, flow_observable), self.u, actuators={
             "block_m": inputs[0, -1], "bpp_flow_m3s": inputs[2, -1], "spp_pa": inputs[3, -1],
             "block_command_m": frame.command if frame else None,
             "block_reference_m": frame.reference if frame else None})

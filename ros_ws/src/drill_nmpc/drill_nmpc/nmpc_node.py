@@ -33,7 +33,6 @@ rate limit then clamped the first commands.)
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 import sys
 
@@ -48,7 +47,7 @@ from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_nmpc.advisor_node import AdvisorNode
 from drill_nmpc.inputs import choke_command, choke_input
 from drill_nmpc.prediction_model import nmpc_estimation_model
-from drill_nmpc.setpoint_book import protection_changed, within_speed_limits
+from drill_nmpc.setpoint_book import adopt_applied_block, as_delivered, within_speed_limits
 from drill_nmpc.setpoint_messages import merge_request, to_msg
 from drill_nmpc.soft_constraints import SLACK_NAMES
 from drill_nmpc.supervisor import Fallback, SolveResult, Supervisor
@@ -200,17 +199,12 @@ class NmpcNode(AdvisorNode):
         mud pump off while the rig says it delivers nothing (a tripped pump: the string
         flow meter has no reading) though it is on."""
         active = within_speed_limits(self.book.active, self.speed_limits_mps, float(msg.mean[0]))
-        if active.mud_pump_on and not msg.string_flow_observable:
-            return dataclasses.replace(active, mud_pump_on=False)
-        return active
+        return as_delivered(active, msg.string_flow_observable)
 
     def _adopt_applied_block(self, actuators) -> None:
         """Plan from the block reference the drawworks was given when the process protection
         changed ours (a trip held on an alarm, a clamp), not from the one we sent."""
-        applied = (actuators or {}).get("block_reference_m")
-        if applied is not None and protection_changed(applied, self.u_prev[0]):
-            self.u_prev = self.u_prev.copy()
-            self.u_prev[0] = applied
+        self.u_prev = adopt_applied_block(self.u_prev, (actuators or {}).get("block_reference_m"))
 
     def _manual(self, x) -> SolveResult:
         """Hand-back to manual: hold the string where it is, the other inputs as they were."""

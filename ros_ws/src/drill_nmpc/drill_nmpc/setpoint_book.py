@@ -55,6 +55,25 @@ def protection_changed(applied_block_m: float, ours_m: float) -> bool:
         and abs(applied_block_m - ours_m) > APPLIED_BLOCK_TOLERANCE_M
 
 
+
+def adopt_applied_block(u_prev, applied_block_m: float | None):
+    """The previous input to plan from: the block reference the drawworks was given
+    (``applied_block_m``; None, NaN: not known) when the process protection changed ours
+    (a trip held on an alarm, a clamp), not the one the advisor sent."""
+    if applied_block_m is None or not protection_changed(applied_block_m, u_prev[0]):
+        return u_prev
+    adopted = u_prev.copy()
+    adopted[0] = applied_block_m
+    return adopted
+
+
+def as_delivered(sp: ActiveSetpoints, string_flow_observable: bool) -> ActiveSetpoints:
+    """The setpoints with the mud pump planned off while the rig says it delivers nothing
+    (a tripped pump: the string-flow meter has no reading) though it is on."""
+    if sp.mud_pump_on and not string_flow_observable:
+        return dataclasses.replace(sp, mud_pump_on=False)
+    return sp
+
 def within_speed_limits(sp: ActiveSetpoints, limits_mps: tuple[float, float],
                         position_m: float) -> ActiveSetpoints:
     """The setpoints to plan a sample with: the trip-speed limit the smaller of the
