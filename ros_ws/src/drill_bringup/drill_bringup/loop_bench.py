@@ -28,18 +28,14 @@ from drill_bringup.report import format_legs, tracking_metrics
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, parse_settings
 from drill_core.backend import NUMPY
-from drill_core.estimation_model import (BLOCK_INTEGRAL, DENSITY_OFFSET, MEASUREMENT_NAMES,
-                                         STRING_FRICTION,
-                                         build_estimation_model,
-                                         fitted_friction_parameters)
+from drill_core.estimation_model import (BLOCK_INTEGRAL, DENSITY_OFFSET, STRING_FRICTION,
+                                         build_estimation_model, fitted_friction_parameters)
 from drill_core.event_codes import Notice
-from drill_core.events import of_owner
+from drill_core.events import ACTUATORS, of_owner
 from drill_core.mismatch import Mismatch, resolve, truth_config
 from drill_core.scenario import initial_setpoints, load_scenario_config
 from drill_core.units import L_PER_M3, PA_PER_BAR
-from drill_core.channel_watch import ChannelWatch
-from drill_estimator.model_inputs import ModelInputs, frame_inputs
-from drill_estimator.ukf import RigUkf
+from drill_estimator.tick import EstimatorTick
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.baseline import Baseline
 from drill_nmpc.inputs import choke_command, choke_input
@@ -96,6 +92,7 @@ class Rig:
         self.step_s, self.steps = config.plant.step_s, config.plant.steps_per_frame
         self.layout = PlantLayout(self.sim.wm.n)
         self.block_frame = None       # the drawworks' last frame (command and reference)
+        self.frames: dict[str, FrameOutput] = {}    # every actuator's last frame, by name
         self.circulating = ini.circulation_m3s > 0.0
         self.parameter_events = [e for e in of_owner(scenario.events, "plant")
                                  if e.kind in EVENT_PARAMETERS]
@@ -140,6 +137,7 @@ class Rig:
         pump = self._frame("mud_pump", self.pump, cmd.spp_pa if cmd.mud_pump_on else 0.0, t_s,
                            lambda p: self.pump.frame(p, step, steps))
         self.block_frame = dw
+        self.frames = dict(zip(ACTUATORS, (dw, ch, bpp, pump)))
         self.circulating = pump.command > 0.0
         rows = np.vstack([dw.output, ch.output, bpp.output, pump.output])
         self.sim.advance(rows)
@@ -180,39 +178,23 @@ class TruthState:
 
 
 class UkfState:
-    """The estimator as in the graph: channels screened, time update over the last frame,
-    then the sample (the string-flow channel only while the meter reads)."""
+    """The estimator as in the graph: the same sample step (drill_estimator.tick) on the
+    actuators' frames."""
 
-    def __init__(self, config: RigConfig, wm: hy.WellModel):
-        self.ukf = RigUkf(config)
-        self.watch = ChannelWatch(MEASUREMENT_NAMES, config.estimator.frozen_after_samples)
-        self.wm = wm
-        self.held = ModelInputs(self.ukf.em, self.ukf.block_input,
-                                config.estimator.frozen_after_samples)   # choke dp, return flow
-        self.held.choke_dp_pa = math.nan
+    def __init__(self, config: RigConfig, rig: Rig):
+        self.tick = EstimatorTick(config)
+        self.rig = rig
 
     def observe(self, m, inputs, t: float) -> tuple[EstimateView, np.ndarray]:
-        circulating = bool(m.string_flow_valid)
-        y, _ = self.watch.screen(t, [
-            m.block_position_m, m.choke_dp_pa, m.bhp_pa,
-            m.string_flow_m3s if circulating else math.nan])
-        ukf = self.ukf
-        if not ukf.initialised:
-            ukf.initialise(ukf.initial_state(y, circulating))
-        else:
-            ukf.predict_frame(frame_inputs(self.wm, inputs[0], inputs[1], inputs[2], inputs[3],
-                                           self.held.choke_dp_pa, self.held.return_flow_m3s))
-            ukf.update(y, circulating)
-        if math.isfinite(y[1]):
-            self.held.accept_choke_dp(float(y[1]))
-        self.held.observe_return_flow(t, m.return_flow_m3s, circulating)
+        self.tick.step(t, m, self.rig.frames, self.rig.steps)
+        ukf = self.tick.ukf
         x = ukf.mean
         return EstimateView(bhp_pa=ukf.bhp_pa, string_position_m=float(x[ukf.em.position]),
                             string_velocity_mps=float(x[ukf.em.velocity]),
                             string_flow_m3s=float(x[ukf.em.string_flow]),
                             friction_factor=tuple(float(v) for v in ukf.theta),
                             density_offset_kgm3=float(ukf.em.density_offset_of(x)),
-                            string_flow_observable=circulating), ukf.mean
+                            string_flow_observable=bool(m.string_flow_valid)), ukf.mean
 
 
 class NmpcController:
@@ -319,7 +301,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
     wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                              config.plant.choke_regularisation_pa)      # the model's
     em = build_estimation_model(config)
-    source = TruthState(rig, em) if state == "truth" else UkfState(config, wm)
+    source = TruthState(rig, em) if state == "truth" else UkfState(config, rig)
     book = SetpointBook(scenario, initial_setpoints(config, scenario),
                         Envelope.from_config(config, wm.geometry))
     ini = scenario.initial      # where the controllers believe the run starts: the model's

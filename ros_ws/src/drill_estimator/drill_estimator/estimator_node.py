@@ -15,13 +15,10 @@ its stamp, so the result does not depend on timing.
 realtime mode: each measurement is processed on arrival with the latest frame of each
 actuator (inputs held when a frame is missing).
 
-Before the update the channels are screened (drill_core.channel_watch): a frozen
-channel is left out like a NaN one, and the estimate reports the frozen channels and the
+Each sample is one step of drill_estimator.tick (the channels screened, the time update
+over the actuator frames, the update); the estimate reports the frozen channels and the
 age of the stalest channel, so a dropout shows as staleness while the filter rides on its
 model (its covariance grows).
-
-Time-update inputs come from the actuator frames and the return-flow meter's sample
-(the choke flow) through drill_estimator.model_inputs.
 
 Run: python -m drill_estimator.estimator_node --ros-args -p config_dir:=<dir> -p mode:=fast
      -p use_sim_time:=true
@@ -44,9 +41,8 @@ from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_core.ros.status import StatusReporter
 from drill_core.estimation_model import MEASUREMENT_NAMES
-from drill_core.channel_watch import ChannelWatch
-from drill_estimator.model_inputs import ModelInputs
-from drill_estimator.ukf import RigUkf, UpdateResult
+from drill_estimator.tick import EstimatorTick
+from drill_estimator.ukf import UpdateResult
 
 
 class EstimatorNode(RigNode):
@@ -55,8 +51,8 @@ class EstimatorNode(RigNode):
         ctx = load_context(self)
         self.ctx = ctx
         cfg = ctx.config
-        self.ukf = RigUkf(cfg)
-        self.watch = ChannelWatch(MEASUREMENT_NAMES, cfg.estimator.frozen_after_samples)
+        self.tick = EstimatorTick(cfg)
+        self.ukf, self.watch, self.inputs = self.tick.ukf, self.tick.watch, self.tick.inputs
         self.frozen: tuple[str, ...] = ()
         self.steps = cfg.plant.steps_per_frame
         self.step_ns = int(round(cfg.plant.step_s * 1e9))
@@ -69,8 +65,6 @@ class EstimatorNode(RigNode):
         self.latest: dict[str, ActuatorFrame] = {}             # realtime mode
         self.pending: dict[int, RigMeasurement] = {}           # fast mode, by stamp
         self.previous_ns: int | None = None                    # stamp of the last measurement used
-        self.inputs = ModelInputs(self.ukf.em, self.ukf.block_input,
-                                  cfg.estimator.frozen_after_samples)
         self.frame_ms = 0.0
 
         self.pub = self.create_publisher(StateEstimate, topics.ESTIMATE, topics.RELIABLE)
@@ -139,47 +133,20 @@ class EstimatorNode(RigNode):
     def _process(self, msg: RigMeasurement, frames) -> None:
         started = time.perf_counter()
         stamp = to_ns(msg.header.stamp)
-        circulating = bool(msg.string_flow_valid)
-        y, self.frozen = self.watch.screen(stamp * 1e-9, [
-            msg.block_position_m, msg.choke_dp_pa, msg.bhp_pa,
-            msg.string_flow_m3s if circulating else np.nan])
-        ukf = self.ukf
-        if not ukf.initialised:
-            if not np.all(np.isfinite(y[:3])) or (circulating and not np.isfinite(y[3])):
-                ukf.rejected += 1
-                self.status.error(f"cannot initialise from a non-finite measurement {y.tolist()}")
-                self.previous_ns = stamp
-                return
-            x0 = ukf.initial_state(y, circulating)
-            ukf.initialise(x0)
-            self.inputs.start(x0, float(y[1]))
-            self.inputs.observe_return_flow(stamp * 1e-9, msg.return_flow_m3s, circulating)
-            self.previous_ns = stamp
-            self._publish(msg, None)
-            return
-
         steps = self.steps
         if self.previous_ns is not None and not self.ctx.fast:
             steps = int(np.clip(round((stamp - self.previous_ns) / self.step_ns), 1, 10 * self.steps))
-        inputs, problems = self.inputs.frame(frames, steps)
-        for problem in problems:
+        initialised = self.tick.ukf.initialised
+        tick = self.tick.step(stamp * 1e-9, msg, frames, steps)
+        self.frozen = tick.frozen
+        for problem in tick.problems:
             self.status.error(problem)
-        try:
-            ukf.predict_frame(inputs)
-        except ValueError as err:          # non-finite input slipped through: skip the frame
-            self.status.error(f"time update skipped: {err}")
-        result = ukf.update(y, circulating)
-        if result.accepted and np.isfinite(y[1]):
-            self.inputs.accept_choke_dp(float(y[1]))
-        self.inputs.observe_return_flow(stamp * 1e-9, msg.return_flow_m3s, circulating)
-        if not result.accepted:
-            self.status.error(f"measurement at {stamp} ns rejected: {y.tolist()}")
-        elif result.dropped:
-            self.status.error(f"measurement at {stamp} ns: {', '.join(result.dropped)} not finite, "
-                              "left out of the update")
         self.previous_ns = stamp
-        self.frame_ms = (time.perf_counter() - started) * 1e3
-        self._publish(msg, result)
+        if not self.tick.ukf.initialised:
+            return                         # could not initialise: nothing to publish
+        if initialised:
+            self.frame_ms = (time.perf_counter() - started) * 1e3
+        self._publish(msg, tick.update)
 
     # --------------------------------------------------------------- outputs
     def _publish(self, measurement: RigMeasurement, result: UpdateResult | None) -> None:

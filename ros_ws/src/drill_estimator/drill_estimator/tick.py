@@ -1,0 +1,74 @@
+"""One sample of the rig's estimator (plain Python): the channels screened
+(drill_core.channel_watch: a frozen channel is left out like a NaN one), the UKF's time
+update over the actuator frames since the last sample (drill_estimator.model_inputs), then
+the update with the measurement (the string-flow channel only while the meter reads). The
+first sample with finite readings initialises the filter. The estimator node and the
+in-process loop bench both run it.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from drill_core.channel_watch import ChannelWatch
+from drill_core.config import RigConfig
+from drill_core.estimation_model import MEASUREMENT_NAMES
+from drill_estimator.model_inputs import ModelInputs
+from drill_estimator.ukf import RigUkf, UpdateResult
+
+
+@dataclass(frozen=True)
+class TickResult:
+    """What one sample did: the update (None: nothing fused - the filter initialised now,
+    or could not be), the problems met, the channels found frozen."""
+    update: UpdateResult | None
+    problems: tuple[str, ...]
+    frozen: tuple[str, ...]
+
+
+class EstimatorTick:
+    """The UKF with its channel screen and input history, one sample at a time."""
+
+    def __init__(self, config: RigConfig):
+        self.ukf = RigUkf(config)
+        self.watch = ChannelWatch(MEASUREMENT_NAMES, config.estimator.frozen_after_samples)
+        self.inputs = ModelInputs(self.ukf.em, self.ukf.block_input,
+                                  config.estimator.frozen_after_samples)
+
+    def step(self, time_s: float, m, frames: Mapping[str, object], steps: int) -> TickResult:
+        """Take the measurement ``m`` (drill_msgs/RigMeasurement fields) at ``time_s`` after
+        ``steps`` plant steps driven by ``frames`` (actuator name -> its frame: ``output``
+        samples and ``reference``; absent when it did not come)."""
+        circulating = bool(m.string_flow_valid)
+        y, frozen = self.watch.screen(time_s, [
+            m.block_position_m, m.choke_dp_pa, m.bhp_pa,
+            m.string_flow_m3s if circulating else math.nan])
+        ukf = self.ukf
+        if not ukf.initialised:
+            if not np.all(np.isfinite(y[:3])) or (circulating and not np.isfinite(y[3])):
+                ukf.rejected += 1
+                return TickResult(None, (f"cannot initialise from a non-finite measurement "
+                                         f"{y.tolist()}",), frozen)
+            x0 = ukf.initial_state(y, circulating)
+            ukf.initialise(x0)
+            self.inputs.start(x0, float(y[1]))
+            self.inputs.observe_return_flow(time_s, m.return_flow_m3s, circulating)
+            return TickResult(None, (), frozen)
+        inputs, problems = self.inputs.frame(frames, steps)
+        try:
+            ukf.predict_frame(inputs)
+        except ValueError as err:          # non-finite input slipped through: skip the frame
+            problems.append(f"time update skipped: {err}")
+        result = ukf.update(y, circulating)
+        if result.accepted and np.isfinite(y[1]):
+            self.inputs.accept_choke_dp(float(y[1]))
+        self.inputs.observe_return_flow(time_s, m.return_flow_m3s, circulating)
+        if not result.accepted:
+            problems.append(f"measurement at {time_s:.3f} s rejected: {y.tolist()}")
+        elif result.dropped:
+            problems.append(f"measurement at {time_s:.3f} s: {', '.join(result.dropped)} not "
+                            "finite, left out of the update")
+        return TickResult(result, tuple(problems), frozen)
