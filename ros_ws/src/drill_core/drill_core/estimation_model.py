@@ -55,7 +55,7 @@ class NominalFriction:
     stress (drill_core.rheology, laminar to turbulent) whose yield jump is smoothed over
     v_sm instead of the truth's v/sqrt(v^2 + v_reg^2) with v_reg = 5 mm/s. The peak flow
     gain of a path is then about 4 L tau_y/(d_h v_sm A_f), so its flow mode's rate scales
-    with 1/v_sm (docs/nmpc.md: RK4 stability at the NMPC's 0.25 s step); tanh makes the
+    with 1/v_sm (docs/model.md: RK4 stability at the NMPC's and the UKF's steps); tanh makes the
     law exact to 1e-4 from 3 v_sm on. tau depends on a section only through its hydraulic
     diameter, so each distinct section is one cubic B-spline of its relative velocity
     (checked against the exact function at build time, ``max_error_pa`` per path).
