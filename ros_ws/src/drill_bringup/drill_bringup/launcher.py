@@ -185,14 +185,14 @@ def processes(nodes: list[NodeSpec], layout: str = "separate",
 # The nodes whose processes get a CPU of their own in fast mode: the lockstep's longest
 # chain per sample (estimate, solve, protection) runs there without being preempted by the
 # plant's process or the recorder (Case 2, layout two: 27.4-32.8 s against 29.9-36.0 s
-# wall in three interleaved pairs, docs/speed.md).
+# wall in three interleaved pairs, docs/experiments/2026-12-01-speed.md).
 CONTROL_CHAIN = frozenset({"estimator", "protection", "driller",
                            *(n.name for n in graph_decl.NODES if n.controller)})
 
 
 # Fast mode only: the recorder is on no node's critical path there (its subscriptions keep
-# all and it drains at the end), so it yields the CPU to the lockstep's processes (Case 2 on
-# 2 cores: 34.2 -> 31.7 s wall, mean of 4 interleaved pairs, docs/speed.md). In realtime it
+# all and it drains at the end), so it yields the CPU to the lockstep's processes (measured:
+# docs/experiments/2026-12-01-speed.md). In realtime it
 # keeps up with the wall clock like every node: niced under a browser's load it acknowledged
 # a short-lived operator CLI's event too late to record it.
 FAST_NICENESS = {"recorder": 10}
