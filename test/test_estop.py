@@ -11,7 +11,7 @@ with the figures of docs/emergency-stop.md (drill_bringup.estop_study):
   settles within 0.3 m of where it was;
 * the choke holds the BHP of the stop: within 2 bar for the 60 s at rest; in the kick
   answer within 2 bar of the answer's target, which moves with its steps during the stop
-  (10 s after each move left out); after a stop at speed within a bounded transient (the surge or swab that stops
+  (5 s after each move left out); after a stop at speed within a bounded transient (the surge or swab that stops
   with the string goes faster than the choke can answer: docs/faults.md) and within 2 bar
   after it; inside the pore/fracture window throughout, during the pump trip too;
 * the release hands back without a jump: the block reference goes on from where the

@@ -31,7 +31,7 @@ SCENARIOS = ("estop_trip", "estop_pump_trip", "estop_kick")
 HOLD_S = 60.0                 # each press is judged over this long (the 60 s)
 TARGETS = {"travel_m": 0.3, "string_settled_m": 0.3, "bhp_worst_pa": 2.0e5}
 RESTING_MPS = 0.1             # a block slower than this at the press was at rest (a trip: 0.3-0.6)
-MOVE_SETTLE_S = 10.0          # the BHP is judged from this long after each move of the target
+MOVE_SETTLE_S = 5.0           # the BHP is judged from this long after each move of the target
                               # (the BHP loop's answer to a step: docs/faults.md)
 
 
