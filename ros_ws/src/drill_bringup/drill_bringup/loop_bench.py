@@ -91,7 +91,6 @@ class Rig:
         self.pump = Pump(a.mud_pump, spp)
         self.step_s, self.steps = config.plant.step_s, config.plant.steps_per_frame
         self.layout = PlantLayout(self.sim.wm.n)
-        self.block_frame = None       # the drawworks' last frame (command and reference)
         self.frames: dict[str, FrameOutput] = {}    # every actuator's last frame, by name
         self.circulating = ini.circulation_m3s > 0.0
         self.parameter_events = [e for e in of_owner(scenario.events, "plant")
@@ -136,7 +135,6 @@ class Rig:
                           lambda q: self.bpp.frame(q, step, steps))
         pump = self._frame("mud_pump", self.pump, cmd.spp_pa if cmd.mud_pump_on else 0.0, t_s,
                            lambda p: self.pump.frame(p, step, steps))
-        self.block_frame = dw
         self.frames = dict(zip(ACTUATORS, (dw, ch, bpp, pump)))
         self.circulating = pump.command > 0.0
         rows = np.vstack([dw.output, ch.output, bpp.output, pump.output])
@@ -218,7 +216,7 @@ class NmpcController:
     def step(self, x_hat, sp, inputs, t: float, flow_observable: bool = True) -> Command:
         if self.u is None:
             self.u = self.sup.safe_input([x_hat[0], *self.initial])
-        frame = self.rig.block_frame if self.block_integral else None
+        frame = self.rig.frames.get("drawworks") if self.block_integral else None
         self.u = adopt_applied_block(self.u, frame.reference if frame else None)
         r = self.sup.step(x_hat, as_delivered(sp, flow_observable), self.u, actuators={
             "block_m": inputs[0, -1], "bpp_flow_m3s": inputs[2, -1], "spp_pa": inputs[3, -1],

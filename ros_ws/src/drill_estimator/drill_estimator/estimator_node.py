@@ -136,13 +136,13 @@ class EstimatorNode(RigNode):
         steps = self.steps
         if self.previous_ns is not None and not self.ctx.fast:
             steps = int(np.clip(round((stamp - self.previous_ns) / self.step_ns), 1, 10 * self.steps))
-        initialised = self.tick.ukf.initialised
+        initialised = self.ukf.initialised
         tick = self.tick.step(stamp * 1e-9, msg, frames, steps)
         self.frozen = tick.frozen
         for problem in tick.problems:
             self.status.error(problem)
         self.previous_ns = stamp
-        if not self.tick.ukf.initialised:
+        if not self.ukf.initialised:
             return                         # could not initialise: nothing to publish
         if initialised:
             self.frame_ms = (time.perf_counter() - started) * 1e3

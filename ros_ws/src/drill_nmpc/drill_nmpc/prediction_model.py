@@ -314,4 +314,3 @@ def string_pressure_margin(em: EstimationModel, x):
 def choke_capacity(em: EstimationModel, dp):
     """Flow of the fully open choke at differential pressure dp [m^3/s] (eq. 53)."""
     return hy.choke_flow(em.wm, 1.0, dp)
-

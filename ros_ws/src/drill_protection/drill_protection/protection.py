@@ -11,10 +11,11 @@ machines respects the most conservative of
   kick or loss is answered the answer's target, whose steps go on during the stop (the
   stop stops the block, not the well control); kept inside the window in force. The loop
   starts from the choke dp the model says the stop calls for (the measured one less the
-  surge/swab of the string's speed at the stop, which goes with it), its flow feedforward the flow out of a well at
-  rest (circulation plus back-pressure pump), the pumps held where they were but for a
-  lost circulation's back-pressure pump floor (without circulation the steady model's
-  swab is not the friction that goes, so there is no feedforward then); the block
+  surge/swab of the string's speed at the stop, which goes with it), its flow feedforward
+  the flow out of a well at rest (circulation plus back-pressure pump), the pumps held
+  where they were but for a lost circulation's back-pressure pump floor (without
+  circulation the steady model's swab is not the friction that goes, so there is no
+  feedforward then); the block
   reference follows the measured string, so that the release hands back from where the
   string is, at rest, without a jump,
 * model-derived surge/swab limits: the largest trip speed, each way, for which the
