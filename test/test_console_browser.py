@@ -318,8 +318,8 @@ def test_console_in_a_real_browser(tmp_path):
         lines = out.strip().splitlines()
         assert watch_cli.returncode == 0 and len(lines) == 2, (out, err)
         assert all(re.search(r"BHP \d+\.\d bar .* level closed_loop( E-STOP)? nmpc (\d+|-) ms", line)
-                   for line in lines), lines
-        assert re.search(r"nmpc \d+ ms", lines[-1]), lines
+                   for line in lines), (lines, err)
+        assert re.search(r"nmpc \d+ ms", lines[-1]), (lines, err)
         wait_until(lambda: "[operator_cli] setpoints refused" in text(driver, "events"), 5,
                    "the CLI's refusal in the page's events", launch)
     finally:

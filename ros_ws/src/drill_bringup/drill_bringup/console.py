@@ -189,7 +189,7 @@ class OperatorLink:
         self.service_timeout_s = service_timeout_s
         self._lock = threading.Lock()
         self.client = node.create_client(SetSetpoints, topics.SET_SETPOINTS)
-        self.pub_events = node.create_publisher(OperatorEvent, topics.OPERATOR_EVENTS, topics.RELIABLE)
+        self.pub_events = node.create_publisher(OperatorEvent, topics.OPERATOR_EVENTS, topics.EVENT_LOG)
         self.pub_level = node.create_publisher(String, topics.AUTOMATION_LEVEL, topics.LATCHED)
         self.pub_estop = node.create_publisher(Bool, topics.EMERGENCY_STOP, topics.LATCHED)
 
@@ -279,10 +279,10 @@ class ConsoleNode(RigNode):
         sub(NmpcStatus, topics.NMPC_STATUS, self._on_nmpc, DISPLAY)
         sub(Setpoints, topics.SETPOINTS, lambda m: self.state.on_setpoints(setpoints_to_dict(m)),
             topics.LATCHED)
-        sub(OperatorEvent, topics.OPERATOR_EVENTS, lambda m: self._on_event("operator", m), topics.RELIABLE)
+        sub(OperatorEvent, topics.OPERATOR_EVENTS, lambda m: self._on_event("operator", m), topics.EVENT_LOG)
         sub(OperatorEvent, topics.PROTECTION_EVENTS, lambda m: self._on_event("protection", m),
-            topics.RELIABLE)
-        sub(OperatorEvent, topics.RIG_EVENTS, lambda m: self._on_event("rig", m), topics.RELIABLE)
+            topics.EVENT_LOG)
+        sub(OperatorEvent, topics.RIG_EVENTS, lambda m: self._on_event("rig", m), topics.EVENT_LOG)
         sub(String, topics.AUTOMATION_LEVEL, lambda m: self.state.on_level(m.data), topics.LATCHED)
         sub(Bool, topics.EMERGENCY_STOP, lambda m: self.state.on_estop(m.data), topics.LATCHED)
         sub(String, topics.LEVEL_IN_FORCE, lambda m: self.state.on_level_in_force(m.data),

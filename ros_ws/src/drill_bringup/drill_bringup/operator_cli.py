@@ -5,8 +5,9 @@ same latched level / emergency-stop topics and the same recorded operator events
 
     watch [--count N] [--period S]       one line per period (default 1 s): BHP, its window,
                                          choke dp, position, velocity, level, NMPC solve time
-                                         (starts once the measurement, and within 5 s more
-                                         the estimate, setpoints and NMPC status, are in)
+                                         (starts once the measurement, the estimate, the
+                                         setpoints and the NMPC status are in, or --timeout
+                                         has passed: a missing channel reads "-")
     setpoints [--bhp-bar X] [--bhp-band-bar B] [--dp-bar Y] [--dp-band-bar D]
               [--target-m Z] [--speed-mps V]
                                          change the named setpoints (the rest stay in force)
@@ -39,7 +40,6 @@ from drill_bringup import console_state as cs
 from drill_core.ros import graph as graph_decl
 
 LEVEL_WORDS = cs.AUTOMATION_LEVELS
-WATCH_EXTRA_WAIT_S = 5.0  # watch: how long to wait for estimate, setpoints, NMPC status
 SETTLE_S = 1.5          # discovery picture stable this long before we publish
 
 
@@ -48,7 +48,8 @@ def parse_args(argv):
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--domain", type=int, help="ROS_DOMAIN_ID of the rig (default: environment)")
     parser.add_argument("--timeout", type=float, default=10.0,
-                        help="seconds to wait for the graph (setpoints, service, subscribers)")
+                        help="seconds to wait for the graph (setpoints, service, subscribers, "
+                             "watch's channels)")
     parser.add_argument("--config-dir", default=None, help="config directory (pressure window)")
     sub = parser.add_subparsers(dest="command", required=True)
     watch = sub.add_parser("watch", help="print a live line per period")
@@ -252,14 +253,14 @@ def main(argv=None) -> int:
 def _run(session: Session, args) -> int:
     topics, link = session.topics, session.link
     if args.command == "watch":
-        # complete lines from the start: wait for the measurement (up to --timeout), then
-        # give the estimate, setpoints and NMPC status a few seconds more to be discovered
+        # complete lines from the start: wait (up to --timeout) for every channel; DDS
+        # discovery of a fresh process on a busy machine can take seconds per publisher
         state = session.state
         if not session.wait_for(lambda: state.latest("measurement") is not None, args.timeout):
             _say(f"no {topics.MEASUREMENT} within {args.timeout:g} s on ROS_DOMAIN_ID "
                  f"{os.environ.get('ROS_DOMAIN_ID', '0')} (is the rig running?)", sys.stderr)
         others = {"estimate": topics.ESTIMATE, "setpoints": topics.SETPOINTS, "nmpc": topics.NMPC_STATUS}
-        session.wait_for(lambda: all(state.latest(k) is not None for k in others), WATCH_EXTRA_WAIT_S)
+        session.wait_for(lambda: all(state.latest(k) is not None for k in others), args.timeout)
         missing = [topic for k, topic in others.items() if state.latest(k) is None]
         if missing:
             _say(f"nothing yet on {', '.join(missing)}", sys.stderr)

@@ -92,15 +92,16 @@ def _policy(enum, value: int, fallback):
 
 
 def publisher_qos(offers: Sequence[QosOffer]) -> QoSProfile:
-    """rclpy QoS from recorded offers: keep-last depth 1 for latched topics, keep-all for
-    reliable ones (a slow reader, e.g. a lockstep node, must not lose a sample), else keep-last."""
+    """rclpy QoS from recorded offers: transient local keep-last at the offered depth for
+    latched topics and event logs, keep-all for reliable ones (a slow reader, e.g. a
+    lockstep node, must not lose a sample), else keep-last."""
     offer = replay_offer(offers)
     latched = offer.durability == mcap_io.TRANSIENT_LOCAL
     reliability = _policy(ReliabilityPolicy, offer.reliability, ReliabilityPolicy.RELIABLE)
     lossless = not latched and reliability == ReliabilityPolicy.RELIABLE
     return QoSProfile(
         history=HistoryPolicy.KEEP_ALL if lossless else HistoryPolicy.KEEP_LAST,
-        depth=LATCHED_DEPTH if latched else VOLATILE_DEPTH,
+        depth=max(offer.depth, LATCHED_DEPTH) if latched else VOLATILE_DEPTH,
         reliability=reliability,
         durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
         deadline=Duration(nanoseconds=offer.deadline_ns),

@@ -43,7 +43,7 @@ class AdvisorNode(RigNode):
                                  Envelope.from_config(cfg, self.ctx.well_model.geometry))
         self.cmd_pub = self.create_publisher(RigCommand, topics.COMMAND, topics.RELIABLE)
         self.sp_pub = self.create_publisher(Setpoints, topics.SETPOINTS, topics.LATCHED)
-        self.event_pub = self.create_publisher(OperatorEvent, topics.OPERATOR_EVENTS, topics.RELIABLE)
+        self.event_pub = self.create_publisher(OperatorEvent, topics.OPERATOR_EVENTS, topics.EVENT_LOG)
         self.sent_bhp_ref_pa: dict[int, float] = {}  # BHP reference [Pa] of our recent
                                                      # commands, by stamp
         self.machine: dict[int, RigCommand] = {}     # the protection's commands by stamp

@@ -65,7 +65,7 @@ class PlantNode(RigNode):
         self.pub_measurement = self.create_publisher(RigMeasurement, topics.MEASUREMENT, topics.RELIABLE)
         self.pub_truth = self.create_publisher(PlantTruth, topics.TRUTH, topics.RELIABLE)
         self.pub_clock = self.create_publisher(Clock, "/clock", topics.RELIABLE) if ctx.fast else None
-        self.pub_events = self.create_publisher(OperatorEvent, topics.RIG_EVENTS, topics.RELIABLE)
+        self.pub_events = self.create_publisher(OperatorEvent, topics.RIG_EVENTS, topics.EVENT_LOG)
         for name in topics.ACTUATORS:
             self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
                                      lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)

@@ -66,7 +66,7 @@ class ProtectionNode(RigNode):
         self.in_window = True
         self.status = StatusReporter(self, ctx.mode)
         self.pub_command = self.create_publisher(RigCommand, topics.MACHINE_COMMAND, topics.RELIABLE)
-        self.pub_events = self.create_publisher(OperatorEvent, topics.PROTECTION_EVENTS, topics.RELIABLE)
+        self.pub_events = self.create_publisher(OperatorEvent, topics.PROTECTION_EVENTS, topics.EVENT_LOG)
         self.pub_level = self.create_publisher(String, topics.LEVEL_IN_FORCE, topics.LATCHED)
         self.pub_estop = self.create_publisher(Bool, topics.ESTOP_IN_FORCE, topics.LATCHED)
         self._publish_state()

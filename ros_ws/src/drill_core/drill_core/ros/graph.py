@@ -24,18 +24,26 @@ FRAMES = tuple(topics.actuator_frame(name) for name in topics.ACTUATORS)
 DRILLING_FRAMES = tuple(topics.actuator_frame(name) for name in topics.DRILLING_ACTUATORS)
 
 
+QOS_DESCRIPTION = {     # a topic's QoS kind -> its profile in drill_core.ros.topics
+    "reliable": "reliable, keep all",                                   # topics.RELIABLE
+    "latched": "reliable, transient local, depth 1",                    # topics.LATCHED
+    "event log": f"reliable, transient local, depth {topics.EVENT_LOG_DEPTH}",  # topics.EVENT_LOG
+}
+LOSSLESS = ("reliable", "event log")    # every sample reaches every reader
+
+
 @dataclass(frozen=True)
 class Topic:
     name: str
     type: str          # package/Type
-    qos: str           # "reliable" (keep all) or "latched" (transient local, depth 1)
+    qos: str           # a key of QOS_DESCRIPTION
     note: str = ""
 
 
 TOPICS = (
     Topic(topics.MEASUREMENT, "drill_msgs/RigMeasurement", "reliable"),
     Topic(topics.TRUTH, "drill_msgs/PlantTruth", "reliable", "evaluation only"),
-    Topic(topics.RIG_EVENTS, "drill_msgs/OperatorEvent", "reliable",
+    Topic(topics.RIG_EVENTS, "drill_msgs/OperatorEvent", "event log",
           "scenario events (faults, formation): evaluation and console only"),
     *(Topic(frame, "drill_msgs/ActuatorFrame", "reliable") for frame in FRAMES),
     Topic(topics.COMMAND, "drill_msgs/RigCommand", "reliable", "advisor's command"),
@@ -44,8 +52,8 @@ TOPICS = (
     Topic(topics.ESTIMATE, "drill_msgs/StateEstimate", "reliable"),
     Topic(topics.NMPC_STATUS, "drill_msgs/NmpcStatus", "reliable"),
     Topic(topics.SETPOINTS, "drill_msgs/Setpoints", "latched"),
-    Topic(topics.OPERATOR_EVENTS, "drill_msgs/OperatorEvent", "reliable"),
-    Topic(topics.PROTECTION_EVENTS, "drill_msgs/OperatorEvent", "reliable", "clamps and alarms"),
+    Topic(topics.OPERATOR_EVENTS, "drill_msgs/OperatorEvent", "event log"),
+    Topic(topics.PROTECTION_EVENTS, "drill_msgs/OperatorEvent", "event log", "clamps and alarms"),
     Topic(topics.AUTOMATION_LEVEL, "std_msgs/String", "latched",
           "operator's request: manual, advisory or closed_loop"),
     Topic(topics.EMERGENCY_STOP, "std_msgs/Bool", "latched", "operator's request"),
@@ -66,7 +74,7 @@ BY_TOPIC = {t.name: t for t in TOPICS}
 
 def latched(topic: str) -> bool:
     """Whether ``topic`` is declared latched (a late reader still gets its last value);
-    every other topic, a node's status topic included, is reliable with keep-all."""
+    every other topic, a node's status topic included, loses no sample (LOSSLESS)."""
     declared = BY_TOPIC.get(topic)
     return declared is not None and declared.qos == "latched"
 
@@ -254,7 +262,7 @@ def local_topics(members: list[Node], nodes: list[Node]) -> frozenset[str]:
     out = set()
     for topic in TOPICS:
         publishers = [n.name for n in nodes if topic.name in n.publishes]
-        if (topic.qos == "reliable" and publishers and set(publishers) <= names
+        if (topic.qos in LOSSLESS and publishers and set(publishers) <= names
                 and any(topic.name in m.subscribes for m in members)):
             out.add(topic.name)
     return frozenset(out)
@@ -380,7 +388,7 @@ def markdown_table() -> str:
         if t.name in FRAMES:
             pubs = ["`<name>` (each tripping actuator)"]
             subs = [_frames_of(n) for n in NODES if any(f in n.subscribes for f in FRAMES)]
-        qos = "reliable, transient local, depth 1" if t.qos == "latched" else "reliable, keep all"
+        qos = QOS_DESCRIPTION[t.qos]
         note = f" ({t.note})" if t.note else ""
         rows.append(f"| `{name}` | `{t.type}`{note} | {', '.join(pubs)} | "
                     f"{', '.join(subs) or '—'} | {qos} |")

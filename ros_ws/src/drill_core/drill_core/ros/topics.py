@@ -52,3 +52,10 @@ RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPol
 LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                      reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+EVENT_LOG_DEPTH = 1000      # events a publisher keeps for a reader that matches it late
+# The event topics: reliable, and transient local so that a reader DDS matches late (the
+# recorder while a busy machine is still discovering, a console opened mid-run) still
+# gets every event published before that from the publisher's history.
+EVENT_LOG = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=EVENT_LOG_DEPTH,
+                       reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
