@@ -96,6 +96,37 @@ def test_automated_mpd_runs_the_choke_pressure_loop_over_dds(other_controllers):
     assert summary["trip_legs"][0][1] is not None
 
 
+@pytest.mark.parametrize("controller", ["nmpc", "baseline", "automated_mpd"])
+def test_in_process_loop_bench_equals_the_graph(controller, two_runs, other_controllers):
+    """The loop bench (drill_bringup.loop_bench: the same plant, actuator, estimator,
+    advisor and protection classes stepped in one process) reproduces the graph's run:
+    truth, estimate and machine command sample by sample (to float rounding)."""
+    from drill_bringup import loop_bench
+    run_dir = two_runs[0] if controller == "nmpc" else other_controllers[controller]
+    path = _mcap(run_dir)
+    trace = loop_bench.run("short_trip", controller=controller, protection=True)["trace"]
+    stamps = {}
+    for topic, field in ((topics.TRUTH, "bhp_pa"), (topics.TRUTH, "string_position_m"),
+                         (topics.ESTIMATE, "bhp_pa"), (topics.MACHINE_COMMAND, "block_position_ref_m"),
+                         (topics.MACHINE_COMMAND, "choke_flow_ref_m3s")):
+        stamps[topic, field] = {round(m.header.stamp.sec * 10 + m.header.stamp.nanosec / 1e8):
+                                getattr(m, field) for _, m in mcap_io.decoded_messages(path, [topic])}
+    bench = {(topics.TRUTH, "bhp_pa"): "bhp", (topics.TRUTH, "string_position_m"): "pos",
+             (topics.ESTIMATE, "bhp_pa"): "bhp_est",
+             (topics.MACHINE_COMMAND, "block_position_ref_m"): "block_ref",
+             (topics.MACHINE_COMMAND, "choke_flow_ref_m3s"): "choke_flow_ref"}
+    tolerance = {"bhp_pa": 1e-3, "string_position_m": 1e-9, "block_position_ref_m": 1e-9,
+                 "choke_flow_ref_m3s": 1e-12}       # Pa, m, m, m^3/s
+    for (topic, field), graph in stamps.items():
+        assert len(graph) >= 91, (topic, len(graph))
+        frames = np.rint(trace["t"] * 10).astype(int)
+        values = dict(zip(frames, trace[bench[topic, field]]))
+        common = [k for k in graph if k in values]      # the bench stops before t = 90 s
+        assert len(common) >= len(graph) - 1, (topic, len(common), len(graph))
+        worst = max(abs(values[k] - graph[k]) for k in common)
+        assert worst < tolerance[field], f"{topic} {field}: bench and graph differ by {worst}"
+
+
 def test_recording_complete_and_read_by_independent_reader(two_runs):
     from rosbags.highlevel import AnyReader
     path = _mcap(two_runs[0])

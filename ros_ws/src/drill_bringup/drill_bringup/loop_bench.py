@@ -4,6 +4,9 @@ without DDS (the rungs below the full graph in docs/nmpc.md's ladder).
 
 A bench, not a product path: the ``truth`` state source reads the truth plant's state
 (an oracle); ``ukf`` runs the estimator on the noisy measurements as the graph does.
+It steps the nodes' own classes (the estimator's and the advisors' ticks, the
+protection's measurement watch and limiter), so with ``ukf`` and ``--protection`` it
+reproduces the graph's fast-mode run sample by sample (test/test_closed_loop.py).
 The scenario's events act as in the graph (sensor faults and formation changes on the
 plant, a pump trip or a stuck actuator on its actuator). The process protection
 (drill_protection.protection, with the kick detector's trip hold and the well-control
@@ -36,14 +39,13 @@ from drill_core.mismatch import Mismatch, resolve, truth_config
 from drill_core.scenario import initial_setpoints, load_scenario_config
 from drill_core.units import L_PER_M3, PA_PER_BAR
 from drill_estimator.tick import EstimatorTick
-from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
-from drill_nmpc.baseline import Baseline
-from drill_nmpc.inputs import choke_command, choke_input
+from drill_nmpc.advisor_ticks import (AdvisorCommand, AutomatedMpdTick, BaselineTick, NmpcTick,
+                                      StartInputs)
+from drill_nmpc.automated_mpd import EstimateView
 from drill_nmpc.prediction_model import nmpc_estimation_model
-from drill_nmpc.setpoint_book import (SetpointBook, adopt_applied_block, as_delivered,
-                                      within_speed_limits)
+from drill_nmpc.setpoint_book import SetpointBook, as_delivered, within_speed_limits
 from drill_nmpc.setpoint_validation import Envelope
-from drill_nmpc.supervisor import Fallback, Supervisor
+from drill_nmpc.supervisor import Fallback
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
 from drill_plant.plant_model import EVENT_PARAMETERS, PARAMETER_NAMES, PlantLayout, steady_state
 from drill_plant.sensor_faults import SensorFaults
@@ -52,8 +54,7 @@ from drill_protection.protection import ProcessProtection
 from drill_protection.watch import DETECTOR_CODES, MeasurementWatch
 
 CONTROLLERS = ("automated_mpd", "nmpc", "baseline")
-BASELINE_KP_M3S_PER_PA = 5.0e-9     # the baseline node's default gains (30 L/min per bar)
-BASELINE_TI_S = 5.0
+NO_ANSWER = (math.nan, math.nan)    # trip-speed limits without a protection in the loop
 PORE, FRACTURE = (PARAMETER_NAMES.index(n) for n in ("pore_pressure_pa", "fracture_pressure_pa"))
 
 
@@ -68,6 +69,14 @@ class Command:
     dp_rate_pa_s: float = 0.0
     stamp_s: float = 0.0
     mud_pump_on: bool = True
+
+    @classmethod
+    def of(cls, c: AdvisorCommand, stamp_s: float) -> "Command":
+        """An advisor's command as the actuators take it, acting from ``stamp_s``."""
+        pressure = c.choke_pressure_control
+        return cls(c.block_position_ref_m, c.choke_flow_ref_m3s, c.bpp_flow_m3s, c.spp_pa,
+                   c.choke_dp_ref_pa if pressure else math.nan,
+                   c.choke_dp_ref_rate_pa_s if pressure else 0.0, stamp_s, c.mud_pump_on)
 
 
 class Rig:
@@ -196,40 +205,29 @@ class UkfState:
 
 
 class NmpcController:
-    """The NMPC supervisor as the nmpc node runs it (u_{-1}, actuator outputs, the pump
-    planned off while the string-flow meter reads nothing, the block reference the
-    drawworks was given, command)."""
+    """The nmpc node's tick (drill_nmpc.advisor_ticks) fed as the node feeds it: the
+    actuator outputs of the last frames, the pump planned off while the string-flow meter
+    reads nothing; its solve times and fallbacks kept."""
 
-    def __init__(self, config: RigConfig, rig: Rig, ini, block_integral_from_drawworks: bool,
-                 op):
+    def __init__(self, config: RigConfig, rig: Rig, start: StartInputs,
+                 block_integral_from_drawworks: bool):
         self.rig = rig
         self.block_integral = block_integral_from_drawworks
-        self.sup = Supervisor(config, nmpc_estimation_model(config))
-        self.cfg = config.nmpc
-        u_b, opening, bpp, spp = (float(v) for v in op.inputs)
-        self.operating_flow_m3s = float(op.choke_flow_m3s)   # before any solve
-        self.u = None
-        self.initial = (choke_input(self.cfg, self.operating_flow_m3s, ini.choke_dp_pa), bpp, spp)
+        self.tick = NmpcTick(config, nmpc_estimation_model(config), start)
         self.solve_times: list[float] = []
         self.statuses: list[tuple] = []        # per fallback: (t, fallback, status, reasons)
 
-    def step(self, x_hat, sp, inputs, t: float, flow_observable: bool = True) -> Command:
-        if self.u is None:
-            self.u = self.sup.safe_input([x_hat[0], *self.initial])
+    def step(self, x_hat, sp, inputs, t: float, flow_observable: bool, mud_pump_on: bool) -> Command:
         frame = self.rig.frames.get("drawworks") if self.block_integral else None
-        self.u = adopt_applied_block(self.u, frame.reference if frame else None)
-        r = self.sup.step(x_hat, as_delivered(sp, flow_observable), self.u, actuators={
+        actuators = {} if not self.rig.frames else {     # the node's: no frame before t_0
             "block_m": inputs[0, -1], "bpp_flow_m3s": inputs[2, -1], "spp_pa": inputs[3, -1],
             "block_command_m": frame.command if frame else None,
-            "block_reference_m": frame.reference if frame else None})
+            "block_reference_m": frame.reference if frame else None}
+        r = self.tick.step(x_hat, as_delivered(sp, flow_observable), actuators)
         self.solve_times.append(r.solve_time_s)
         if r.fallback is not Fallback.NONE:
             self.statuses.append((t, r.fallback.value, r.status, r.reasons))
-        u = self.u = np.asarray(r.u, dtype=float)
-        choke = choke_command(self.cfg, r, self.operating_flow_m3s)
-        if not choke.pressure_control:
-            return Command(u[0], choke.flow_m3s, u[2], u[3], stamp_s=t)
-        return Command(u[0], choke.flow_m3s, u[2], u[3], choke.dp_ref_pa, choke.dp_ref_rate_pa_s, t)
+        return Command.of(self.tick.command(r, mud_pump_on), t)
 
 
 class Protection:
@@ -304,15 +302,14 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
                         Envelope.from_config(config, wm.geometry))
     ini = scenario.initial      # where the controllers believe the run starts: the model's
     op = steady_state(wm, ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
-    u_b, opening, bpp, spp = (float(v) for v in op.inputs)
-    mpd = AutomatedMpd(config, em, bpp, spp) if controller == "automated_mpd" else None
-    nmpc = NmpcController(config, rig, ini, block_integral_from_drawworks, op) \
+    start = StartInputs.of(ini, op)
+    mpd = AutomatedMpdTick(config, em, start) if controller == "automated_mpd" else None
+    nmpc = NmpcController(config, rig, start, block_integral_from_drawworks) \
         if controller == "nmpc" else None
-    baseline = Baseline(float(op.choke_flow_m3s), BASELINE_KP_M3S_PER_PA, BASELINE_TI_S,
-                        config.nmpc.input_max.choke_flow_m3s, scenario.baseline_trip_speed_mps,
-                        config.nmpc.sample_time_s) if controller == "baseline" else None
+    baseline = BaselineTick(config, scenario.baseline_trip_speed_mps, start) \
+        if controller == "baseline" else None
     guard = Protection(config, scenario, wm, op) if protection else None
-    cmd = Command(0.0, op.choke_flow_m3s, bpp, spp)
+    cmd = Command(0.0, start.choke_flow_m3s, start.bpp_flow_m3s, start.spp_pa)
     frames = int(round(scenario.duration_s / config.plant.sensor_period_s))
     per_sample = int(round(config.nmpc.sample_time_s / config.plant.sensor_period_s))
     log = {k: [] for k in ("t", "bhp", "pos", "ref", "band", "target", "bhp_est", "velocity",
@@ -329,27 +326,20 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
             if guard is not None and guard.answer is not None:
                 book.follow_protection(*guard.answer)
             book.advance(t)
-            book.resolve_bhp(view.bhp_pa)
+            book.resolve_bhp(m.bhp_pa if baseline is not None else view.bhp_pa)   # as each node
             sp = book.active
-            plan = sp if guard is None else \
-                within_speed_limits(sp, guard.speed_limits_mps, view.string_position_m)
+            limits = guard.speed_limits_mps if guard is not None else NO_ANSWER
+            applied = guard.applied_block_m if guard is not None else math.nan
             if nmpc is not None:
-                cmd = nmpc.step(x_hat, plan, inputs, t, bool(m.string_flow_valid))
+                cmd = nmpc.step(x_hat, within_speed_limits(sp, limits, view.string_position_m),
+                                inputs, t, bool(m.string_flow_valid), sp.mud_pump_on)
             elif baseline is not None:
-                if guard is not None:
-                    baseline.adopt_applied(guard.applied_block_m)
-                baseline.step(m.block_position_m, m.bhp_pa, sp.block_position_target_m,
-                              sp.bhp_ref_pa, sp.controller_enabled)
-                cmd = Command(baseline.block_ref_m, baseline.choke_ref_m3s,
-                              float(scenario.initial.bpp_flow_m3s), spp, stamp_s=t)
+                advised, _ = baseline.step(m.block_position_m, m.bhp_pa, sp, book.bhp_resolved,
+                                           applied)
+                cmd = Command.of(advised, t)
             else:
-                if guard is not None:
-                    mpd.adopt_applied(guard.applied_block_m)
-                c = mpd.step(view, plan, sp.bhp_ref_pa)
-                cmd = Command(c.block_position_ref_m, c.choke_flow_feedforward_m3s,
-                              c.bpp_flow_m3s, c.spp_pa, c.choke_dp_ref_pa,
-                              c.choke_dp_ref_rate_pa_s, t)
-            cmd.mud_pump_on = bool(sp.mud_pump_on)
+                advised, _ = mpd.step(view, sp, book.bhp_resolved, limits, applied)
+                cmd = Command.of(advised, t)
             if guard is not None:
                 cmd = guard.limit(cmd, m, sp, t)
         truth = rig.sim.state

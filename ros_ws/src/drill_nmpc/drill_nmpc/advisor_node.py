@@ -24,6 +24,7 @@ from drill_core.ros.sampling import SampleGate
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
 from drill_core.scenario import initial_setpoints
+from drill_nmpc.advisor_ticks import AdvisorCommand, StartInputs
 from drill_nmpc.setpoint_book import Event, SetpointBook
 from drill_nmpc.setpoint_messages import to_msg
 from drill_nmpc.setpoint_validation import Envelope
@@ -39,6 +40,7 @@ class AdvisorNode(RigNode):
         cfg, scenario = self.ctx.config, self.ctx.scenario
         self.gate = SampleGate(seconds_to_ns(cfg.nmpc.sample_time_s), self.ctx.fast)
         self.status = StatusReporter(self, self.ctx.mode, topic=status_topic)
+        self.start = StartInputs.of(scenario.initial, self.ctx.operating_point)
         self.book = SetpointBook(scenario, initial_setpoints(cfg, scenario),
                                  Envelope.from_config(cfg, self.ctx.well_model.geometry))
         self.cmd_pub = self.create_publisher(RigCommand, topics.COMMAND, topics.RELIABLE)
@@ -123,10 +125,17 @@ class AdvisorNode(RigNode):
             self.sp_pub.publish(to_msg(self.book.active, stamp_ns, source))
             self.book.changed = False
 
-    def publish_command(self, cmd: RigCommand, stamp_ns: int) -> None:
-        """``cmd`` stamped ``stamp_ns`` with the book's BHP reference (NaN until resolved),
+    def publish_command(self, command: AdvisorCommand, stamp_ns: int) -> None:
+        """``command`` stamped ``stamp_ns`` with the book's BHP reference (NaN until resolved),
         the window it keeps to and its trip-speed limit (the protection takes the operator's
         limit from the command it limits, the same in every run)."""
+        c = command
+        cmd = RigCommand(block_position_ref_m=c.block_position_ref_m,
+                         choke_flow_ref_m3s=c.choke_flow_ref_m3s, bpp_flow_m3s=c.bpp_flow_m3s,
+                         spp_pa=c.spp_pa, mud_pump_on=c.mud_pump_on, choke_manual=False,
+                         choke_pressure_control=c.choke_pressure_control,
+                         choke_dp_ref_pa=c.choke_dp_ref_pa,
+                         choke_dp_ref_rate_pa_s=c.choke_dp_ref_rate_pa_s, source=self.get_name())
         cmd.header.stamp = from_ns(stamp_ns)
         cmd.bhp_ref_pa = float(self.book.active.bhp_ref_pa) if self.book.bhp_resolved \
             else float("nan")

@@ -20,29 +20,24 @@ change.
 """
 from __future__ import annotations
 
-import math
 import sys
 
-from drill_msgs.msg import RigCommand, StateEstimate
+from drill_msgs.msg import StateEstimate
 
 from drill_core.estimation_model import DENSITY_OFFSET, build_estimation_model
 from drill_core.ros import topics
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_nmpc.advisor_node import AdvisorNode
-from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
-from drill_nmpc.setpoint_book import within_speed_limits
+from drill_nmpc.advisor_ticks import AutomatedMpdTick
+from drill_nmpc.automated_mpd import EstimateView
 
 
 class AutomatedMpdNode(AdvisorNode):
     def __init__(self, **node_options):
         super().__init__("automated_mpd", **node_options)
-        cfg, ini, op = self.ctx.config, self.ctx.scenario.initial, self.ctx.operating_point
-        self.em = build_estimation_model(cfg)
-        self.controller = AutomatedMpd(cfg, self.em, float(ini.bpp_flow_m3s), op.spp_pa)
-        self.held = RigCommand(block_position_ref_m=0.0, choke_flow_ref_m3s=float(op.choke_flow_m3s),
-                               bpp_flow_m3s=float(ini.bpp_flow_m3s), spp_pa=op.spp_pa,
-                               mud_pump_on=ini.circulation_m3s > 0.0, source="automated_mpd")
+        self.em = build_estimation_model(self.ctx.config)
+        self.tick = AutomatedMpdTick(self.ctx.config, self.em, self.start)
         self.create_subscription(StateEstimate, topics.ESTIMATE, self._on_estimate, topics.RELIABLE)
 
     def _view(self, msg: StateEstimate) -> EstimateView:
@@ -65,24 +60,12 @@ class AutomatedMpdNode(AdvisorNode):
         self.follow_schedule(stamp)
         self.publish_events(self.book.resolve_bhp(view.bhp_pa), stamp)
         sp = self.book.active
-        if self.controller.profile is None and math.isfinite(view.string_position_m):
-            self.held.block_position_ref_m = view.string_position_m
-        if not self.book.bhp_resolved or not all(math.isfinite(v) for v in
-                                                  (view.bhp_pa, view.string_position_m)):
+        cmd, c = self.tick.step(view, sp, self.book.bhp_resolved, self.speed_limits_mps,
+                                self.applied_block_m)
+        self.publish_command(cmd, stamp)     # the fast-mode lockstep waits for a command
+        if c is None:
             self.status.error(f"estimate at {stamp * 1e-9:.3f} s is not finite: last command held")
-            self.publish_command(self.held, stamp)   # the fast-mode lockstep waits for a command
             return
-        self.controller.adopt_applied(self.applied_block_m)
-        c = self.controller.step(view, within_speed_limits(sp, self.speed_limits_mps,
-                                                           view.string_position_m), sp.bhp_ref_pa)
-        self.held = RigCommand(block_position_ref_m=c.block_position_ref_m,
-                               choke_flow_ref_m3s=c.choke_flow_feedforward_m3s,
-                               bpp_flow_m3s=c.bpp_flow_m3s, spp_pa=c.spp_pa,
-                               mud_pump_on=bool(sp.mud_pump_on), choke_manual=False,
-                               choke_pressure_control=True, choke_dp_ref_pa=c.choke_dp_ref_pa,
-                               choke_dp_ref_rate_pa_s=c.choke_dp_ref_rate_pa_s,
-                               source="automated_mpd")
-        self.publish_command(self.held, stamp)
         self.status.mode = f"{self.ctx.mode}/{'automated_mpd' if sp.controller_enabled else 'manual'}"
         self.status.values = {"block_ref_m": c.block_position_ref_m,
                               "choke_dp_ref_pa": c.choke_dp_ref_pa, "trim_pa": c.trim_pa,

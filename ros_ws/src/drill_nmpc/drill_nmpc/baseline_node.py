@@ -29,27 +29,22 @@ from __future__ import annotations
 import math
 import sys
 
-from drill_msgs.msg import RigCommand, RigMeasurement
+from drill_msgs.msg import RigMeasurement
 
 from drill_core.ros import topics
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import to_ns
 from drill_nmpc.advisor_node import AdvisorNode
-from drill_nmpc.baseline import Baseline
+from drill_nmpc.advisor_ticks import BASELINE_KP_M3S_PER_PA, BASELINE_TI_S, BaselineTick
 
 
 class BaselineNode(AdvisorNode):
     def __init__(self, **node_options):
         super().__init__("baseline", **node_options)
-        cfg, ini, op = self.ctx.config, self.ctx.scenario.initial, self.ctx.operating_point
-        self.spp_pa = op.spp_pa
-        self.bpp_m3s = float(ini.bpp_flow_m3s)
-        self.speed = float(self.ctx.scenario.baseline_trip_speed_mps)
-        kp = self.declare_parameter("kp_m3s_per_pa", 5.0e-9).value      # 30 L/min per bar
-        ti = self.declare_parameter("ti_s", 5.0).value
-        self.controller = Baseline(float(op.choke_flow_m3s), float(kp), float(ti),
-                                   cfg.nmpc.input_max.choke_flow_m3s, self.speed,
-                                   cfg.nmpc.sample_time_s)
+        kp = self.declare_parameter("kp_m3s_per_pa", BASELINE_KP_M3S_PER_PA).value
+        ti = self.declare_parameter("ti_s", BASELINE_TI_S).value
+        self.tick = BaselineTick(self.ctx.config, float(self.ctx.scenario.baseline_trip_speed_mps),
+                                 self.start, float(kp), float(ti))
         self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
                                  topics.RELIABLE)
 
@@ -63,20 +58,16 @@ class BaselineNode(AdvisorNode):
         self.follow_schedule(stamp)
         self.publish_events(self.book.resolve_bhp(bhp), stamp)
         sp = self.book.active
-        bhp_ref = sp.bhp_ref_pa if self.book.bhp_resolved else None
-        c = self.controller
-        c.adopt_applied(self.applied_block_m)
-        if not c.step(position, bhp, sp.block_position_target_m, bhp_ref, sp.controller_enabled):
+        cmd, ok = self.tick.step(position, bhp, sp, self.book.bhp_resolved, self.applied_block_m)
+        if not ok:
             self.status.error(f"measurement at {stamp * 1e-9:.3f} s without a finite BHP: "
                               "choke reference held")
-        self.publish_command(RigCommand(
-            block_position_ref_m=float(c.block_ref_m), choke_flow_ref_m3s=float(c.choke_ref_m3s),
-            bpp_flow_m3s=self.bpp_m3s, spp_pa=self.spp_pa, mud_pump_on=bool(sp.mud_pump_on),
-            choke_manual=False, source="baseline"), stamp)
+        self.publish_command(cmd, stamp)
         self.status.mode = f"{self.ctx.mode}/{'baseline' if sp.controller_enabled else 'manual'}"
-        self.status.values = {"block_ref_m": float(c.block_ref_m),
-                              "choke_flow_ref_m3s": float(c.choke_ref_m3s),
-                              "bhp_ref_pa": float(bhp_ref) if bhp_ref is not None else math.nan}
+        self.status.values = {"block_ref_m": cmd.block_position_ref_m,
+                              "choke_flow_ref_m3s": cmd.choke_flow_ref_m3s,
+                              "bhp_ref_pa": float(sp.bhp_ref_pa) if self.book.bhp_resolved
+                              else math.nan}
         self.status.tick(stamp)
 
 

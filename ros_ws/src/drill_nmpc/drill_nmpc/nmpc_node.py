@@ -37,7 +37,7 @@ import math
 import sys
 
 import numpy as np
-from drill_msgs.msg import ActuatorFrame, NmpcStatus, RigCommand, StateEstimate
+from drill_msgs.msg import ActuatorFrame, NmpcStatus, StateEstimate
 from drill_msgs.srv import SetSetpoints
 
 from drill_core.estimation_model import BOTTOM_INFLUX
@@ -45,12 +45,12 @@ from drill_core.ros import topics
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_nmpc.advisor_node import AdvisorNode
-from drill_nmpc.inputs import choke_command, choke_input
+from drill_nmpc.advisor_ticks import NmpcTick
 from drill_nmpc.prediction_model import nmpc_estimation_model
-from drill_nmpc.setpoint_book import adopt_applied_block, as_delivered, within_speed_limits
+from drill_nmpc.setpoint_book import as_delivered, within_speed_limits
 from drill_nmpc.setpoint_messages import merge_request, to_msg
 from drill_nmpc.soft_constraints import SLACK_NAMES
-from drill_nmpc.supervisor import Fallback, SolveResult, Supervisor
+from drill_nmpc.supervisor import Fallback, SolveResult
 
 
 class NmpcNode(AdvisorNode):
@@ -61,9 +61,9 @@ class NmpcNode(AdvisorNode):
         self.em = nmpc_estimation_model(cfg)
         # Build (and, with jit, compile) the solver before any subscription exists, so the
         # graph's lockstep starts only once the supervisor can answer.
-        self.supervisor = Supervisor(cfg, self.em)
+        self.tick = NmpcTick(cfg, self.em, self.start)
+        self.supervisor = self.tick.supervisor
         self.pressure_control = cfg.nmpc.choke_control == "pressure"
-        self.operating_choke_flow_m3s = math.nan   # the initial operating point's [m^3/s]
         self.frame_ns = seconds_to_ns(cfg.plant.sensor_period_s)
         # The actuators' outputs (block position, bpp flow, stand-pipe pressure) are the
         # initial states of the modelled actuator lags; in fast mode the frames stamped
@@ -73,7 +73,6 @@ class NmpcNode(AdvisorNode):
                   "mud_pump": ("spp_pa", model.pump)}
         self.frame_keys = {name: key for name, (key, index) in wanted.items() if index is not None}
         self.frames: dict[str, dict[int, dict]] = {name: {} for name in self.frame_keys}
-        self.u_prev: np.ndarray | None = None
         self.last_estimate_ns: int | None = None
         self.commands = 0
 
@@ -117,17 +116,6 @@ class NmpcNode(AdvisorNode):
         except KeyError:
             return None
         return x if np.all(np.isfinite(x)) else None
-
-    def _initial_input(self, x) -> np.ndarray:
-        """u_{-1} at the first estimate: hold the string where it is estimated; choke flow,
-        back-pressure pump and stand-pipe pressure at the scenario's initial steady operating
-        point -- the values the actuators and the protection layer start from too."""
-        ini = self.ctx.scenario.initial
-        op = self.ctx.operating_point
-        self.operating_choke_flow_m3s = float(op.choke_flow_m3s)
-        u = np.array([x[self.em.position], choke_input(self.ctx.config.nmpc, op.choke_flow_m3s, ini.choke_dp_pa),
-                      ini.bpp_flow_m3s, op.spp_pa])
-        return self.supervisor.safe_input(u)
 
     def _on_estimate(self, msg: StateEstimate) -> None:
         stamp = to_ns(msg.header.stamp)
@@ -177,22 +165,12 @@ class NmpcNode(AdvisorNode):
         if x is None:
             self.status.error(f"estimate at {stamp * 1e-9:.3f} s unusable (missing states or "
                               "non-finite values): holding the last command")
-            u = self.u_prev if self.u_prev is not None else None
-            if u is None:
-                return              # nothing to hold yet; the actuators keep their safe state
-            result = self.supervisor.hold(u, "invalid_estimate")
         else:
             self.publish_events(self.book.resolve_bhp(float(x[self.em.pressure(self.em.n)])), stamp)
-            if self.u_prev is None:
-                self.u_prev = self._initial_input(x)
-            self._adopt_applied_block(actuators)
-            if self.book.active.controller_enabled:
-                result = self.supervisor.step(x, self._plan_setpoints(msg), self.u_prev,
-                                              actuators=actuators)
-            else:
-                result = self._manual(x)
-        self.u_prev = result.u
-        self._publish(stamp, result)
+        plan = self._plan_setpoints(msg) if x is not None else self.book.active
+        result = self.tick.step(x, plan, actuators)
+        if result is not None:      # None: nothing to hold yet, the actuators keep their safe state
+            self._publish(stamp, result)
 
     def _plan_setpoints(self, msg: StateEstimate):
         """The setpoints to plan with: within the protection's trip-speed limits, and the
@@ -201,37 +179,12 @@ class NmpcNode(AdvisorNode):
         active = within_speed_limits(self.book.active, self.speed_limits_mps, float(msg.mean[0]))
         return as_delivered(active, msg.string_flow_observable)
 
-    def _adopt_applied_block(self, actuators) -> None:
-        """Plan from the block reference the drawworks was given when the process protection
-        changed ours (a trip held on an alarm, a clamp), not from the one we sent."""
-        self.u_prev = adopt_applied_block(self.u_prev, (actuators or {}).get("block_reference_m"))
-
-    def _manual(self, x) -> SolveResult:
-        """Hand-back to manual: hold the string where it is, the other inputs as they were."""
-        self.supervisor.reset()
-        u = self.u_prev.copy()
-        u[0] = float(np.clip(x[self.em.position], self.supervisor.u_min[0], self.supervisor.u_max[0]))
-        u = np.where(np.isfinite(u), u, self.u_prev)
-        return SolveResult(u=u, success=False, fallback="none", status="manual", iterations=0,
-                           solve_time_s=0.0, cost=float("nan"),
-                           slacks={n: float("nan") for n in SLACK_NAMES},
-                           planned_inputs=np.tile(u, (self.supervisor.problem.N, 1)),
-                           configuration=self.supervisor.configuration,
-                           choke_flow_m3s=self.supervisor.choke_flow_m3s)
-
     # ------------------------------------------------------------------ outputs
     def _publish(self, stamp: int, r: SolveResult) -> None:
-        u = np.asarray(r.u, dtype=float)
-        assert np.all(np.isfinite(u)), "refusing to publish a non-finite command"
+        assert np.all(np.isfinite(np.asarray(r.u, dtype=float))), \
+            "refusing to publish a non-finite command"
         plan = np.asarray(r.planned_inputs, dtype=float).reshape(-1, 4)
-        choke = choke_command(self.ctx.config.nmpc, r, self.operating_choke_flow_m3s)
-        cmd = RigCommand(block_position_ref_m=float(u[0]), choke_flow_ref_m3s=choke.flow_m3s,
-                         bpp_flow_m3s=float(u[2]), spp_pa=float(u[3]),
-                         mud_pump_on=bool(self.book.active.mud_pump_on), choke_manual=False,
-                         choke_pressure_control=choke.pressure_control,
-                         choke_dp_ref_pa=choke.dp_ref_pa,
-                         choke_dp_ref_rate_pa_s=choke.dp_ref_rate_pa_s, source="nmpc")
-        self.publish_command(cmd, stamp)
+        self.publish_command(self.tick.command(r, self.book.active.mud_pump_on), stamp)
         self.commands += 1
 
         st = NmpcStatus()

@@ -1,0 +1,168 @@
+"""The advisors' per-sample logic as plain tick classes (no rclpy): what the ``nmpc``,
+``automated_mpd`` and ``baseline`` nodes command for one sample from the inputs the node
+collected for it (the setpoints to plan with come from drill_nmpc.setpoint_book, which
+the caller keeps). The nodes move messages in and out of these; the in-process loop
+bench (drill_bringup.loop_bench) steps the same classes."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from drill_core.config import RigConfig
+from drill_core.estimation_model import EstimationModel
+from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView, MpdCommand
+from drill_nmpc.baseline import Baseline
+from drill_nmpc.inputs import choke_command, choke_input
+from drill_nmpc.setpoint_book import adopt_applied_block, within_speed_limits
+from drill_nmpc.soft_constraints import SLACK_NAMES
+from drill_nmpc.supervisor import SolveResult, Supervisor
+
+BASELINE_KP_M3S_PER_PA = 5.0e-9     # the PI baseline's default gains: 30 L/min per bar
+BASELINE_TI_S = 5.0
+
+
+@dataclass
+class AdvisorCommand:
+    """An advisor's command to the process protection: the fields of drill_msgs/RigCommand
+    an advisor sets (SI)."""
+    block_position_ref_m: float
+    choke_flow_ref_m3s: float        # flow reference, or the pressure loop's feedforward
+    bpp_flow_m3s: float
+    spp_pa: float
+    mud_pump_on: bool
+    choke_pressure_control: bool = False
+    choke_dp_ref_pa: float = 0.0     # pressure loop: set-point at the command's stamp
+    choke_dp_ref_rate_pa_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class StartInputs:
+    """The scenario's initial operating point as the advisors start from it (SI): the
+    values the actuators and the protection start from too."""
+    choke_flow_m3s: float
+    choke_dp_pa: float
+    bpp_flow_m3s: float
+    spp_pa: float
+    circulating: bool
+
+    @classmethod
+    def of(cls, initial, op) -> "StartInputs":
+        """From the scenario's ``initial`` section and its operating point
+        (drill_core.operating_point: the choke flow and the stand-pipe pressure)."""
+        return cls(float(op.choke_flow_m3s), float(initial.choke_dp_pa),
+                   float(initial.bpp_flow_m3s), float(op.inputs[3]),
+                   initial.circulation_m3s > 0.0)
+
+
+class NmpcTick:
+    """The NMPC supervisor as the nmpc node runs it: u_{-1} at the first usable estimate
+    (hold the string where it is estimated, the other inputs at the start point), the
+    block reference the drawworks was given adopted, a hold on an unusable estimate, the
+    hand-back to manual while the controller is disabled."""
+
+    def __init__(self, config: RigConfig, em: EstimationModel, start: StartInputs):
+        self.supervisor = Supervisor(config, em)
+        self.cfg = config.nmpc
+        self.em = em
+        self.start = start
+        self.u_prev: np.ndarray | None = None
+
+    def step(self, x: np.ndarray | None, setpoints, actuators: dict) -> SolveResult | None:
+        """One sample: ``x`` the estimate in the model's layout (None: unusable, the last
+        input held; None returned when there is none yet), ``setpoints`` the ones to plan
+        with, ``actuators`` the measured actuator outputs (drill_nmpc.supervisor)."""
+        if x is None:
+            if self.u_prev is None:
+                return None
+            result = self.supervisor.hold(self.u_prev, "invalid_estimate")
+        else:
+            if self.u_prev is None:
+                self.u_prev = self._initial_input(x)
+            self.u_prev = adopt_applied_block(self.u_prev, actuators.get("block_reference_m"))
+            result = self.supervisor.step(x, setpoints, self.u_prev, actuators=actuators) \
+                if setpoints.controller_enabled else self._manual(x)
+        self.u_prev = result.u
+        return result
+
+    def command(self, result: SolveResult, mud_pump_on: bool) -> AdvisorCommand:
+        """The command for ``result``: the choke's part per its loop (drill_nmpc.inputs)."""
+        u = np.asarray(result.u, dtype=float)
+        choke = choke_command(self.cfg, result, self.start.choke_flow_m3s)
+        return AdvisorCommand(float(u[0]), choke.flow_m3s, float(u[2]), float(u[3]),
+                              bool(mud_pump_on), choke.pressure_control, choke.dp_ref_pa,
+                              choke.dp_ref_rate_pa_s)
+
+    def _initial_input(self, x) -> np.ndarray:
+        s = self.start
+        u = np.array([x[self.em.position], choke_input(self.cfg, s.choke_flow_m3s, s.choke_dp_pa),
+                      s.bpp_flow_m3s, s.spp_pa])
+        return self.supervisor.safe_input(u)
+
+    def _manual(self, x) -> SolveResult:
+        """Hand-back to manual: hold the string where it is, the other inputs as they were."""
+        sup = self.supervisor
+        sup.reset()
+        u = self.u_prev.copy()
+        u[0] = float(np.clip(x[self.em.position], sup.u_min[0], sup.u_max[0]))
+        u = np.where(np.isfinite(u), u, self.u_prev)
+        return SolveResult(u=u, success=False, fallback="none", status="manual", iterations=0,
+                           solve_time_s=0.0, cost=float("nan"),
+                           slacks={n: float("nan") for n in SLACK_NAMES},
+                           planned_inputs=np.tile(u, (sup.problem.N, 1)),
+                           configuration=sup.configuration, choke_flow_m3s=sup.choke_flow_m3s)
+
+
+class AutomatedMpdTick:
+    """Automated MPD as its node runs it: the last command held while the estimate is not
+    finite or the BHP reference not resolved, the block reference at the estimated string
+    until a trip profile starts."""
+
+    def __init__(self, config: RigConfig, em: EstimationModel, start: StartInputs):
+        self.controller = AutomatedMpd(config, em, start.bpp_flow_m3s, start.spp_pa)
+        self.held = AdvisorCommand(0.0, start.choke_flow_m3s, start.bpp_flow_m3s, start.spp_pa,
+                                   start.circulating)
+
+    def step(self, view: EstimateView, setpoints, bhp_resolved: bool,
+             speed_limits_mps: tuple[float, float],
+             applied_block_m: float) -> tuple[AdvisorCommand, MpdCommand | None]:
+        """The command for one sample and the controller's output (None: the last command
+        held, the estimate not finite or the BHP reference not resolved)."""
+        if self.controller.profile is None and math.isfinite(view.string_position_m):
+            self.held.block_position_ref_m = view.string_position_m
+        if not bhp_resolved or not all(math.isfinite(v) for v in
+                                       (view.bhp_pa, view.string_position_m)):
+            return self.held, None
+        self.controller.adopt_applied(applied_block_m)
+        c = self.controller.step(view, within_speed_limits(setpoints, speed_limits_mps,
+                                                           view.string_position_m),
+                                 setpoints.bhp_ref_pa)
+        self.held = AdvisorCommand(c.block_position_ref_m, c.choke_flow_feedforward_m3s,
+                                   c.bpp_flow_m3s, c.spp_pa, bool(setpoints.mud_pump_on), True,
+                                   c.choke_dp_ref_pa, c.choke_dp_ref_rate_pa_s)
+        return self.held, c
+
+
+class BaselineTick:
+    """The PI baseline as its node runs it: a fixed-speed block ramp and the PI choke on
+    the measured BHP (its reference once resolved), the bpp and the stand-pipe pressure
+    at the start point."""
+
+    def __init__(self, config: RigConfig, trip_speed_mps: float, start: StartInputs,
+                 kp_m3s_per_pa: float = BASELINE_KP_M3S_PER_PA, ti_s: float = BASELINE_TI_S):
+        self.controller = Baseline(start.choke_flow_m3s, kp_m3s_per_pa, ti_s,
+                                   config.nmpc.input_max.choke_flow_m3s, trip_speed_mps,
+                                   config.nmpc.sample_time_s)
+        self.start = start
+
+    def step(self, position_m: float, bhp_pa: float, setpoints, bhp_resolved: bool,
+             applied_block_m: float) -> tuple[AdvisorCommand, bool]:
+        """The command for one sample, and False when the BHP was not finite (the choke
+        reference held)."""
+        c = self.controller
+        c.adopt_applied(applied_block_m)
+        ok = c.step(position_m, bhp_pa, setpoints.block_position_target_m,
+                    setpoints.bhp_ref_pa if bhp_resolved else None, setpoints.controller_enabled)
+        return AdvisorCommand(float(c.block_ref_m), float(c.choke_ref_m3s), self.start.bpp_flow_m3s,
+                              self.start.spp_pa, bool(setpoints.mud_pump_on)), ok
