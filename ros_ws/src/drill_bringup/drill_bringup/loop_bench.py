@@ -22,7 +22,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -50,8 +50,8 @@ from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
 from drill_plant.plant_model import EVENT_PARAMETERS, PARAMETER_NAMES, PlantLayout, steady_state
 from drill_plant.sensor_faults import SensorFaults
 from drill_plant.simulator import PlantSimulator
-from drill_protection.protection import ProcessProtection
-from drill_protection.watch import DETECTOR_CODES, MeasurementWatch
+from drill_protection.tick import ProtectionTick
+from drill_protection.watch import DETECTOR_CODES
 
 CONTROLLERS = ("automated_mpd", "nmpc", "baseline")
 NO_ANSWER = (math.nan, math.nan)    # trip-speed limits without a protection in the loop
@@ -77,6 +77,15 @@ class Command:
         return cls(c.block_position_ref_m, c.choke_flow_ref_m3s, c.bpp_flow_m3s, c.spp_pa,
                    c.choke_dp_ref_pa if pressure else math.nan,
                    c.choke_dp_ref_rate_pa_s if pressure else 0.0, stamp_s, c.mud_pump_on)
+
+
+@dataclass
+class Request(AdvisorCommand):
+    """An advisor's command as the protection reads it off drill_msgs/RigCommand: with the
+    BHP reference it rides with (an advisor never asks for a manual choke)."""
+    bhp_ref_pa: float = math.nan
+    choke_manual: bool = False
+    choke_opening_ref: float = 0.0
 
 
 class Rig:
@@ -217,7 +226,8 @@ class NmpcController:
         self.solve_times: list[float] = []
         self.statuses: list[tuple] = []        # per fallback: (t, fallback, status, reasons)
 
-    def step(self, x_hat, sp, inputs, t: float, flow_observable: bool, mud_pump_on: bool) -> Command:
+    def step(self, x_hat, sp, inputs, t: float, flow_observable: bool,
+             mud_pump_on: bool) -> AdvisorCommand:
         frame = self.rig.frames.get("drawworks") if self.block_integral else None
         actuators = {} if not self.rig.frames else {     # the node's: no frame before t_0
             "block_m": inputs[0, -1], "bpp_flow_m3s": inputs[2, -1], "spp_pa": inputs[3, -1],
@@ -227,18 +237,17 @@ class NmpcController:
         self.solve_times.append(r.solve_time_s)
         if r.fallback is not Fallback.NONE:
             self.statuses.append((t, r.fallback.value, r.status, r.reasons))
-        return Command.of(self.tick.command(r, mud_pump_on), t)
+        return self.tick.command(r, mud_pump_on)
 
 
 class Protection:
-    """The protection node in process: the same measurement watch (drill_protection.watch)
-    and limiter between the advisor's command and the machines."""
+    """The protection node's tick (drill_protection.tick) fed as the node feeds it; its
+    clamps, alarms and last answer kept."""
 
     def __init__(self, config: RigConfig, scenario, wm: hy.WellModel, op):
-        start = np.array([0.0, float(op.choke_flow_m3s), scenario.initial.bpp_flow_m3s,
-                          float(op.inputs[3])])
-        self.protection = ProcessProtection(config, wm, start)
-        self.watch = MeasurementWatch(config, wm, self.protection)
+        self.tick = ProtectionTick(config, wm, [0.0, float(op.choke_flow_m3s),
+                                                scenario.initial.bpp_flow_m3s, float(op.inputs[3])])
+        self.protection = self.tick.protection
         self.speed_limit = config.protection.trip_speed_max_mps
         self.clamps: list[tuple[float, str]] = []
         self.alarms: list[tuple[float, Notice]] = []     # the answers' events (t, notice)
@@ -248,25 +257,17 @@ class Protection:
         self.applied_block_m = math.nan                  # pulling out) and its block reference
 
     def measurement(self, m, t: float) -> None:
-        for notice in self.watch.observe(round(t * 1e9), m):
+        for notice in self.tick.observe(round(t * 1e9), m):
             if notice.code.endswith("_detected"):
                 self.raised.append((t, notice.code.removesuffix("_detected")))
             elif notice.code not in DETECTOR_CODES:
                 self.alarms.append((t, notice))
 
-    def limit(self, cmd: Command, m, sp, t: float) -> Command:
+    def limit(self, advised: AdvisorCommand, m, sp, t: float) -> Command:
         if math.isfinite(sp.trip_speed_limit_mps) and sp.trip_speed_limit_mps > 0.0:
             self.speed_limit = sp.trip_speed_limit_mps
-        circulation = m.string_flow_m3s if m.string_flow_valid and math.isfinite(m.string_flow_m3s) \
-            else 0.0
-        pressure = math.isfinite(cmd.dp_ref_pa)
-        self.watch.circulation.request(cmd.mud_pump_on, cmd.spp_pa)
-        d = self.protection.apply(
-            [cmd.block_ref_m, cmd.choke_flow_m3s, cmd.bpp_m3s, cmd.spp_pa], m.block_position_m,
-            self.watch.velocity_mps, m.bhp_pa, max(circulation, 0.0), self.speed_limit, None,
-            (cmd.dp_ref_pa, cmd.dp_rate_pa_s) if pressure else None,
-            surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s), trip_action=self.watch.circulation.action(t),
-            advisor_bhp_ref_pa=sp.bhp_ref_pa)
+        d = self.tick.limit(Request(**asdict(advised), bhp_ref_pa=sp.bhp_ref_pa), m,
+                            round(t * 1e9), self.speed_limit)
         self.clamps += [(t, text) for text in d.clamps]
         self.answer = (self.protection.window_pa, d.bhp_ref_pa, sp.bhp_ref_pa)
         self.speed_limits_mps = d.standing_speed_limits_mps
@@ -274,8 +275,7 @@ class Protection:
         dp = d.choke_dp_setpoint
         c = d.command
         return Command(float(c[0]), float(c[1]), float(c[2]), float(c[3]),
-                       dp[0] if dp else math.nan, dp[1] if dp else 0.0, cmd.stamp_s,
-                       cmd.mud_pump_on)
+                       dp[0] if dp else math.nan, dp[1] if dp else 0.0, t, advised.mud_pump_on)
 
 
 def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf",
@@ -331,17 +331,14 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
             limits = guard.speed_limits_mps if guard is not None else NO_ANSWER
             applied = guard.applied_block_m if guard is not None else math.nan
             if nmpc is not None:
-                cmd = nmpc.step(x_hat, within_speed_limits(sp, limits, view.string_position_m),
-                                inputs, t, bool(m.string_flow_valid), sp.mud_pump_on)
+                advised = nmpc.step(x_hat, within_speed_limits(sp, limits, view.string_position_m),
+                                    inputs, t, bool(m.string_flow_valid), sp.mud_pump_on)
             elif baseline is not None:
                 advised, _ = baseline.step(m.block_position_m, m.bhp_pa, sp, book.bhp_resolved,
                                            applied)
-                cmd = Command.of(advised, t)
             else:
                 advised, _ = mpd.step(view, sp, book.bhp_resolved, limits, applied)
-                cmd = Command.of(advised, t)
-            if guard is not None:
-                cmd = guard.limit(cmd, m, sp, t)
+            cmd = Command.of(advised, t) if guard is None else guard.limit(advised, m, sp, t)
         truth = rig.sim.state
         log["t"].append(t)
         log["bhp"].append(truth[rig.layout.pressure(em.n)])

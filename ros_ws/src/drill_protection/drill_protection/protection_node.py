@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 import sys
 
-import numpy as np
 from drill_msgs.msg import OperatorEvent, RigCommand, RigMeasurement, Setpoints
 from std_msgs.msg import Bool, String
 
@@ -41,8 +40,7 @@ from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import ScenarioClock, from_ns, to_ns
 from drill_core.ros.status import StatusReporter
-from drill_protection.protection import ProcessProtection
-from drill_protection.watch import MeasurementWatch
+from drill_protection.tick import ProtectionTick
 
 
 class ProtectionNode(RigNode):
@@ -53,9 +51,9 @@ class ProtectionNode(RigNode):
         self.exit_code = 0
         ini = ctx.scenario.initial
         op = ctx.operating_point
-        start = np.array([0.0, op.choke_flow_m3s, ini.bpp_flow_m3s, op.spp_pa])
-        self.protection = ProcessProtection(ctx.config, ctx.well_model, start)
-        self.watch = MeasurementWatch(ctx.config, ctx.well_model, self.protection)
+        self.tick = ProtectionTick(ctx.config, ctx.well_model,
+                                   [0.0, op.choke_flow_m3s, ini.bpp_flow_m3s, op.spp_pa])
+        self.protection, self.watch = self.tick.protection, self.tick.watch
         self.operator_speed_limit = ctx.config.protection.trip_speed_max_mps
         self.script = OperatorScript(ctx.scenario.operator)
         self.clock = ScenarioClock()             # the operator actions' times
@@ -142,7 +140,7 @@ class ProtectionNode(RigNode):
     def _on_measurement(self, msg: RigMeasurement) -> None:
         stamp = to_ns(msg.header.stamp)
         self.clock.start(stamp)
-        for notice in self.watch.observe(stamp, msg):
+        for notice in self.tick.observe(stamp, msg):
             self._event(notice, stamp)
         self.inbox.put("measurement", msg)
         self._process()
@@ -170,20 +168,7 @@ class ProtectionNode(RigNode):
         self._limit(request, measurement, stamp)
 
     def _limit(self, request: RigCommand, m: RigMeasurement, stamp: int) -> None:
-        circulation = m.string_flow_m3s if m.string_flow_valid and math.isfinite(m.string_flow_m3s) \
-            else 0.0
-        self.watch.circulation.request(request.mud_pump_on, request.spp_pa)
-        decision = self.protection.apply(
-            [request.block_position_ref_m, request.choke_flow_ref_m3s, request.bpp_flow_m3s,
-             request.spp_pa], m.block_position_m, self.watch.velocity_mps, m.bhp_pa,
-            max(circulation, 0.0),
-            self._operator_speed_limit(request),
-            request.choke_opening_ref if request.choke_manual else None,
-            (request.choke_dp_ref_pa, request.choke_dp_ref_rate_pa_s)
-            if request.choke_pressure_control else None,
-            surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s),
-            trip_action=self.watch.circulation.action(stamp * 1e-9),
-            advisor_bhp_ref_pa=request.bhp_ref_pa, choke_dp_pa=m.choke_dp_pa)
+        decision = self.tick.limit(request, m, stamp, self._operator_speed_limit(request))
         manual = decision.manual_choke_opening
         dp_setpoint = decision.choke_dp_setpoint
         out = RigCommand(block_position_ref_m=float(decision.command[0]),
