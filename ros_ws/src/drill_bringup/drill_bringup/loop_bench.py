@@ -245,8 +245,7 @@ class Protection:
     clamps, alarms and last answer kept."""
 
     def __init__(self, config: RigConfig, scenario, wm: hy.WellModel, op):
-        self.tick = ProtectionTick(config, wm, [0.0, float(op.choke_flow_m3s),
-                                                scenario.initial.bpp_flow_m3s, float(op.inputs[3])])
+        self.tick = ProtectionTick(config, wm, scenario.initial, op)
         self.protection = self.tick.protection
         self.speed_limit = config.protection.trip_speed_max_mps
         self.clamps: list[tuple[float, str]] = []

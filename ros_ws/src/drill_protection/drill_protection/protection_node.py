@@ -49,10 +49,8 @@ class ProtectionNode(RigNode):
         ctx = load_context(self)
         self.ctx = ctx
         self.exit_code = 0
-        ini = ctx.scenario.initial
-        op = ctx.operating_point
-        self.tick = ProtectionTick(ctx.config, ctx.well_model,
-                                   [0.0, op.choke_flow_m3s, ini.bpp_flow_m3s, op.spp_pa])
+        self.tick = ProtectionTick(ctx.config, ctx.well_model, ctx.scenario.initial,
+                                   ctx.operating_point)
         self.protection, self.watch = self.tick.protection, self.tick.watch
         self.operator_speed_limit = ctx.config.protection.trip_speed_max_mps
         self.script = OperatorScript(ctx.scenario.operator)

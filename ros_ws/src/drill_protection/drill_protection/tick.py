@@ -25,10 +25,13 @@ class ProtectionTick:
     choke_dp_ref_rate_pa_s, bhp_ref_pa. A measurement is anything with
     drill_msgs/RigMeasurement's fields."""
 
-    def __init__(self, config: RigConfig, wm: WellModel, start_inputs):
-        """``start_inputs`` [u_r m, q_c m^3/s, q_bpp m^3/s, p_spp Pa]: the commands the
-        machines start from (the scenario's operating point)."""
-        self.protection = ProcessProtection(config, wm, np.asarray(start_inputs, dtype=float))
+    def __init__(self, config: RigConfig, wm: WellModel, initial, op):
+        """The machines start from the scenario's ``initial`` section at its operating point
+        ``op`` (drill_core.operating_point): the block at 0, the operating point's choke flow
+        and stand-pipe pressure, the initial bpp flow."""
+        start = np.array([0.0, float(op.choke_flow_m3s), float(initial.bpp_flow_m3s),
+                          float(op.inputs[3])])
+        self.protection = ProcessProtection(config, wm, start)
         self.watch = MeasurementWatch(config, wm, self.protection)
 
     def observe(self, stamp_ns: int, m) -> list[Notice]:

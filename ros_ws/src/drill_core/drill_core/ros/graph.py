@@ -15,6 +15,8 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 
+from rclpy.qos import DurabilityPolicy, HistoryPolicy
+
 from drill_core.ros import topics
 from drill_core.scenario import SCENARIO_KINDS
 
@@ -24,19 +26,24 @@ FRAMES = tuple(topics.actuator_frame(name) for name in topics.ACTUATORS)
 DRILLING_FRAMES = tuple(topics.actuator_frame(name) for name in topics.DRILLING_ACTUATORS)
 
 
-QOS_DESCRIPTION = {     # a topic's QoS kind -> its profile in drill_core.ros.topics
-    "reliable": "reliable, keep all",                                   # topics.RELIABLE
-    "latched": "reliable, transient local, depth 1",                    # topics.LATCHED
-    "event log": f"reliable, transient local, depth {topics.EVENT_LOG_DEPTH}",  # topics.EVENT_LOG
-}
+QOS_PROFILES = {"reliable": topics.RELIABLE, "latched": topics.LATCHED,   # a topic's QoS kind
+                "event log": topics.EVENT_LOG}                          # -> its profile
 LOSSLESS = ("reliable", "event log")    # every sample reaches every reader
+
+
+def describe_qos(profile) -> str:
+    """A QoS profile in the words of docs/architecture.md's topic table."""
+    durability = "transient local, " if profile.durability == DurabilityPolicy.TRANSIENT_LOCAL \
+        else ""
+    history = "keep all" if profile.history == HistoryPolicy.KEEP_ALL else f"depth {profile.depth}"
+    return f"{profile.reliability.name.lower().replace('_', ' ')}, {durability}{history}"
 
 
 @dataclass(frozen=True)
 class Topic:
     name: str
     type: str          # package/Type
-    qos: str           # a key of QOS_DESCRIPTION
+    qos: str           # a key of QOS_PROFILES
     note: str = ""
 
 
@@ -388,7 +395,7 @@ def markdown_table() -> str:
         if t.name in FRAMES:
             pubs = ["`<name>` (each tripping actuator)"]
             subs = [_frames_of(n) for n in NODES if any(f in n.subscribes for f in FRAMES)]
-        qos = QOS_DESCRIPTION[t.qos]
+        qos = describe_qos(QOS_PROFILES[t.qos])
         note = f" ({t.note})" if t.note else ""
         rows.append(f"| `{name}` | `{t.type}`{note} | {', '.join(pubs)} | "
                     f"{', '.join(subs) or '—'} | {qos} |")
