@@ -115,7 +115,7 @@ def test_the_kick_is_detected_and_the_trip_stopped(run_mcap):
     held = (t > alarm_s + 12.0) & (t < (cleared[0] if cleared else math.inf))
     assert held.sum() > 100 and np.abs(velocity[held]).max() < 0.05
     _, position = series.get("position")
-    assert position[-1] < 28.0 - 5.0                             # the stand was not finished
+    assert position[-1] < 28.0 - 0.5          # the stand was not finished (a leg: within 0.5 m)
     assert summary["influx_volume_m3"] > kick["volume_at_detection_m3"]
 
 

@@ -121,9 +121,10 @@ def main(argv=None) -> int:
     run.add_argument("--seed", type=int)
     run.add_argument("--controller", choices=CONTROLLERS,
                      help="run the scenario under this controller instead of its own")
-    run.add_argument("--layout", choices=tuple(LAYOUTS), default="separate",
+    run.add_argument("--layout", choices=tuple(LAYOUTS),
                      help="process layout: one process per node (separate), or groups of "
-                          "nodes in one process each (see docs/architecture.md)")
+                          "nodes in one process each (see docs/architecture.md); default: "
+                          "two in fast mode, separate in realtime and for --nodes")
     run.add_argument("--nodes", help="launch only this share of the run's nodes (comma list "
                                      f"of node names and the groups {', '.join(HOST_GROUPS)}); "
                                      "the other hosts launch the rest (docs/multihost.md)")

@@ -31,8 +31,9 @@ from drill_bringup.report import format_legs, tracking_metrics
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, parse_settings
 from drill_core.backend import NUMPY
-from drill_core.estimation_model import (BLOCK_INTEGRAL, DENSITY_OFFSET, STRING_FRICTION,
-                                         build_estimation_model, fitted_friction_parameters)
+from drill_core.estimation_model import (BLOCK_INTEGRAL, BULK_MODULUS, DENSITY_OFFSET,
+                                         STRING_FRICTION, build_estimation_model,
+                                         fitted_friction_parameters)
 from drill_core.event_codes import Notice
 from drill_core.events import ACTUATORS, of_owner
 from drill_core.mismatch import Mismatch, resolve, truth_config
@@ -183,6 +184,8 @@ class TruthState:
                                 DENSITY_OFFSET: self.rig.config.well.mud.density_kgm3
                                 - self.em.wm.well.mud.density_kgm3,
                                 STRING_FRICTION: self._string_friction_factor(x, lay),
+                                BULK_MODULUS: self.rig.config.well.mud.bulk_modulus_pa
+                                / self.em.wm.well.mud.bulk_modulus_pa,
                                 **{self.em.theta_name(i): v for i, v in enumerate(theta, 2)}})
         return EstimateView(bhp_pa=float(x[lay.pressure(self.em.n)]),
                             string_position_m=float(x[lay.position]),

@@ -125,7 +125,7 @@ def stage_truth(path: Path, run_dir: Path, truth) -> None:
 def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = None,
                  seed: int | None = None, domain_id: int | None = None,
                  timeout_s: float | None = None, quiet: bool = False,
-                 controller: str | None = None, layout: str = "separate",
+                 controller: str | None = None, layout: str | None = None,
                  here: str | None = None, peers: tuple[str, ...] = (),
                  extras: dict[str, dict] | None = None,
                  pin_cpus: bool = True, mismatch: str | None = None,
@@ -133,7 +133,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     """Launch a scenario, record it and report; returns (exit code, run directory).
     ``seed`` replaces the scenario's plant seed and ``controller`` its controller (the same
     trip under another controller: ``rig compare``); ``layout`` groups nodes into processes
-    (drill_core.ros.graph.LAYOUTS). ``here`` (node and group names,
+    (drill_core.ros.graph.LAYOUTS; None: the mode's default, graph.default_layout). ``here`` (node and group names,
     drill_core.ros.graph.host_nodes) launches only that share of the graph, reaching the
     others' on ``peers`` (docs/multihost.md); the report is made where the recorder runs.
     ``extras`` adds optional nodes (the gateways), name -> parameters; in a share they run
@@ -154,6 +154,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
         raise ConfigError(f"--mismatch {mismatch}: {path.name} is a {kind} scenario; a "
                           "mismatch changes a tripping run's well (docs/mismatch.md)")
     truth = run_truth(path, mismatch) if kind == "tripping" else None
+    layout = layout or graph_decl.default_layout(realtime, here is not None)
     stamp = datetime.now().strftime(RUN_STAMP)
     tags = "".join(f"-{tag}" for tag in (
         controller if controller != own_controller else None,

@@ -6,6 +6,7 @@ import pytest
 
 from drill_bringup import launcher
 from drill_core.ros import topics
+from drill_core.ros.graph import default_layout
 
 COMMON = {"config_dir": "/c", "scenario": "/c/s.yaml", "mode": "fast"}
 
@@ -132,3 +133,11 @@ def test_the_recorder_yields_the_cpu_in_fast_mode_only(tmp_path):
     realtime = launcher.graph("nmpc", dict(COMMON, mode="realtime"), tmp_path / "x.mcap",
                               fast=False)
     assert launcher.Launch(realtime, tmp_path, 1, "two").niceness == {}
+
+
+def test_a_run_without_a_layout_takes_the_modes_default():
+    """Fast runs on one host group their nodes in two processes; realtime runs and a
+    host's share of a split run keep a process per node."""
+    assert default_layout(realtime=False) == "two"
+    assert default_layout(realtime=True) == "separate"
+    assert default_layout(realtime=False, split=True) == "separate"

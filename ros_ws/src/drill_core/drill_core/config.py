@@ -308,6 +308,12 @@ class Estimator:
     initial_string_friction_std: float = param("1", 0.0, 10.0, lo_open=True, default=0.1)
     string_friction_process_std: float = param("1", 0.0, 1.0, default=1.0e-5,
                                                doc="per-step std of the string friction factor")
+    estimate_bulk_modulus: bool = param(
+        default=False, doc="a random-walk factor on the effective bulk modulus, annulus and "
+                           "string (always with the bottom influx; docs/mismatch.md)")
+    initial_bulk_modulus_std: float = param("1", 0.0, 10.0, lo_open=True, default=0.1)
+    bulk_modulus_process_std: float = param("1", 0.0, 1.0, default=1.0e-5,
+                                            doc="per-step std of the bulk modulus factor")
     initial_rig_std: tuple[float, ...] = param("m, m/s, m s", 0.0, lo_open=True,
                                                default=(0.01, 0.01, 0.01),
                                                doc="initial std of z1..z3")

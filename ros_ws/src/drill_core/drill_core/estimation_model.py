@@ -13,11 +13,13 @@ by a law with random-walk parameters theta_i (config ``annular_friction_law``):
 plus the block-position controller in place of the drawworks lag, optionally a random-walk
 density offset delta_rho (the mud's true density less the report's: every hydrostatic
 column, annulus and string, is (rho + delta_rho) g h; docs/mismatch.md), optionally a
-random-walk factor theta_s on the string's friction of the mud report, and optionally an
+random-walk factor theta_s on the string's friction of the mud report, optionally a
+random-walk factor kappa_beta on the effective bulk modulus (mud and wellbore) of the
+report, and optionally an
 unmeasured influx into the bottom volume (input disturbance on BHP, NMPC2).
 
 State  x = [z1 m, z2 m/s, z3 m s, p_1, q_2, p_2, ..., q_n, p_n, q_d, p_I, theta_2..theta_n
-          (, delta_rho) (, theta_s) (, d)]
+          (, delta_rho) (, theta_s) (, kappa_beta) (, d)]
 Input  u = [u_r block reference m, q_c choke flow m^3/s, q_bpp m^3/s, p_in pump pressure Pa]
 Output y = [z1, p_1 - p_0, p_n, q_d] (q_d only while circulating).
 Everything here takes an array namespace ``xp`` so the one definition evaluates on
@@ -44,6 +46,7 @@ BLOCK_INTEGRAL = "block_integral_m_s"
 BOTTOM_INFLUX = "bottom_influx_m3s"
 DENSITY_OFFSET = "density_offset_kgm3"    # the mud's true density less the report's
 STRING_FRICTION = "string_friction_factor"  # the string's true friction over the report's
+BULK_MODULUS = "bulk_modulus_factor"        # the true effective bulk modulus over the report's
 INPUT_NAMES = ("block_position_ref_m", "choke_flow_m3s", "bpp_flow_m3s", "pump_pressure_pa")
 
 
@@ -125,6 +128,7 @@ class EstimationModel(WellboreLayout):
     nominal_friction: NominalFriction | None = field(default=None, compare=False, repr=False)
     with_density_offset: bool = False
     with_string_friction: bool = False
+    with_bulk_modulus: bool = False
 
     @property
     def n(self) -> int:
@@ -143,6 +147,7 @@ class EstimationModel(WellboreLayout):
                 *(self.theta_name(i) for i in range(2, self.n + 1)),
                 *((DENSITY_OFFSET,) if self.with_density_offset else ()),
                 *((STRING_FRICTION,) if self.with_string_friction else ()),
+                *((BULK_MODULUS,) if self.with_bulk_modulus else ()),
                 *((BOTTOM_INFLUX,) if self.with_disturbance else ()))
 
     def theta(self, i: int) -> int:
@@ -179,6 +184,14 @@ class EstimationModel(WellboreLayout):
         return self._value_or(x, STRING_FRICTION, 1.0)
 
     @property
+    def bulk_modulus(self) -> int:
+        return self._optional(BULK_MODULUS)
+
+    def bulk_modulus_of(self, x):
+        """The state's bulk modulus factor [1] (1 for a model without it)."""
+        return self._value_or(x, BULK_MODULUS, 1.0)
+
+    @property
     def disturbance(self) -> int:
         return self._optional(BOTTOM_INFLUX)
 
@@ -205,6 +218,8 @@ class EstimationModel(WellboreLayout):
             s[self.density_offset] = 10.0
         if self.with_string_friction:
             s[self.string_friction] = 1.0
+        if self.with_bulk_modulus:
+            s[self.bulk_modulus] = 1.0
         if self.with_disturbance:
             s[self.disturbance] = 1e-3
         return s
@@ -215,7 +230,10 @@ def build_estimation_model(config: RigConfig, with_disturbance: bool = False,
     """The shared model of ``config`` with the annular friction law of config/estimator.yaml;
     ``smoothing_mps`` the yield jump's smoothing velocity of scaled_rheology (None: the
     configured ``annular_friction_smoothing_mps``; the NMPC's prediction takes its wider
-    ``nmpc.prediction_friction_smoothing_mps``)."""
+    ``nmpc.prediction_friction_smoothing_mps``). The bottom influx comes with the bulk
+    modulus factor: both explain more return flow than the model's, and without the factor
+    every pressure change on a mud softer than the report reads as an influx
+    (docs/mismatch.md)."""
     wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                              config.plant.choke_regularisation_pa)
     est = config.estimator
@@ -224,7 +242,8 @@ def build_estimation_model(config: RigConfig, with_disturbance: bool = False,
     nominal = NominalFriction(wm, smoothing) if law == "scaled_rheology" else None
     return EstimationModel(wm, config.actuators.block_kp, config.actuators.block_ki_per_s,
                            with_disturbance, law, nominal, est.estimate_density_offset,
-                           est.estimate_string_friction)
+                           est.estimate_string_friction,
+                           est.estimate_bulk_modulus or with_disturbance)
 
 
 def path_friction(xp, em: EstimationModel, k: int, flow_m3s, string_velocity_mps, theta=1.0):
@@ -280,7 +299,8 @@ def drift(xp, em: EstimationModel, x, u, string_friction_law=None):
     q = [x[em.flow(i)] for i in range(2, n + 1)]
     rates = hy.hydraulic_rates(xp, wm, p, q, x[em.string_flow], x[em.string_pressure], z1, z2,
                                u[1], u[2], u[3], annulus_friction(xp, em, x), string_friction_law,
-                               em.density_offset_of(x), em.string_friction_of(x))
+                               em.density_offset_of(x), em.string_friction_of(x),
+                               em.bulk_modulus_of(x))
     bottom_influx = 0.0
     if em.with_disturbance:
         bottom_influx = hy.bottom_inflow_rate(wm, x[em.disturbance])
@@ -295,6 +315,8 @@ def drift(xp, em: EstimationModel, x, u, string_friction_law=None):
         out.append(0.0 * z1)                          # random-walk density offset
     if em.with_string_friction:
         out.append(0.0 * z1)                          # random-walk string friction factor
+    if em.with_bulk_modulus:
+        out.append(0.0 * z1)                          # random-walk bulk modulus factor
     if em.with_disturbance:
         out.append(0.0 * z1)                          # random-walk disturbance
     return out

@@ -122,7 +122,8 @@ class HydraulicRates:
 def hydraulic_rates(xp, wm: WellModel, pressures, flows, string_flow_m3s, string_pressure_pa,
                     position_m, velocity_mps, choke_flow_m3s, bpp_flow_m3s, pump_pressure_pa,
                     friction_pa, string_friction_law=None,
-                    density_offset_kgm3=0.0, string_friction_factor=1.0) -> HydraulicRates:
+                    density_offset_kgm3=0.0, string_friction_factor=1.0,
+                    bulk_modulus_factor=1.0) -> HydraulicRates:
     """Mass and momentum balances of annulus and drill string (docs/design.md §3).
 
     ``friction_pa`` is the annular friction of paths 2..n (HB in the plant, the
@@ -130,12 +131,13 @@ def hydraulic_rates(xp, wm: WellModel, pressures, flows, string_flow_m3s, string
     string's (default :func:`string_friction`; the NMPC passes its tabulated copy);
     ``density_offset_kgm3`` is added to the mud's density in the hydrostatic columns (the
     estimation model's density offset state) and the string's friction is scaled by
-    ``string_friction_factor`` (its string friction factor state). The bit rises with the string, so the string
+    ``string_friction_factor`` (its string friction factor state) and the mud's bulk
+    modulus, annulus and string, by ``bulk_modulus_factor`` (its compressibility state). The bit rises with the string, so the string
     column is D_bit - x_s high and the annulus pressure at the bit is p_n - rho g x_s.
     """
     w, g = wm.well, wm.geometry
     n = g.n
-    beta = w.mud.bulk_modulus_pa
+    beta = w.mud.bulk_modulus_pa * bulk_modulus_factor
     rho_g = (w.mud.density_kgm3 + density_offset_kgm3) * w.gravity_mps2
     v_s = velocity_mps
     q_bit = bit_flow(xp, wm, string_pressure_pa - (pressures[n - 1] - rho_g * position_m))

@@ -27,16 +27,17 @@ def test_plant_layout_is_the_papers_order(n):
 def test_estimation_layout_is_the_papers_order(disturbance):
     em = build_estimation_model(load_rig(CONFIG_DIR), with_disturbance=disturbance)
     n = em.n
-    # x = [z1, z2, z3, p_1, q_2, p_2, ..., q_n, p_n, q_d, p_I, theta_2..theta_n, delta_rho (, d)]
+    # x = [z1, z2, z3, p_1, q_2, p_2, ..., q_n, p_n, q_d, p_I, theta_2..theta_n, delta_rho
+    #      (, kappa_beta, d: the influx comes with the bulk modulus factor)]
     assert (em.position, em.velocity, em.block_integral) == (0, 1, 2)
     assert [em.pressure(i) for i in range(1, n + 1)] == [1 + 2 * i for i in range(1, n + 1)]
     assert [em.flow(i) for i in range(2, n + 1)] == [2 * i for i in range(2, n + 1)]
     assert (em.string_flow, em.string_pressure) == (2 * n + 2, 2 * n + 3)
     assert [em.theta(i) for i in range(2, n + 1)] == [2 * n + 2 + i for i in range(2, n + 1)]
     assert em.density_offset == 3 * n + 3
-    assert em.size == 3 * n + 4 + int(disturbance)
+    assert em.size == 3 * n + 4 + 2 * int(disturbance)
     if disturbance:
-        assert em.disturbance == em.size - 1
+        assert (em.bulk_modulus, em.disturbance) == (em.size - 2, em.size - 1)
 
 
 def test_vector_moves_states_by_name_between_layouts():

@@ -74,11 +74,11 @@ class ModelInputs:
         flow = x0[em.string_flow]
         per_opening = float(hy.choke_flow(wm, 1.0, self.choke_dp_pa))
         opening = min(1.0, flow / per_opening) if flow > 0.0 and per_opening > 0.0 else 0.0
-        rho_g = w.mud.density_kgm3 * w.gravity_mps2
+        rho_g = (w.mud.density_kgm3 + em.density_offset_of(x0)) * w.gravity_mps2
         pump = 0.0
         if flow > 0.0:
             pump = x0[em.string_pressure] - rho_g * (g.bit_depth_m - x0[em.position]) \
-                + float(hy.string_friction(np, wm, flow, 0.0))
+                + em.string_friction_of(x0) * float(hy.string_friction(np, wm, flow, 0.0))
         self.held = np.array([block, opening, 0.0, pump])
 
     def accept_choke_dp(self, choke_dp_pa: float) -> None:

@@ -60,6 +60,9 @@ def build_tuning(est: Estimator, em: EstimationModel, scale: np.ndarray) -> UkfT
     if em.with_string_friction:
         q_std[em.string_friction] = est.string_friction_process_std
         p_std[em.string_friction] = est.initial_string_friction_std
+    if em.with_bulk_modulus:
+        q_std[em.bulk_modulus] = est.bulk_modulus_process_std
+        p_std[em.bulk_modulus] = est.initial_bulk_modulus_std
     if em.with_disturbance:
         q_std[em.disturbance] = est.bottom_influx_process_std_m3s
         p_std[em.disturbance] = est.initial_bottom_influx_std_m3s

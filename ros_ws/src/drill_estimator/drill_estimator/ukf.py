@@ -25,6 +25,7 @@ from drill_estimator.model_inputs import BLOCK_INPUTS
 from drill_estimator.tuning import build_tuning
 
 _JITTER = (1e-12, 1e-10, 1e-8, 1e-6)     # relative to the largest diagonal entry (scaled P)
+MIN_BULK_MODULUS_FACTOR = 0.1           # the bulk modulus factor's floor (a mud that stiff is no mud)
 
 
 @dataclass(frozen=True)
@@ -148,9 +149,11 @@ class RigUkf:
         self.initialised = True
 
     def initial_state(self, y, circulating: bool) -> np.ndarray:
-        """A steady state of the model consistent with one measurement y (SI):
-        drill_estimator.initial_state."""
-        return initial_state(self.em, self.est.friction_tuning.theta_initial, y, circulating)
+        """A steady state of the model consistent with one measurement y (SI) and the
+        filter's prior P0: drill_estimator.initial_state."""
+        return initial_state(self.em, self.est.friction_tuning.theta_initial, y, circulating,
+                             self.tuning.initial * np.outer(self.scale, self.scale),
+                             self.est.measurement_noise.bhp_pa ** 2)
 
     # --------------------------------------------------------------- filtering
     def predict_frame(self, inputs) -> None:
@@ -427,12 +430,14 @@ class RigUkf:
             self.repairs += 1
 
     def _project(self) -> None:
-        """Keep 0 <= theta <= the law's theta_max and the string friction factor >= 0 (mean)
-        and the standard deviations capped."""
+        """Keep 0 <= theta <= the law's theta_max, the string friction factor >= 0 and the
+        bulk modulus factor > 0 (mean) and the standard deviations capped."""
         x = self._ukf.x
         theta = self.tuning.theta_index
         x[theta] = np.clip(x[theta], 0.0, self.tuning.theta_max)
         if self.em.with_string_friction:
             x[self.em.string_friction] = max(x[self.em.string_friction], 0.0)
+        if self.em.with_bulk_modulus:
+            x[self.em.bulk_modulus] = max(x[self.em.bulk_modulus], MIN_BULK_MODULUS_FACTOR)
         if np.all(np.isfinite(self._ukf.P)):
             self._ukf.P = self._capped(self._ukf.P)

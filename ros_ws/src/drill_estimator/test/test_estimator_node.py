@@ -179,7 +179,9 @@ def test_estimator_node_lockstep_and_rejection(estimator_process, monkeypatch):
         assert _stamps(feeder.estimates) == [0]
         assert _finite(first) and first.nis_dof == 0
         assert len(first.mean) == len(first.state_names) == 16
-        assert abs(first.bhp_pa - y[2]) < 1.0 and first.string_flow_observable
+        # the start: the model's steady state through the reading, up to the sensor's share of
+        # the (here Pa-sized) departure of the plant's profile from the model's
+        assert abs(first.bhp_pa - y[2]) < 1.0e3 and first.string_flow_observable
 
         # measurement t1 before the frames stamped t0: the estimator must wait for them
         feeder.measurement(1, y)

@@ -30,7 +30,7 @@ def _frame(samples, reference=0.0):
 
 def _started(em, block_input="block_position"):
     y = [0.0, 20.0e5, 6.6e7, CIRCULATION]
-    x0 = initial_state(em, 1.0e6, y, True)
+    x0 = initial_state(em, 1.0, y, True, np.zeros((em.size, em.size)), 1.0e10)   # known parameters
     inputs = ModelInputs(em, block_input, FROZEN_AFTER)
     inputs.start(x0, y[1])
     return inputs, x0

@@ -16,6 +16,7 @@ and the block-controller integrator z3).
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -67,11 +68,12 @@ class Run:
 
 
 def simulate(cfg, plant, duration_s, circulation, choke_dp, schedule, seed, nan_frames=(),
-             model_wm=None):
+             model_wm=None, em=None):
     """Truth plant + drawworks + sensors, filtered by RigUkf; returns the logged run.
 
     ``schedule(t)`` -> (u_r m, choke opening or None, bpp m^3/s, pump Pa or None, circulating).
-    ``model_wm``: the filter's well model for its choke-flow input (default: the plant's).
+    ``model_wm``: the filter's well model for its choke-flow input (default: the plant's);
+    ``em``: the filter's estimation model (default: the configuration's).
     """
     wm, frame = plant
     model_wm = model_wm or wm
@@ -97,7 +99,7 @@ def simulate(cfg, plant, duration_s, circulation, choke_dp, schedule, seed, nan_
 
     circulating = circulation > 0.0
     y = measure(x, circulating)
-    ukf = RigUkf(cfg)
+    ukf = RigUkf(cfg, em=em)
     em = ukf.em
     ukf.initialise(ukf.initial_state(y, circulating))
     # states with a truth: z1, z2, p_1, (q_i, p_i) for i = 2..n, q_d, p_I
@@ -295,14 +297,14 @@ def test_nis_alarm_inflates_covariance(cfg):
 
 def test_bottom_influx_state(cfg):
     ukf, ss, y = _started(cfg, estimate_bottom_influx=True)
-    assert ukf.em.with_disturbance and ukf.n_x == 17     # with the density offset
+    assert ukf.em.with_disturbance and ukf.n_x == 18     # with the density offset and bulk modulus
     assert ukf.state_names[-1] == "bottom_influx_m3s"
     u = [ss.inputs[0], ss.choke_flow_m3s, 0.0, ss.inputs[3]]
     for _ in range(5):
         ukf.predict_frame(_held(u, cfg))
         ukf.update(y, True)
     assert np.isfinite(ukf.bottom_influx_m3s) and abs(ukf.bottom_influx_m3s) < 1e-3
-    assert ukf.covariance_diagonal.shape == (17,)
+    assert ukf.covariance_diagonal.shape == (18,)
 
 
 def test_reference_block_input_runs(cfg):
@@ -319,8 +321,10 @@ def test_reference_block_input_runs(cfg):
 
 def test_the_density_offset_learns_a_mud_heavier_than_its_report(cfg, plant):
     """The plant's mud 0.8 % (14.4 kg/m^3) heavier than well.yaml, circulating at rest: the
-    filter's density offset moves from 0 to within 5 kg/m^3 of the truth in 2 minutes and
-    its BHP estimate holds the truth within the sensor's noise."""
+    filter's density offset starts part of the way (the first BHP reading's departure from
+    the report's profile, split with the friction factor by their priors), ends within
+    5 kg/m^3 of the truth in 2 minutes, and its BHP estimate holds the truth within the
+    sensor's noise."""
     from drill_core.mismatch import Mismatch, truth_config
     truth = truth_config(cfg, Mismatch(density_factor=1.008))
     wm = hy.build_well_model(truth.well, truth.plant.yield_regularisation_velocity_mps,
@@ -329,7 +333,42 @@ def test_the_density_offset_learns_a_mud_heavier_than_its_report(cfg, plant):
                    _rest, seed=11, model_wm=plant[0])
     a = run.arrays()
     offset = a["mean"][:, run.ukf.em.density_offset]
-    assert abs(offset[-1] - 14.4) < 5.0 and abs(offset[0]) < 5.0
+    assert abs(offset[-1] - 14.4) < 5.0 and 2.0 < offset[0] < 14.4
     settled = a["t"] > 20.0
     rmse = float(np.sqrt(np.mean((a["bhp_est"][settled] - a["bhp_true"][settled]) ** 2)))
     assert rmse < cfg.plant.measurement_noise.bhp_pa
+
+
+def _choke_opened_on_a_softer_mud(cfg, em=None):
+    """The plant's mud 15 % softer (bulk modulus) than the report, circulating at rest; at
+    10 s the choke opens to 1.5 times its opening (BHP falls about 7.5 bar and the annulus
+    gives up more mud than the report's compressibility says). The filter carries the
+    bottom influx (and with it the bulk modulus factor, unless ``em`` says otherwise)."""
+    from drill_core.mismatch import Mismatch, truth_config
+    cfg = replace(cfg, estimator=replace(cfg.estimator, estimate_bottom_influx=True))
+    truth = truth_config(cfg, Mismatch(bulk_modulus_factor=0.85))
+    wm = hy.build_well_model(truth.well, truth.plant.yield_regularisation_velocity_mps,
+                             truth.plant.choke_regularisation_pa)
+    model_wm = hy.build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
+                                   cfg.plant.choke_regularisation_pa)
+    opening = steady_state(wm, CIRCULATION, 2.0e6, 0.0).inputs[1]
+
+    def schedule(t):
+        return 0.0, opening * (1.0 if t < 10.0 else 1.5), 0.0, None, True
+    return simulate(cfg, (wm, build_frame_function(wm, truth)), 60.0, CIRCULATION, 2.0e6,
+                    schedule, seed=11, model_wm=model_wm, em=em)
+
+
+def test_the_bulk_modulus_factor_reads_a_softer_mud_not_an_influx(cfg):
+    """With the factor the influx estimate stays under 8 L/min and the factor ends within
+    0.05 of the truth's 0.85; the same filter without it reads the released mud as an
+    influx of more than 12 L/min (there is none)."""
+    run = _choke_opened_on_a_softer_mud(cfg)
+    em = run.ukf.em
+    a = run.arrays()
+    assert em.with_bulk_modulus
+    assert np.max(a["mean"][:, em.disturbance]) < 8.0 * LPM
+    assert abs(a["mean"][-1, em.bulk_modulus] - 0.85) < 0.05
+    without = dataclasses.replace(em, with_bulk_modulus=False)
+    b = _choke_opened_on_a_softer_mud(cfg, without).arrays()
+    assert np.max(b["mean"][:, without.disturbance]) > 12.0 * LPM

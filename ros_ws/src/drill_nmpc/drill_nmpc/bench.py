@@ -64,6 +64,8 @@ def steady_estimate(em: EstimationModel, initial: Initial) -> tuple[np.ndarray, 
     x[em.theta(2):em.theta(wm.n) + 1] = fitted_friction_parameters(em, flows, friction)
     if em.with_string_friction:
         x[em.string_friction] = 1.0          # the mud report's string friction
+    if em.with_bulk_modulus:
+        x[em.bulk_modulus] = 1.0             # the mud report's bulk modulus
     u = np.array([0.0, op.choke_flow_m3s, initial.bpp_flow_m3s, op.spp_pa])
     return x, u
 

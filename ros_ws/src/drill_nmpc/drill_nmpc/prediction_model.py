@@ -135,7 +135,7 @@ class PredictionModel:
         em = self.em
         full = self.full(x, par)
         spp_cmd = u[3] * pump_on
-        inputs = [u[0], self.choke_flow(x, u), x[self.bpp] if self.bpp is not None else u[2],
+        inputs = [u[0], self.choke_flow(x, u, em.bulk_modulus_of(full)), x[self.bpp] if self.bpp is not None else u[2],
                   x[self.pump] if self.pump is not None else spp_cmd]
         if self.block is not None:
             inputs[0] = reference_for_command(x[self.block], x[em.position], x[em.block_integral],
@@ -150,11 +150,12 @@ class PredictionModel:
             out.append((spp_cmd - x[self.pump]) / self.lags.pump_s)
         return out
 
-    def choke_flow(self, x, u):
+    def choke_flow(self, x, u, bulk_modulus_factor=1.0):
         """The choke flow [m^3/s] under input u: the flow reference itself (flow control), or,
         with the choke on its pressure loop, the flow that takes the top annulus pressure
         to the set-point u[1] as a first-order lag (time constant T_c): what leaves the top
-        volume plus the back-pressure pump's flow plus (dp - dp_ref) V_1 / (beta T_c)."""
+        volume plus the back-pressure pump's flow plus (dp - dp_ref) V_1 / (beta T_c), beta
+        the report's bulk modulus times ``bulk_modulus_factor`` (the estimate's)."""
         if self.choke_time_constant_s is None:
             return u[1]
         em = self.em
@@ -163,7 +164,7 @@ class PredictionModel:
         dp = x[em.pressure(1)] - w.choke_downstream_pressure_pa
         return (x[em.flow(2)] - g.displacement_area_m2[0] * x[em.velocity] + bpp
                 + (dp - u[1]) * g.annulus_volume_m3[0]
-                / (w.mud.bulk_modulus_pa * self.choke_time_constant_s))
+                / (w.mud.bulk_modulus_pa * bulk_modulus_factor * self.choke_time_constant_s))
 
     def function(self, step_s: float, substeps: int, integrator: str) -> ca.Function:
         """F(x, u, par, pump_on) -> x after one sample (inputs held), ``substeps`` RK4/Euler

@@ -49,7 +49,8 @@ SOFT_CONSTRAINTS = (
     SoftConstraint("string_pressure", lambda s: string_pressure_margin(s.em, s.full), False,
                    1.0e5, "slack_weight_string_pressure", False, False, needs_circulation=True),
     SoftConstraint("choke_capacity",
-                   lambda s: choke_capacity(s.em, s.y[1]) - s.model.choke_flow(s.x, s.u), False,
+                   lambda s: choke_capacity(s.em, s.y[1]) - s.model.choke_flow(s.x, s.u, s.em.bulk_modulus_of(s.full)),
+                   False,
                    1.0e-3, "slack_weight_choke_capacity", True, True),
 )
 BY_NAME = {c.name: c for c in SOFT_CONSTRAINTS}

@@ -418,7 +418,8 @@ class Supervisor:
             result = self._result(u, Fallback.RELAXED if relaxed else Fallback.NONE, sol, t0, par,
                                   X, U, slacks, y_ref, converged,
                                   ((clamped,) if clamped else ()) + tuple(reasons))
-            self.choke_flow_m3s = result.choke_flow_m3s = float(self.model.choke_flow(x0, u))
+            self.choke_flow_m3s = result.choke_flow_m3s = float(self.model.choke_flow(
+                x0, u, em.bulk_modulus_of(self.model.full(x0, par))))
             self._held_choke_dp = math.nan
             return result
         self._warm = None

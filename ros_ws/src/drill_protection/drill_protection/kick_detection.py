@@ -76,6 +76,7 @@ class KickDetector:
         self._integral_m3 = 0.0
         self._first: FlowSample | None = None
         self._first_pressures: list[float] = []  # the pressures' medians when the balance began
+        self._held_pressures: list[float] = []   # the last medians (choke dp, BHP) [Pa]
         self._last_time_s: float | None = None
         self._history: deque = deque()          # (time s, excess volume m^3, choke dp Pa,
                                                 # BHP Pa: the pressures' medians)
@@ -105,9 +106,13 @@ class KickDetector:
             return self._reading(False)
         for median, value in zip(self._pressures, (s.choke_dp_pa, s.bhp_pa)):
             median.add(s.time_s, value if pressures_ok else math.nan)
-        if not self._pressures[0]:
-            return self._reading(False)           # no pressure reading yet (or for a second)
-        pressures = [median.value for median in self._pressures]
+        if all(self._pressures):
+            self._held_pressures = [median.value for median in self._pressures]
+        if self._first is None and not all(m.full(s.time_s) for m in self._pressures):
+            return self._reading(False)           # the balance starts on a second of readings
+        # without a pressure reading for a second the flows still count; the compliance
+        # term holds the last pressures and catches up when they come back
+        pressures = self._held_pressures
         if self._first is None:                           # (re)start the balance here
             self._first, self._last_time_s, self._integral_m3 = s, s.time_s, 0.0
             self._first_pressures = pressures

@@ -16,16 +16,25 @@ class RecentMedian:
     def __init__(self, span_s: float):
         self.span_s = span_s
         self._samples: deque = deque()          # (time s, value), oldest first
+        self._since_s: float | None = None      # when the samples last began (none before)
 
     def add(self, time_s: float, value: float) -> None:
         """Take one sample (a non-finite one only moves the span on)."""
         if math.isfinite(value):
+            if not self._samples:
+                self._since_s = time_s
             self._samples.append((time_s, value))
         while self._samples and self._samples[0][0] < time_s - self.span_s + 1e-9:
             self._samples.popleft()
+        if not self._samples:
+            self._since_s = None
 
     def __bool__(self) -> bool:
         return bool(self._samples)
+
+    def full(self, time_s: float) -> bool:
+        """The samples have covered a whole span by ``time_s`` (none missing for as long)."""
+        return self._since_s is not None and time_s - self._since_s >= self.span_s - 1e-9
 
     @property
     def value(self) -> float:

@@ -201,6 +201,15 @@ LAYOUTS = {
 }
 
 
+
+def default_layout(realtime: bool, split: bool = False) -> str:
+    """The layout a run takes when none is asked for: a fast run on one host the
+    two-process layout (its recording is the separate layout's bit for bit and it costs less
+    CPU and wall, docs/benchmarks.md); a realtime run, or a host's share of a split run,
+    a process per node (what the realtime margins and the split runs were measured with)."""
+    return "separate" if realtime or split else "two"
+
+
 class SelectionError(ValueError):
     """A split run's share (``rig run --nodes``) that cannot be launched: the reason."""
 
