@@ -36,6 +36,7 @@ from drill_core.estimation_model import (BLOCK_INTEGRAL, BULK_MODULUS, DENSITY_O
                                          fitted_friction_parameters)
 from drill_core.event_codes import Notice
 from drill_core.events import ACTUATORS, of_owner
+from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.mismatch import Mismatch, resolve, truth_config
 from drill_core.scenario import initial_setpoints, load_scenario_config
 from drill_core.units import L_PER_M3, PA_PER_BAR
@@ -233,7 +234,8 @@ class NmpcController:
              mud_pump_on: bool) -> AdvisorCommand:
         frame = self.rig.frames.get("drawworks") if self.block_integral else None
         actuators = {} if not self.rig.frames else {     # the node's: no frame before t_0
-            "block_m": inputs[0, -1], "bpp_flow_m3s": inputs[2, -1], "spp_pa": inputs[3, -1],
+            "block_m": inputs[U_BLOCK, -1], "bpp_flow_m3s": inputs[U_BPP_FLOW, -1],
+            "spp_pa": inputs[U_PUMP_PRESSURE, -1],
             "block_command_m": frame.command if frame else None,
             "block_reference_m": frame.reference if frame else None}
         r = self.tick.step(x_hat, as_delivered(sp, flow_observable), actuators)
@@ -273,7 +275,7 @@ class Protection:
         self.clamps += [(t, text) for text in d.clamps]
         self.answer = (self.protection.window_pa, d.bhp_ref_pa, sp.bhp_ref_pa)
         self.speed_limits_mps = d.standing_speed_limits_mps
-        self.applied_block_m = float(d.command[0])
+        self.applied_block_m = float(d.command[U_BLOCK])
         dp = d.choke_dp_setpoint
         c = d.command
         return Command(float(c[0]), float(c[1]), float(c[2]), float(c[3]),
@@ -358,9 +360,9 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
         log["pore"].append(rig.sim.parameters[PORE])
         log["fracture"].append(rig.sim.parameters[FRACTURE])
         inputs = rig.frame(cmd, m, t)
-        log["opening"].append(inputs[1, 0])
-        log["bpp"].append(inputs[2, 0])
-        log["spp"].append(inputs[3, 0])
+        log["opening"].append(inputs[U_CHOKE, 0])
+        log["bpp"].append(inputs[U_BPP_FLOW, 0])
+        log["spp"].append(inputs[U_PUMP_PRESSURE, 0])
     a = {k: np.asarray(v, dtype=float) for k, v in log.items()}
     out = tracking_metrics(a["t"], a["bhp"], a["pos"], a["ref"], a["band"], a["target"])
     dt = config.plant.sensor_period_s

@@ -322,7 +322,7 @@ class Estimator:
                                   doc="each state's std is capped at this times its initial std")
     motion_reference_speed_mps: float = param("m/s", 0.0, 10.0, lo_open=True, default=0.1)
     block_input: str = param(choices=("reference", "block_position"), default="reference",
-                             doc="time-update input u[0]: drawworks reference u_r or its output u_b")
+                             doc="time-update input u[U_BLOCK]: drawworks reference u_r or its output u_b")
     model_steps_per_frame: int = param(
         "1", 1, 100, default=2,
         doc="RK4 steps of the time update per sensor frame; the actuators' per-plant-step "

@@ -37,6 +37,7 @@ from drill_core import hydraulics as hy
 from drill_core.backend import CASADI, NUMPY
 from drill_core.block_control import block_command, integral_rate
 from drill_core.config import RigConfig
+from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.integrators import euler_step, rk4_step
 from drill_core.rheology import wall_stress_magnitude
 from drill_core.state_layout import POSITION, VELOCITY, WellboreLayout, hydraulic_state_names
@@ -47,7 +48,6 @@ BOTTOM_INFLUX = "bottom_influx_m3s"
 DENSITY_OFFSET = "density_offset_kgm3"    # the mud's true density less the report's
 STRING_FRICTION = "string_friction_factor"  # the string's true friction over the report's
 BULK_MODULUS = "bulk_modulus_factor"        # the true effective bulk modulus over the report's
-INPUT_NAMES = ("block_position_ref_m", "choke_flow_m3s", "bpp_flow_m3s", "pump_pressure_pa")
 
 
 class NominalFriction:
@@ -294,17 +294,18 @@ def drift(xp, em: EstimationModel, x, u, string_friction_law=None):
     (``string_friction_law``: see hydraulics.hydraulic_rates)."""
     wm, n = em.wm, em.n
     z1, z2, z3 = x[em.position], x[em.velocity], x[em.block_integral]
-    u_b = block_command(u[0], z1, z3, wm.geometry.static_stretch_m, em.block_kp, em.block_ki_per_s)
+    u_b = block_command(u[U_BLOCK], z1, z3, wm.geometry.static_stretch_m, em.block_kp, em.block_ki_per_s)
     p = [x[em.pressure(i)] for i in range(1, n + 1)]
     q = [x[em.flow(i)] for i in range(2, n + 1)]
     rates = hy.hydraulic_rates(xp, wm, p, q, x[em.string_flow], x[em.string_pressure], z1, z2,
-                               u[1], u[2], u[3], annulus_friction(xp, em, x), string_friction_law,
+                               u[U_CHOKE], u[U_BPP_FLOW], u[U_PUMP_PRESSURE],
+                               annulus_friction(xp, em, x), string_friction_law,
                                em.density_offset_of(x), em.string_friction_of(x),
                                em.bulk_modulus_of(x))
     bottom_influx = 0.0
     if em.with_disturbance:
         bottom_influx = hy.bottom_inflow_rate(wm, x[em.disturbance])
-    out = [z2, hy.hoisting_acceleration(wm, z1, z2, u_b), integral_rate(u[0], z1)]
+    out = [z2, hy.hoisting_acceleration(wm, z1, z2, u_b), integral_rate(u[U_BLOCK], z1)]
     for i in range(n):
         if i > 0:
             out.append(rates.flow[i - 1])

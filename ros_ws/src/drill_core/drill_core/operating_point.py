@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drill_core import hydraulics as hy
+from drill_core.input_layout import U_PUMP_PRESSURE
 from drill_core.scenario import Initial
 
 
@@ -27,7 +28,7 @@ class OperatingPoint:
 
     @property
     def spp_pa(self) -> float:
-        return float(self.inputs[3])
+        return float(self.inputs[U_PUMP_PRESSURE])
 
 
 def operating_point(wm: hy.WellModel, circulation_m3s: float, choke_dp_pa: float,

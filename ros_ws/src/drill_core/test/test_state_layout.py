@@ -5,8 +5,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drill_core.config import load_rig
+from drill_core.config import InputVector, load_rig
 from drill_core.estimation_model import build_estimation_model
+from drill_core.input_layout import (COMMAND_NAMES, U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE,
+                                     U_SIZE)
+from drill_msgs.msg import RigCommand
 from drill_plant.plant_model import PlantLayout
 
 CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
@@ -56,3 +59,18 @@ def test_vector_moves_states_by_name_between_layouts():
         em.vector(values)
     with pytest.raises(KeyError, match="no state 'pit_gain_m3'"):
         em.index("pit_gain_m3")
+
+
+def test_the_input_layout_is_the_command_messages_order():
+    """u's entries sit where the rig command message and the NMPC's input limits list them:
+    the message's first four fields, and the config's per-input vectors field by field."""
+    fields = list(RigCommand.get_fields_and_field_types())
+    assert tuple(fields[1:1 + U_SIZE]) == COMMAND_NAMES          # after the header
+    positions = {name: i for i, name in enumerate(COMMAND_NAMES)}
+    assert (positions["block_position_ref_m"], positions["choke_flow_ref_m3s"],
+            positions["bpp_flow_m3s"], positions["spp_pa"]) == \
+        (U_BLOCK, U_CHOKE, U_BPP_FLOW, U_PUMP_PRESSURE)
+    vector = InputVector(block_position_m=10.0, choke_flow_m3s=20.0, bpp_flow_m3s=30.0,
+                         spp_pa=40.0).as_tuple()
+    assert (vector[U_BLOCK], vector[U_CHOKE], vector[U_BPP_FLOW], vector[U_PUMP_PRESSURE]) == \
+        (10.0, 20.0, 30.0, 40.0)

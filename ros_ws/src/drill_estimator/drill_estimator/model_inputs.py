@@ -19,6 +19,7 @@ from drill_core import hydraulics as hy
 from drill_core.channel_watch import ChannelWatch
 from drill_core.estimation_model import EstimationModel
 from drill_core.events import ACTUATORS
+from drill_core.input_layout import U_CHOKE
 
 BLOCK_INPUTS = ("reference", "block_position")
 
@@ -117,6 +118,6 @@ class ModelInputs:
         inputs = np.vstack(rows)
         if not math.isfinite(self.return_flow_m3s):
             self.valve_law_frames += 1
-        inputs[1] = choke_flow_input(self.em.wm, inputs[1], self.choke_dp_pa,
-                                     self.return_flow_m3s)
+        inputs[U_CHOKE] = choke_flow_input(self.em.wm, inputs[U_CHOKE], self.choke_dp_pa,
+                                           self.return_flow_m3s)
         return inputs, problems

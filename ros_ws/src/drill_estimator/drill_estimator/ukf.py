@@ -20,6 +20,7 @@ from drill_core.config import Estimator, RigConfig
 from drill_core.estimation_model import (MEASUREMENT_NAMES, EstimationModel, build_discrete_model,
                                          build_estimation_model, friction_estimate,
                                          measurement_map)
+from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_estimator.initial_state import initial_state
 from drill_estimator.model_inputs import BLOCK_INPUTS
 from drill_estimator.tuning import build_tuning
@@ -317,7 +318,7 @@ class RigUkf:
     def _model_input(self, x, u):
         """Model input [u_r, q_c, q_bpp, p_in] of one sigma point from the filter input ``u``.
 
-        block_input "block_position": u[0] is the drawworks output u_b; the reference that
+        block_input "block_position": u[U_BLOCK] is the drawworks output u_b; the reference that
         makes the model's block controller command u_b at this sigma point, on average over
         the step (z1 taken at mid-step, z1 + z2 h/2, so the held reference adds no damping
         to first order), is u_r = (u_b - s_0 + k_p (z1 + z2 h/2) - k_i z3) / (1 + k_p).
@@ -325,13 +326,13 @@ class RigUkf:
         decaying auxiliary state.
         """
         em = self.em
-        u_r = u[0]
+        u_r = u[U_BLOCK]
         if self.block_input == "block_position":
-            u_r = reference_for_command(u[0], x[em.position] + 0.5 * self.model_step_s * x[em.velocity],
+            u_r = reference_for_command(u[U_BLOCK], x[em.position] + 0.5 * self.model_step_s * x[em.velocity],
                                         x[em.block_integral],
                                         em.wm.geometry.static_stretch_m, em.block_kp,
                                         em.block_ki_per_s)
-        return ca.vertcat(u_r, u[1], u[2], u[3])
+        return ca.vertcat(u_r, u[U_CHOKE], u[U_BPP_FLOW], u[U_PUMP_PRESSURE])
 
     def _set_process_noise(self) -> None:
         """theta random walk: base std plus the law's theta_motion_std scaled by

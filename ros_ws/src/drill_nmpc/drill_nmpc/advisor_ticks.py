@@ -12,6 +12,7 @@ import numpy as np
 
 from drill_core.config import RigConfig
 from drill_core.estimation_model import EstimationModel
+from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_PUMP_PRESSURE
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView, MpdCommand
 from drill_nmpc.baseline import Baseline
 from drill_nmpc.inputs import choke_command, choke_input
@@ -52,7 +53,7 @@ class StartInputs:
         """From the scenario's ``initial`` section and its operating point
         (drill_core.operating_point: the choke flow and the stand-pipe pressure)."""
         return cls(float(op.choke_flow_m3s), float(initial.choke_dp_pa),
-                   float(initial.bpp_flow_m3s), float(op.inputs[3]),
+                   float(initial.bpp_flow_m3s), float(op.inputs[U_PUMP_PRESSURE]),
                    initial.circulation_m3s > 0.0)
 
 
@@ -90,7 +91,8 @@ class NmpcTick:
         """The command for ``result``: the choke's part per its loop (drill_nmpc.inputs)."""
         u = np.asarray(result.u, dtype=float)
         choke = choke_command(self.cfg, result, self.start.choke_flow_m3s)
-        return AdvisorCommand(float(u[0]), choke.flow_m3s, float(u[2]), float(u[3]),
+        return AdvisorCommand(float(u[U_BLOCK]), choke.flow_m3s, float(u[U_BPP_FLOW]),
+                              float(u[U_PUMP_PRESSURE]),
                               bool(mud_pump_on), choke.pressure_control, choke.dp_ref_pa,
                               choke.dp_ref_rate_pa_s)
 
@@ -105,7 +107,7 @@ class NmpcTick:
         sup = self.supervisor
         sup.reset()
         u = self.u_prev.copy()
-        u[0] = float(np.clip(x[self.em.position], sup.u_min[0], sup.u_max[0]))
+        u[U_BLOCK] = float(np.clip(x[self.em.position], sup.u_min[U_BLOCK], sup.u_max[U_BLOCK]))
         u = np.where(np.isfinite(u), u, self.u_prev)
         return SolveResult(u=u, success=False, fallback="none", status="manual", iterations=0,
                            solve_time_s=0.0, cost=float("nan"),

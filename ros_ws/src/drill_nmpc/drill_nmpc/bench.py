@@ -28,6 +28,7 @@ import numpy as np
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, load_rig
 from drill_core.estimation_model import EstimationModel, fitted_friction_parameters
+from drill_core.input_layout import U_CHOKE
 from drill_core.operating_point import initial_operating_point
 from drill_core.scenario import ActiveSetpoints, Initial
 from drill_nmpc.inputs import choke_input, choke_time_constant
@@ -73,7 +74,7 @@ def steady_estimate(em: EstimationModel, initial: Initial) -> tuple[np.ndarray, 
 def supervisor_input(config: RigConfig, u: np.ndarray, initial: Initial) -> np.ndarray:
     """The supervisor's input vector at a steady state's inputs (inputs.choke_input)."""
     u = np.array(u, dtype=float)
-    u[1] = choke_input(config.nmpc, u[1], initial.choke_dp_pa)
+    u[U_CHOKE] = choke_input(config.nmpc, u[U_CHOKE], initial.choke_dp_pa)
     return u
 
 

@@ -11,11 +11,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from drill_core.config import Nmpc
+from drill_core.input_layout import U_CHOKE, U_SIZE
 
 if TYPE_CHECKING:
     from drill_nmpc.supervisor import SolveResult
 
-INPUT_NAMES = ("block_position_ref_m", "choke_flow_m3s", "bpp_flow_m3s", "spp_pa")
 
 
 def input_arrays(cfg: Nmpc) -> dict[str, np.ndarray]:
@@ -34,12 +34,12 @@ def input_arrays(cfg: Nmpc) -> dict[str, np.ndarray]:
 
 def choke_time_constant(cfg: Nmpc) -> float | None:
     """The choke pressure loop's time constant in the prediction [s]; None: the choke is
-    on its flow loop (u[1] is a flow reference)."""
+    on its flow loop (u[U_CHOKE] is a flow reference)."""
     return cfg.choke_dp_setpoint.time_constant_s if cfg.choke_control == "pressure" else None
 
 
 def choke_input(cfg: Nmpc, choke_flow_m3s: float, choke_dp_pa: float) -> float:
-    """The supervisor's choke input u[1] at an operating point: the choke-dp set-point
+    """The supervisor's choke input u[U_CHOKE] at an operating point: the choke-dp set-point
     with the choke on its pressure loop, else the flow reference."""
     return choke_dp_pa if cfg.choke_control == "pressure" else choke_flow_m3s
 
@@ -54,7 +54,7 @@ class ChokeCommand:
 
 
 def choke_command(cfg: Nmpc, result: "SolveResult", fallback_flow_m3s: float) -> ChokeCommand:
-    """What the choke is told for a supervisor result: on the pressure loop u[1] is the
+    """What the choke is told for a supervisor result: on the pressure loop u[U_CHOKE] is the
     set-point, ramped toward the next planned one, with the predicted choke flow (the
     operating point's ``fallback_flow_m3s`` before any solve predicted one) as feedforward.
     On a hold the choke on its flow loop goes to its pressure loop at the held choke dp
@@ -62,9 +62,9 @@ def choke_command(cfg: Nmpc, result: "SolveResult", fallback_flow_m3s: float) ->
     u = np.asarray(result.u, dtype=float)
     if cfg.choke_control != "pressure":
         if result.fallback == "hold" and math.isfinite(result.hold_choke_dp_pa):
-            return ChokeCommand(True, float(u[1]), float(result.hold_choke_dp_pa), 0.0)
-        return ChokeCommand(False, float(u[1]), 0.0, 0.0)
-    plan = np.asarray(result.planned_inputs, dtype=float).reshape(-1, 4)
-    rate = float(plan[1, 1] - u[1]) / cfg.sample_time_s if plan.shape[0] > 1 else 0.0
+            return ChokeCommand(True, float(u[U_CHOKE]), float(result.hold_choke_dp_pa), 0.0)
+        return ChokeCommand(False, float(u[U_CHOKE]), 0.0, 0.0)
+    plan = np.asarray(result.planned_inputs, dtype=float).reshape(-1, U_SIZE)
+    rate = float(plan[1, U_CHOKE] - u[U_CHOKE]) / cfg.sample_time_s if plan.shape[0] > 1 else 0.0
     flow = result.choke_flow_m3s if math.isfinite(result.choke_flow_m3s) else fallback_flow_m3s
-    return ChokeCommand(True, float(flow), float(u[1]), rate)
+    return ChokeCommand(True, float(flow), float(u[U_CHOKE]), rate)

@@ -41,6 +41,7 @@ from drill_msgs.msg import ActuatorFrame, NmpcStatus, StateEstimate
 from drill_msgs.srv import SetSetpoints
 
 from drill_core.estimation_model import BOTTOM_INFLUX
+from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE, U_SIZE
 from drill_core.ros import topics
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
@@ -183,7 +184,7 @@ class NmpcNode(AdvisorNode):
     def _publish(self, stamp: int, r: SolveResult) -> None:
         assert np.all(np.isfinite(np.asarray(r.u, dtype=float))), \
             "refusing to publish a non-finite command"
-        plan = np.asarray(r.planned_inputs, dtype=float).reshape(-1, 4)
+        plan = np.asarray(r.planned_inputs, dtype=float).reshape(-1, U_SIZE)
         self.publish_command(self.tick.command(r, self.book.active.mud_pump_on), stamp)
         self.commands += 1
 
@@ -206,12 +207,12 @@ class NmpcNode(AdvisorNode):
         st.predicted_choke_dp_pa = [float(v) for v in pred.get("choke_dp_pa", [])]
         st.predicted_block_position_m = [float(v) for v in pred.get("block_position_m", [])]
         st.predicted_string_velocity_mps = [float(v) for v in pred.get("string_velocity_mps", [])]
-        st.planned_block_position_ref_m = [float(v) for v in plan[:, 0]]
-        planned = [float(v) for v in plan[:, 1]]
+        st.planned_block_position_ref_m = [float(v) for v in plan[:, U_BLOCK]]
+        planned = [float(v) for v in plan[:, U_CHOKE]]
         st.planned_choke_flow_m3s = [math.nan] * len(planned) if self.pressure_control else planned
         st.planned_choke_dp_ref_pa = planned if self.pressure_control else [math.nan] * len(planned)
-        st.planned_bpp_flow_m3s = [float(v) for v in plan[:, 2]]
-        st.planned_spp_pa = [float(v) for v in plan[:, 3]]
+        st.planned_bpp_flow_m3s = [float(v) for v in plan[:, U_BPP_FLOW]]
+        st.planned_spp_pa = [float(v) for v in plan[:, U_PUMP_PRESSURE]]
         ref = np.asarray(r.reference, dtype=float)
         st.bhp_ref_pa = float(ref[1, 2]) if ref.shape[0] > 1 else float(self.book.active.bhp_ref_pa)
         st.block_position_ref_m = float(self.book.active.block_position_target_m)

@@ -21,6 +21,7 @@ from drill_core.block_control import (block_command, integral_for_command, integ
                                        reference_for_command)
 from drill_core.config import RigConfig
 from drill_core.estimation_model import EstimationModel, build_estimation_model, drift, measurement
+from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE, U_SIZE
 from drill_core.integrators import euler_step, rk4_step
 
 OUTPUT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa")
@@ -134,18 +135,20 @@ class PredictionModel:
         """Time derivative of the prediction state (list of expressions)."""
         em = self.em
         full = self.full(x, par)
-        spp_cmd = u[3] * pump_on
-        inputs = [u[0], self.choke_flow(x, u, em.bulk_modulus_of(full)), x[self.bpp] if self.bpp is not None else u[2],
+        spp_cmd = u[U_PUMP_PRESSURE] * pump_on
+        inputs = [u[U_BLOCK], self.choke_flow(x, u, em.bulk_modulus_of(full)),
+                  x[self.bpp] if self.bpp is not None else u[U_BPP_FLOW],
                   x[self.pump] if self.pump is not None else spp_cmd]
         if self.block is not None:
-            inputs[0] = reference_for_command(x[self.block], x[em.position], x[em.block_integral],
-                                              self._stretch, em.block_kp, em.block_ki_per_s)
+            inputs[U_BLOCK] = reference_for_command(x[self.block], x[em.position], x[em.block_integral],
+                                                    self._stretch, em.block_kp, em.block_ki_per_s)
         out = drift(CASADI, em, full, inputs, self.table)[:self.nd_model]
         if self.block is not None:
-            out[em.block_integral] = integral_rate(u[0], x[em.position])
-            out.append((self.block_command(u[0], x[em.position], x[em.block_integral]) - x[self.block]) / self.lags.drawworks_s)
+            out[em.block_integral] = integral_rate(u[U_BLOCK], x[em.position])
+            command = self.block_command(u[U_BLOCK], x[em.position], x[em.block_integral])
+            out.append((command - x[self.block]) / self.lags.drawworks_s)
         if self.bpp is not None:
-            out.append((u[2] - x[self.bpp]) / self.lags.bpp_s)
+            out.append((u[U_BPP_FLOW] - x[self.bpp]) / self.lags.bpp_s)
         if self.pump is not None:
             out.append((spp_cmd - x[self.pump]) / self.lags.pump_s)
         return out
@@ -153,17 +156,17 @@ class PredictionModel:
     def choke_flow(self, x, u, bulk_modulus_factor=1.0):
         """The choke flow [m^3/s] under input u: the flow reference itself (flow control), or,
         with the choke on its pressure loop, the flow that takes the top annulus pressure
-        to the set-point u[1] as a first-order lag (time constant T_c): what leaves the top
+        to the set-point u[U_CHOKE] as a first-order lag (time constant T_c): what leaves the top
         volume plus the back-pressure pump's flow plus (dp - dp_ref) V_1 / (beta T_c), beta
         the report's bulk modulus times ``bulk_modulus_factor`` (the estimate's)."""
         if self.choke_time_constant_s is None:
-            return u[1]
+            return u[U_CHOKE]
         em = self.em
         g, w = em.wm.geometry, em.wm.well
-        bpp = x[self.bpp] if self.bpp is not None else u[2]
+        bpp = x[self.bpp] if self.bpp is not None else u[U_BPP_FLOW]
         dp = x[em.pressure(1)] - w.choke_downstream_pressure_pa
         return (x[em.flow(2)] - g.displacement_area_m2[0] * x[em.velocity] + bpp
-                + (dp - u[1]) * g.annulus_volume_m3[0]
+                + (dp - u[U_CHOKE]) * g.annulus_volume_m3[0]
                 / (w.mud.bulk_modulus_pa * bulk_modulus_factor * self.choke_time_constant_s))
 
     def function(self, step_s: float, substeps: int, integrator: str) -> ca.Function:
@@ -173,7 +176,7 @@ class PredictionModel:
         own (one SX function), so every derivative the NLP needs is one call of it per
         stage instead of forward sweeps through the integrator."""
         x = ca.SX.sym("x", self.nd)
-        u = ca.SX.sym("u", 4)
+        u = ca.SX.sym("u", U_SIZE)
         par = ca.SX.sym("par", self.npar)
         on = ca.SX.sym("pump_on")
 
@@ -185,7 +188,7 @@ class PredictionModel:
         step = ca.Function("predict_step", [x, u, par, on], [xn])
         step_jacobian = ca.Function("predict_step_jacobian", [x, u, par, on],
                                     [xn] + [ca.jacobian(xn, a) for a in (x, u, par, on)])
-        args = [ca.MX.sym("x", self.nd), ca.MX.sym("u", 4), ca.MX.sym("par", self.npar),
+        args = [ca.MX.sym("x", self.nd), ca.MX.sym("u", U_SIZE), ca.MX.sym("par", self.npar),
                 ca.MX.sym("pump_on")]
         state = args[0]
         for _ in range(substeps):
@@ -232,11 +235,11 @@ class PredictionModel:
                          x0[0] + self._stretch + w.hoist_damping_n_s_m * x0[1] / w.hoist_stiffness_n_m)
         if self.bpp is not None:
             v = measured("bpp_flow_m3s")
-            extra.append(v if v is not None else (float(u_prev[2]) if u_prev is not None else 0.0))
+            extra.append(v if v is not None else (float(u_prev[U_BPP_FLOW]) if u_prev is not None else 0.0))
         if self.pump is not None:
             v = measured("spp_pa")
             extra.append(v if v is not None else
-                         (float(u_prev[3]) * float(pump_on) if u_prev is not None else 0.0))
+                         (float(u_prev[U_PUMP_PRESSURE]) * float(pump_on) if u_prev is not None else 0.0))
         return np.concatenate([x0, extra])
 
     def actuator_state(self, x) -> dict:
@@ -260,14 +263,14 @@ class PredictionModel:
             return 0.0
         rng = np.random.default_rng(rng_seed)
         xs = ca.SX.sym("x", self.nd)
-        us = ca.SX.sym("u", 4)
+        us = ca.SX.sym("u", U_SIZE)
         ps = ca.SX.sym("p", self.npar)
         f = ca.Function("rhs", [xs, us, ps], [ca.vertcat(*self.rhs([xs[i] for i in range(self.nd)],
                                                                     us, ps))])
         worst = 0.0
         for _ in range(3):
             x = rng.normal(size=self.nd)
-            acc = float(f(x, np.zeros(4), np.zeros(self.npar))[1])
+            acc = float(f(x, np.zeros(U_SIZE), np.zeros(self.npar))[1])
             ref = float(hy.hoisting_acceleration(self.em.wm, x[self.em.position], x[self.em.velocity],
                                                   x[self.block]))
             worst = max(worst, abs(acc - ref) / max(1.0, abs(ref)))

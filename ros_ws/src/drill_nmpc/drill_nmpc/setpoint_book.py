@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 
 from drill_core.event_codes import Notice
+from drill_core.input_layout import U_BLOCK
 from drill_core.scenario import SETPOINT_FIELDS, ActiveSetpoints, Scenario
 from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
 
@@ -60,7 +61,7 @@ def adopt_applied_block(u_prev, applied_block_m: float | None):
     """The previous input to plan from: the block reference the drawworks was given
     (``applied_block_m``; None, NaN: not known) when the process protection changed ours
     (a trip held on an alarm, a clamp), not the one the advisor sent."""
-    if applied_block_m is None or not protection_changed(applied_block_m, u_prev[0]):
+    if applied_block_m is None or not protection_changed(applied_block_m, u_prev[U_BLOCK]):
         return u_prev
     adopted = u_prev.copy()
     adopted[0] = applied_block_m

@@ -22,6 +22,7 @@ import numpy as np
 
 from drill_core.config import Nmpc, RigConfig
 from drill_core.estimation_model import EstimationModel, friction_flow_gain_bound
+from drill_core.input_layout import U_BLOCK, U_CHOKE, U_PUMP_PRESSURE, U_SIZE
 from drill_core.scenario import ActiveSetpoints
 from drill_core.surge_swab import SurgeSwabModel
 from drill_nmpc.motion_profile import MotionProfile
@@ -55,7 +56,7 @@ class SolveResult:
     slacks: dict = field(default_factory=dict)      # largest slack over the horizon per constraint, SI
     predicted_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))   # 0, t_s, ..., N t_s
     predicted: dict = field(default_factory=dict)   # name -> array over predicted_time_s
-    planned_inputs: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))  # N x 4, u_j
+    planned_inputs: np.ndarray = field(default_factory=lambda: np.zeros((0, U_SIZE)))  # N x 4, u_j
     reference: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))       # (N+1) x 3, y_ref,j
     integral: np.ndarray = field(default_factory=lambda: np.zeros(0))             # NMPC1 e_0 [span s]
     configuration: str = ""
@@ -155,8 +156,8 @@ class Supervisor:
         lo, hi = u_prev - self.slew, u_prev + self.slew
         if self.acceleration:
             step = self.acceleration * self.problem.ts ** 2
-            lo[0] = max(lo[0], u_prev[0] + reference_speed * self.problem.ts - step)
-            hi[0] = min(hi[0], u_prev[0] + reference_speed * self.problem.ts + step)
+            lo[U_BLOCK] = max(lo[U_BLOCK], u_prev[U_BLOCK] + reference_speed * self.problem.ts - step)
+            hi[U_BLOCK] = min(hi[U_BLOCK], u_prev[U_BLOCK] + reference_speed * self.problem.ts + step)
         u = np.clip(u, lo, hi)
         u = np.clip(u, self.u_min, self.u_max)
         assert np.all(np.isfinite(u)), "NMPC command is not finite"
@@ -235,11 +236,11 @@ class Supervisor:
         hi = max(progress, target) + TRIP_RANGE_MARGIN_M
         ts = self.problem.ts
         if self.acceleration:
-            coast = float(u_prev[0]) + self._speed * ts
+            coast = float(u_prev[U_BLOCK]) + self._speed * ts
             step = self.acceleration * ts ** 2
             lo, hi = min(lo, coast + step), max(hi, coast - step)
         else:
-            lo, hi = min(lo, float(u_prev[0])), max(hi, float(u_prev[0]))
+            lo, hi = min(lo, float(u_prev[U_BLOCK])), max(hi, float(u_prev[U_BLOCK]))
         return lo, hi
 
     def block_profile(self, position_m: float, target_m: float, speed_mps: float) -> np.ndarray:
@@ -310,14 +311,14 @@ class Supervisor:
         u_prev = self.safe_input(u_prev)
         # block-reference speed of the last period, from the two inputs applied last
         self._speed = 0.0 if self._applied is None else \
-            float(u_prev[0] - self._applied[0]) / pb.ts
+            float(u_prev[U_BLOCK] - self._applied[U_BLOCK]) / pb.ts
         self._applied = u_prev.copy()
         x = full_state(em, x_hat, disturbance)
         self.solve_count += 1
         if not np.all(np.isfinite(x)):
             return self._hold(u_prev, "not solved", t0, reasons=("invalid_estimate",))
         if self.spp_nominal is None:
-            self.spp_nominal = float(u_prev[3])
+            self.spp_nominal = float(u_prev[U_PUMP_PRESSURE])
         pump_on = bool(setpoints.mud_pump_on)
         known = {}
         if self._next_actuators is not None and np.allclose(u_prev, self._next_actuators[1]):
@@ -351,7 +352,7 @@ class Supervisor:
             kept = np.where(err == 0.0, leak, 1.0)
             self.integral = np.clip(kept * self.integral + pb.ts * err,
                                     -self.cfg.integral_limit_s, self.cfg.integral_limit_s)
-        u_ref = np.array([y_sp[0], u_prev[1], 0.0, self.spp_nominal])
+        u_ref = np.array([y_sp[0], u_prev[U_CHOKE], 0.0, self.spp_nominal])
         if self._predicted_bhp is not None:
             # offset-free: integrate the error of the last one-step BHP prediction
             error = y_now[2] - self._predicted_bhp
@@ -460,7 +461,7 @@ class Supervisor:
         if self.acceleration and self._speed:      # brake the block reference, within the limit
             v = math.copysign(max(abs(self._speed) - self.acceleration * self.problem.ts, 0.0),
                               self._speed)
-            u[0] = u_prev[0] + v * self.problem.ts
+            u[U_BLOCK] = u_prev[U_BLOCK] + v * self.problem.ts
         u = self.limit(u, u_prev, self._speed)
         return SolveResult(u=u, success=False, fallback=Fallback.HOLD, status=status,
                            reasons=reasons, iterations=iterations,

@@ -16,6 +16,7 @@ import numpy as np
 from drill_core.compiled import compiled
 from drill_core.config import Nmpc
 from drill_core.estimation_model import EstimationModel
+from drill_core.input_layout import U_BLOCK, U_SIZE
 from drill_nmpc.inputs import choke_time_constant, input_arrays
 from drill_nmpc.parameter_layout import ParameterLayout
 from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
@@ -112,8 +113,8 @@ class NmpcProblem:
             self.F = compiled([self.F, self.F.jacobian()], "nmpc_predict", cache_dir)["predict"]
         self._state_box = self._trust_region()
         self.parameter_layout = ParameterLayout((
-            ("x0", self.nd), ("par", self.npar), ("pump_on", 1), ("u_prev", 4),
-            ("w0", self.nw), ("e0", self.ne), ("y_ref", 3 * self.N), ("y_sp", 3), ("u_ref", 4),
+            ("x0", self.nd), ("par", self.npar), ("pump_on", 1), ("u_prev", U_SIZE),
+            ("w0", self.nw), ("e0", self.ne), ("y_ref", 3 * self.N), ("y_sp", 3), ("u_ref", U_SIZE),
             ("bhp_bias", 1)))
         self._build(solver_options or {})
 
@@ -193,7 +194,7 @@ class NmpcProblem:
                 s, s_sl = None, slice(nz, nz)
             else:
                 s, s_sl = new_var(f"s{k}", self.ns)
-            u, u_sl = (new_var(f"u{k}", 4) if k < Nc else (None, None))
+            u, u_sl = (new_var(f"u{k}", U_SIZE) if k < Nc else (None, None))
             slack_names = self._stage_slacks(k)
             xi, xi_sl = new_var(f"xi{k}", len(slack_names))
             s_vars.append(s)
@@ -210,7 +211,7 @@ class NmpcProblem:
             st = stages[k]
             if k == 0:
                 xs = ca.MX.zeros(nd)
-                up = ca.MX.zeros(4)
+                up = ca.MX.zeros(U_SIZE)
                 w = w0
                 e = e0
             else:
@@ -243,7 +244,7 @@ class NmpcProblem:
             if k < Nc:
                 st.rows["slew"] = add_rows(u_vars[k] - up, -1.0, 1.0)
                 if self.nw:       # change of the block-reference speed per sample
-                    limit = self.accel * self.ts ** 2 / self.Su[0]
+                    limit = self.accel * self.ts ** 2 / self.Su[U_BLOCK]
                     st.rows["acceleration"] = add_rows((u_vars[k][0] - up[0]) - (up[0] - w[0]),
                                                        -limit, limit)
             values = StageValues(em, self.model, x_phys, u_phys, xl, y)
@@ -264,7 +265,7 @@ class NmpcProblem:
                         f = f + q_e[j] * e[j] ** 2
             if k < Nc:
                 du = Su * (u_vars[k] - up)
-                for i in range(4):
+                for i in range(U_SIZE):
                     if r_c[i] > 0.0:
                         f = f + r_c[i] * (du[i] / self.u_span[i]) ** 2
                     if r_r[i] > 0.0:
@@ -325,7 +326,7 @@ class NmpcProblem:
         the BHP bias added to the predicted BHP of stages 1..N."""
         return self.parameter_layout.pack(
             x0=x0, par=par, pump_on=1.0 if pump_on else 0.0, u_prev=u_prev,
-            w0=[-reference_speed * self.ts / self.Su[0]] * self.nw,
+            w0=[-reference_speed * self.ts / self.Su[U_BLOCK]] * self.nw,
             e0=np.asarray(e0, dtype=float).ravel()[:self.ne], y_ref=y_ref, y_sp=y_sp,
             u_ref=u_ref, bhp_bias=bhp_bias_pa)
 
@@ -373,8 +374,8 @@ class NmpcProblem:
             if k >= 1:
                 s = [(X[k] - x0) / self.Sx, (U[k - 1] - u_prev) / self.Su]
                 if self.nw:
-                    before = U[k - 2, 0] if k >= 2 else u_prev[0] - reference_speed * self.ts
-                    s.append([(before - u_prev[0]) / self.Su[0]])
+                    before = U[k - 2, U_BLOCK] if k >= 2 else u_prev[U_BLOCK] - reference_speed * self.ts
+                    s.append([(before - u_prev[U_BLOCK]) / self.Su[U_BLOCK]])
                 if self.ne:
                     s.append(E[k])
                 z[st.s] = np.concatenate(s)
@@ -388,7 +389,7 @@ class NmpcProblem:
         """Physical trajectories (X, U, E, slacks in scaled units per stage) from z."""
         N, nd = self.N, self.nd
         X = np.zeros((N + 1, nd))
-        U = np.zeros((N, 4))
+        U = np.zeros((N, U_SIZE))
         E = np.zeros((N + 1, self.ne))
         X[0] = x0
         if self.ne:

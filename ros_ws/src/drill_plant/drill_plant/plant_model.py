@@ -22,11 +22,11 @@ import numpy as np
 from drill_core import hydraulics as hy
 from drill_core.backend import CASADI
 from drill_core.config import RigConfig, Well
+from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE, U_SIZE
 from drill_core.integrators import srk_step
 from drill_core.operating_point import OperatingPoint, operating_point
 from drill_core.state_layout import POSITION, VELOCITY, WellboreLayout, hydraulic_state_names
 
-INPUT_NAMES = ("block_position_m", "choke_opening", "bpp_flow_m3s", "pump_pressure_pa")
 # Plant parameters a scenario event may change (pore/fracture steps, a plugging choke).
 PARAMETER_NAMES = ("pore_pressure_pa", "fracture_pressure_pa", "choke_capacity_factor")
 # The scenario events (drill_core.events) that set a parameter, and which one.
@@ -88,19 +88,19 @@ def drift(xp, wm: hy.WellModel, x, u, theta=None):
     p = [x[lay.pressure(i)] for i in range(1, n + 1)]
     q = [x[lay.flow(i)] for i in range(2, n + 1)]
     x_s, v_s = x[lay.position], x[lay.velocity]
-    q_c = hy.choke_flow(wm, u[1] * choke_capacity, p[0] - wm.well.choke_downstream_pressure_pa)
+    q_c = hy.choke_flow(wm, u[U_CHOKE] * choke_capacity, p[0] - wm.well.choke_downstream_pressure_pa)
     friction = hy.annulus_friction(xp, wm, q, v_s)
     rates = hy.hydraulic_rates(xp, wm, p, q, x[lay.string_flow], x[lay.string_pressure], x_s, v_s,
-                               q_c, u[2], u[3], friction)
+                               q_c, u[U_BPP_FLOW], u[U_PUMP_PRESSURE], friction)
     influx, loss = hy.formation_flows(xp, wm.well.formation, p[-1], pore, fracture)
-    out = [v_s, hy.hoisting_acceleration(wm, x_s, v_s, u[0])]
+    out = [v_s, hy.hoisting_acceleration(wm, x_s, v_s, u[U_BLOCK])]
     for i in range(n):
         if i > 0:
             out.append(rates.flow[i - 1])
         out.append(rates.pressure[i] + (hy.bottom_inflow_rate(wm, influx - loss)
                                         if i == n - 1 else 0.0))
     # the active pit takes the returns and feeds the mud pump and the back-pressure pump
-    pit_gain_rate = q_c - x[lay.string_flow] - u[2]
+    pit_gain_rate = q_c - x[lay.string_flow] - u[U_BPP_FLOW]
     return out + [rates.string_flow, rates.string_pressure, pit_gain_rate, influx, loss]
 
 
@@ -177,7 +177,7 @@ def build_frame_function(wm: hy.WellModel, config: RigConfig) -> ca.Function:
     substeps = config.plant.substeps
     h = config.plant.step_s / substeps
     x = ca.SX.sym("x", lay.size)
-    u = ca.SX.sym("u", 4)
+    u = ca.SX.sym("u", U_SIZE)
     theta = ca.SX.sym("theta", len(PARAMETER_NAMES))
     dw = ca.SX.sym("dw", lay.size, substeps)
     g = ca.DM(diffusion(wm, config))
@@ -193,14 +193,14 @@ def build_outputs_function(wm: hy.WellModel) -> ca.Function:
     string friction, influx, loss]."""
     lay = PlantLayout(wm.n)
     x = ca.SX.sym("x", lay.size)
-    u = ca.SX.sym("u", 4)
+    u = ca.SX.sym("u", U_SIZE)
     theta = ca.SX.sym("theta", len(PARAMETER_NAMES))
     xs = [x[i] for i in range(lay.size)]
     p = [xs[lay.pressure(i)] for i in range(1, wm.n + 1)]
     q = [xs[lay.flow(i)] for i in range(2, wm.n + 1)]
     v_s = xs[lay.velocity]
     rho_g = wm.well.mud.density_kgm3 * wm.well.gravity_mps2
-    q_c = hy.choke_flow(wm, u[1] * theta[2], p[0] - wm.well.choke_downstream_pressure_pa)
+    q_c = hy.choke_flow(wm, u[U_CHOKE] * theta[2], p[0] - wm.well.choke_downstream_pressure_pa)
     q_bit = hy.bit_flow(CASADI, wm, xs[lay.string_pressure] - (p[-1] - rho_g * xs[lay.position]))
     out = [q_c, q_bit, *hy.annulus_friction(CASADI, wm, q, v_s),
            hy.string_friction(CASADI, wm, xs[lay.string_flow], v_s),

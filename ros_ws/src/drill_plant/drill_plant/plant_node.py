@@ -21,6 +21,7 @@ from drill_msgs.msg import ActuatorFrame, OperatorEvent, PlantTruth, RigMeasurem
 from rosgraph_msgs.msg import Clock
 
 from drill_core.event_codes import scenario_notice
+from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.events import event_message
@@ -187,7 +188,7 @@ class PlantNode(RigNode):
         lay, n, x = self.layout, self.sim.wm.n, t.state
         msg = PlantTruth()
         msg.header.stamp = stamp
-        msg.block_position_m = float(t.inputs[0])
+        msg.block_position_m = float(t.inputs[U_BLOCK])
         msg.string_position_m = float(x[lay.position])
         msg.string_velocity_mps = float(x[lay.velocity])
         msg.annulus_pressure_pa = x[self._pressure_rows].tolist()
@@ -199,9 +200,9 @@ class PlantNode(RigNode):
         msg.ecd_kgm3 = t.ecd_kgm3
         msg.annulus_friction_pa = t.annulus_friction_pa.tolist()
         msg.string_friction_pa = t.string_friction_pa
-        msg.choke_opening = float(t.inputs[1])
-        msg.bpp_flow_m3s = float(t.inputs[2])
-        msg.spp_pa = float(t.inputs[3])
+        msg.choke_opening = float(t.inputs[U_CHOKE])
+        msg.bpp_flow_m3s = float(t.inputs[U_BPP_FLOW])
+        msg.spp_pa = float(t.inputs[U_PUMP_PRESSURE])
         msg.influx_m3s, msg.loss_m3s = t.influx_m3s, t.loss_m3s
         msg.pit_gain_m3 = t.pit_gain_m3
         msg.influx_volume_m3, msg.loss_volume_m3 = t.influx_volume_m3, t.loss_volume_m3

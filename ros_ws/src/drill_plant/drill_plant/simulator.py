@@ -9,6 +9,7 @@ import numpy as np
 from drill_core import hydraulics as hy
 from drill_core.compiled import compiled
 from drill_core.config import RigConfig
+from drill_core.input_layout import U_BPP_FLOW
 from drill_plant.plant_model import (PARAMETER_NAMES, PlantLayout, SteadyState,
                                      build_frame_function, build_outputs_function,
                                      held_parameters, nominal_parameters, wiener_increments)
@@ -122,7 +123,7 @@ class PlantSimulator:
             return_flow_m3s=float(returns) + surface_noise.return_flow_m3s * float(surface[0]),
             pit_volume_m3=float(self.config.plant.active_pit_volume_m3 + x[lay.pit_gain]
                                 + surface_noise.pit_volume_m3 * surface[1]),
-            bpp_flow_m3s=float(self.inputs[2] + surface_noise.bpp_flow_m3s * surface[2]))
+            bpp_flow_m3s=float(self.inputs[U_BPP_FLOW] + surface_noise.bpp_flow_m3s * surface[2]))
 
     def truth(self) -> Truth:
         out = self._algebraic()

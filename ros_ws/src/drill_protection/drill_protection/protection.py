@@ -52,12 +52,12 @@ import numpy as np
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
 from drill_core.event_codes import Notice
+from drill_core.input_layout import COMMAND_NAMES, U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.units import PA_PER_BAR
 from drill_protection.pump_trip import TripAction
 from drill_protection.recent_median import BHP_MEDIAN_S, RecentMedian
 from drill_protection.well_control import Hold
 
-INPUTS = ("block_position_ref_m", "choke_flow_ref_m3s", "bpp_flow_m3s", "spp_pa")
 _SPEED_GRID_POINTS = 61
 RESTING_REFERENCE_SPEED_MPS = 0.05   # a block reference slower than this is coming to rest
 
@@ -221,7 +221,7 @@ class ProcessProtection:
                                  f"drawworks brake set, BHP held at {stopped / PA_PER_BAR:.1f} "
                                  "bar by the choke", stopped))
             request = self.previous.copy()
-            request[0] = position_m if np.isfinite(position_m) else self.previous[0]
+            request[U_BLOCK] = position_m if np.isfinite(position_m) else self.previous[U_BLOCK]
             manual_choke_opening, choke_dp_setpoint = None, None
         elif not_applied:
             clamps.append(Notice("level_hold", f"automation level {self.automation_level}: "
@@ -246,7 +246,7 @@ class ProcessProtection:
             hold = self.well_control
             manual_choke_opening, choke_dp_setpoint = None, (hold.choke_dp_pa, 0.0)
             flowing = (surface_flows or (np.nan,))[0]      # the pressure loop's feed-forward
-            command[1] = flowing if np.isfinite(flowing) else self.previous[1]
+            command[U_CHOKE] = flowing if np.isfinite(flowing) else self.previous[U_CHOKE]
             clamps.append(Notice("well_control_hold", hold.reason, hold.target_bhp_pa))
             bhp_ref_pa = hold.target_bhp_pa
         trip = None if not_applied and not self.emergency_stop else trip_action
@@ -257,11 +257,12 @@ class ProcessProtection:
         if guard or shut:
             manual_choke_opening, choke_dp_setpoint = None, None
 
-        for i in (1, 2, 3):
+        for i in (U_CHOKE, U_BPP_FLOW, U_PUMP_PRESSURE):
             limited = np.clip(command[i], self.previous[i] - self.slew[i], self.previous[i] + self.slew[i])
             limited = float(np.clip(limited, self.lower[i], self.upper[i]))
-            if limited != command[i] and not (guard and i in (1, 2)) and not (shut and i == 1):
-                clamps.append(Notice("machine_limit", f"{INPUTS[i]} {command[i]:.6g} -> "
+            if limited != command[i] and not (guard and i in (U_CHOKE, U_BPP_FLOW)) \
+                    and not (shut and i == U_CHOKE):
+                clamps.append(Notice("machine_limit", f"{COMMAND_NAMES[i]} {command[i]:.6g} -> "
                                      f"{limited:.6g} (machine range/rate)"))
             command[i] = limited
         if guard:
@@ -269,12 +270,12 @@ class ProcessProtection:
         if trip is not None:
             self._answer_trip(trip, guard, command, clamps, shut)
         if self.emergency_stop and not guard:      # the BHP loop's feedforward: the flow out
-            command[1] = min(circulation_m3s + command[2], self.upper[1])   # at rest
+            command[U_CHOKE] = min(circulation_m3s + command[U_BPP_FLOW], self.upper[U_CHOKE])   # at rest
 
         limits = self.speed_limits(bhp_pa, string_velocity_mps, circulation_m3s,
                                    operator_speed_limit_mps, friction_free)
         (down, why_down), (up, why_up) = limits.running_in, limits.pulling_out
-        speed = (command[0] - self.previous[0]) / period
+        speed = (command[U_BLOCK] - self.previous[U_BLOCK]) / period
         if self.emergency_stop:
             limited_speed = speed
         else:
@@ -286,13 +287,13 @@ class ProcessProtection:
                 why = lowest[1] if limited_speed == lowest[0] else highest[1]
                 clamps.append(Notice("speed_clamp", f"block reference speed {speed:+.3f} -> "
                                      f"{limited_speed:+.3f} m/s ({why})", limited_speed))
-        ref = self.previous[0] + limited_speed * period
-        ref = float(np.clip(ref, self.lower[0], self.upper[0]))
-        if ref != self.previous[0] + limited_speed * period:
+        ref = self.previous[U_BLOCK] + limited_speed * period
+        ref = float(np.clip(ref, self.lower[U_BLOCK], self.upper[U_BLOCK]))
+        if ref != self.previous[U_BLOCK] + limited_speed * period:
             clamps.append(Notice("drawworks_range", "block reference held inside the drawworks "
                                  "range", ref))
-        command[0] = ref
-        self.previous_speed_mps = 0.0 if self.emergency_stop else (ref - self.previous[0]) / period
+        command[U_BLOCK] = ref
+        self.previous_speed_mps = 0.0 if self.emergency_stop else (ref - self.previous[U_BLOCK]) / period
         self.previous = command.copy()
         self.previous_manual_opening = manual_choke_opening
         self.previous_dp_setpoint = choke_dp_setpoint
@@ -337,14 +338,15 @@ class ProcessProtection:
         stop's BHP loop); the back-pressure pump at least at its flow, unless the window
         guard is relieving a BHP over the window."""
         if shut:
-            command[1] = float(np.clip(trip.choke_flow_m3s, self.lower[1], self.upper[1]))
+            command[U_CHOKE] = float(np.clip(trip.choke_flow_m3s, self.lower[U_CHOKE], self.upper[U_CHOKE]))
             clamps.append(Notice("pump_trip_response", trip.reason))
-        floor = min(trip.bpp_flow_min_m3s, self.upper[2])
-        if guard <= 0 and command[2] < floor:
-            clamps.append(Notice("pump_trip_floor", f"{INPUTS[2]} {command[2]:.6g} -> {floor:.6g} "
+        floor = min(trip.bpp_flow_min_m3s, self.upper[U_BPP_FLOW])
+        if guard <= 0 and command[U_BPP_FLOW] < floor:
+            clamps.append(Notice("pump_trip_floor",
+                                 f"{COMMAND_NAMES[U_BPP_FLOW]} {command[U_BPP_FLOW]:.6g} -> {floor:.6g} "
                                  f"({trip.reason}: the back-pressure pump gives the choke a "
                                  "flow)", floor))
-            command[2] = floor
+            command[U_BPP_FLOW] = floor
 
     def _drive_back(self, guard: int, command: np.ndarray, surface_flows,
                     circulation_m3s: float) -> None:
@@ -362,8 +364,8 @@ class ProcessProtection:
         start = max(now[0], flowing_in) if guard > 0 else min(now[0], flowing_in)
         choke = start + guard * self.slew[1]
         pump = now[1] - guard * self.slew[2]
-        command[1] = max(command[1], choke) if guard > 0 else min(command[1], choke)
-        command[2] = min(command[2], pump) if guard > 0 else max(command[2], pump)
+        command[U_CHOKE] = max(command[U_CHOKE], choke) if guard > 0 else min(command[U_CHOKE], choke)
+        command[U_BPP_FLOW] = min(command[U_BPP_FLOW], pump) if guard > 0 else max(command[U_BPP_FLOW], pump)
         command[1:3] = np.clip(command[1:3], self.lower[1:3], self.upper[1:3])
 
     def _window_guard(self, bhp_pa: float, clamps: list[Notice],

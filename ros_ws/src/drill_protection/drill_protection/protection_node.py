@@ -30,6 +30,7 @@ from std_msgs.msg import Bool, String
 
 from drill_core.automation import AUTOMATION_LEVELS
 from drill_core.event_codes import Notice
+from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.operator_actions import OperatorScript
 from drill_core.units import PA_PER_BAR
 from drill_core.ros import topics
@@ -169,9 +170,10 @@ class ProtectionNode(RigNode):
         decision = self.tick.limit(request, m, stamp, self._operator_speed_limit(request))
         manual = decision.manual_choke_opening
         dp_setpoint = decision.choke_dp_setpoint
-        out = RigCommand(block_position_ref_m=float(decision.command[0]),
-                         choke_flow_ref_m3s=float(decision.command[1]),
-                         bpp_flow_m3s=float(decision.command[2]), spp_pa=float(decision.command[3]),
+        out = RigCommand(block_position_ref_m=float(decision.command[U_BLOCK]),
+                         choke_flow_ref_m3s=float(decision.command[U_CHOKE]),
+                         bpp_flow_m3s=float(decision.command[U_BPP_FLOW]),
+                         spp_pa=float(decision.command[U_PUMP_PRESSURE]),
                          mud_pump_on=request.mud_pump_on, choke_manual=manual is not None,
                          choke_opening_ref=float(manual) if manual is not None else 0.0,
                          choke_pressure_control=dp_setpoint is not None,

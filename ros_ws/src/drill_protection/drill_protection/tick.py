@@ -12,6 +12,7 @@ import numpy as np
 from drill_core.config import RigConfig
 from drill_core.event_codes import Notice
 from drill_core.hydraulics import WellModel
+from drill_core.input_layout import U_PUMP_PRESSURE
 from drill_protection.protection import Decision, ProcessProtection
 from drill_protection.watch import MeasurementWatch
 
@@ -30,7 +31,7 @@ class ProtectionTick:
         ``op`` (drill_core.operating_point): the block at 0, the operating point's choke flow
         and stand-pipe pressure, the initial bpp flow."""
         start = np.array([0.0, float(op.choke_flow_m3s), float(initial.bpp_flow_m3s),
-                          float(op.inputs[3])])
+                          float(op.inputs[U_PUMP_PRESSURE])])
         self.protection = ProcessProtection(config, wm, start)
         self.watch = MeasurementWatch(config, wm, self.protection)
 
