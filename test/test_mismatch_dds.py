@@ -7,12 +7,11 @@ better than the PI baseline on the same plant."""
 import json
 import threading
 
-import numpy as np
 import pytest
 import yaml
 from rig_testing import spinning_node
 
-from drill_bringup import cli, mcap_io, report
+from drill_bringup import cli, mcap_io
 from drill_core.mismatch import read_truth_file, resolve
 from drill_core.ros import graph as graph_decl
 from drill_core.ros import topics

@@ -68,6 +68,7 @@ from drill_bringup.split_run import split_options
 from drill_core.access import require_security_beyond_loopback
 from drill_core.config import ConfigError
 from drill_core.ros.graph import CONTROLLERS, HOST_GROUPS, LAYOUTS, SelectionError
+from drill_core.units import PA_PER_BAR
 
 
 # --foxglove / --opcua without a value: the gateway's own default (not a str: argparse would
@@ -244,8 +245,9 @@ def main(argv=None) -> int:
         if args.command == "reestimate":
             from drill_bringup.reestimate import reestimate
             result = reestimate(args.run_dir, args.config_dir, args.rate, launcher.default_domain_id())
-            print(f"[rig] BHP estimate RMSE: recorded {result['recorded_bhp_estimate_rmse_pa'] / 1e5:.3f} bar, "
-                  f"re-run {result['new_bhp_estimate_rmse_pa'] / 1e5:.3f} bar "
+            recorded = result["recorded_bhp_estimate_rmse_pa"] / PA_PER_BAR
+            print(f"[rig] BHP estimate RMSE: recorded {recorded:.3f} bar, "
+                  f"re-run {result['new_bhp_estimate_rmse_pa'] / PA_PER_BAR:.3f} bar "
                   f"({result['estimates']} estimates for {result['measurements']} measurements); "
                   f"{result['mcap']}")
             return 0

@@ -61,7 +61,6 @@ from __future__ import annotations
 
 import errno
 import json
-import os
 import sys
 import threading
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -80,6 +79,7 @@ from drill_core import access
 from drill_core.access import SecurityDir
 from drill_core.config import load_rig
 from drill_core.event_codes import Notice
+from drill_core.rig_root import config_dir as default_config_dir
 from drill_core.ros import graph, topics
 from drill_core.ros.events import event_message
 from drill_core.ros.node import RigNode
@@ -255,8 +255,7 @@ class OperatorLink:
 class ConsoleNode(RigNode):
     def __init__(self, **node_options):
         super().__init__("console", **node_options)
-        root = Path(os.environ.get("RIG_ROOT", Path.cwd()))
-        config_dir = self.declare_parameter("config_dir", str(root / "config")).value
+        config_dir = self.declare_parameter("config_dir", str(default_config_dir())).value
         scenario = self.declare_parameter("scenario", "").value
         self.mode = self.declare_parameter("mode", "realtime").value
         port = int(self.declare_parameter("port", 8080).value)

@@ -114,12 +114,10 @@ class Session:
 
     @staticmethod
     def _window(config_dir):
-        from pathlib import Path
-
         from drill_core.config import load_rig
-        root = Path(os.environ.get("RIG_ROOT", Path.cwd()))
+        from drill_core.rig_root import config_dir as default_config_dir
         try:
-            return cs.Window.from_config(load_rig(config_dir or root / "config"))
+            return cs.Window.from_config(load_rig(config_dir or default_config_dir()))
         except Exception:                      # watch still works without the window
             return cs.Window(float("nan"), float("nan"))
 

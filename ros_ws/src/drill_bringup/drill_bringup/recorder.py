@@ -2,7 +2,6 @@
 
 Run: python -m drill_bringup.recorder --ros-args -p output:=/path/run.mcap
 """
-import os
 import re
 import signal
 import sys

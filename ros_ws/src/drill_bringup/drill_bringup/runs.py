@@ -13,13 +13,14 @@ from pathlib import Path
 import yaml
 
 from drill_bringup import launcher, report
+from drill_core.rig_root import rig_root
 from drill_core.ros import graph as graph_decl
 from drill_core.config import ConfigError
 from drill_core.mismatch import resolve, truth_config, write_truth_file
 from drill_core.scenario import (load_scenario, load_scenario_config, scenario_kind,
                                  scenario_truth, without_truth)
 
-ROOT = Path(os.environ.get("RIG_ROOT", Path.cwd()))
+ROOT = rig_root()
 
 
 RUN_SOURCES = ("ros_ws/src", "config", "scripts", "requirements.lock")   # what makes a run

@@ -1,5 +1,4 @@
 """The report's well-control figures from a synthetic recording's series."""
-import numpy as np
 
 from drill_bringup import well_control_report as wc
 from drill_bringup.report import RecordedEvent, Series

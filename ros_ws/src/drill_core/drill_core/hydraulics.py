@@ -57,6 +57,13 @@ def choke_opening_for_flow(wm: WellModel, flow_m3s: float, dp_pa: float) -> floa
     return flow_m3s / choke_flow(wm, 1.0, dp_pa)
 
 
+def bit_pressure_drop(string_pressure_pa, bhp_pa, rho_g, position_m):
+    """p_I - (p_n - rho g x_s): the string's bottom pressure over the annulus at the bit
+    [Pa]; the bit rises with the string, x_s above the BHP node (rho_g: mud density times
+    g [Pa/m])."""
+    return string_pressure_pa - (bhp_pa - rho_g * position_m)
+
+
 def bit_flow(xp, wm: WellModel, dp_pa):
     """Flow through check valve + BHA: 0 if dp <= 0, else root of dp = K_b q + rho/2 (q/K_v)^2."""
     w = wm.well
@@ -132,15 +139,17 @@ def hydraulic_rates(xp, wm: WellModel, pressures, flows, string_flow_m3s, string
     ``density_offset_kgm3`` is added to the mud's density in the hydrostatic columns (the
     estimation model's density offset state) and the string's friction is scaled by
     ``string_friction_factor`` (its string friction factor state) and the mud's bulk
-    modulus, annulus and string, by ``bulk_modulus_factor`` (its compressibility state). The bit rises with the string, so the string
-    column is D_bit - x_s high and the annulus pressure at the bit is p_n - rho g x_s.
+    modulus, annulus and string, by ``bulk_modulus_factor`` (its compressibility state).
+    The bit rises with the string, so the string column is D_bit - x_s high and the
+    annulus pressure at the bit is p_n - rho g x_s (:func:`bit_pressure_drop`).
     """
     w, g = wm.well, wm.geometry
     n = g.n
     beta = w.mud.bulk_modulus_pa * bulk_modulus_factor
     rho_g = (w.mud.density_kgm3 + density_offset_kgm3) * w.gravity_mps2
     v_s = velocity_mps
-    q_bit = bit_flow(xp, wm, string_pressure_pa - (pressures[n - 1] - rho_g * position_m))
+    q_bit = bit_flow(xp, wm, bit_pressure_drop(string_pressure_pa, pressures[n - 1], rho_g,
+                                               position_m))
 
     inflow_from_below = list(flows) + [q_bit]     # into volume i from i+1 (bit for volume n)
     outflow_above = [choke_flow_m3s - bpp_flow_m3s] + list(flows)  # out of volume i upward

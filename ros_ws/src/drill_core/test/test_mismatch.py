@@ -1,7 +1,6 @@
 """Plant-model mismatch (drill_core.mismatch): the suite, what a mismatch changes, the
 seeded draws, the washed-out hole and a scenario's truth section."""
 import dataclasses
-import math
 from pathlib import Path
 
 import numpy as np

@@ -14,15 +14,16 @@ import json
 import os
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, load_rig, replace
+from drill_core.rig_root import config_dir as default_config_dir
+from drill_core.units import LPM_PER_M3S
 from drill_estimator.ukf import RigUkf
 
-CIRCULATION = 1000.0 / 60000.0      # 1000 L/min
+CIRCULATION = 1000.0 / LPM_PER_M3S      # 1000 L/min
 CHOKE_DP = 2.0e6                    # 20 bar
 
 
@@ -31,15 +32,11 @@ def split_segments(lengths, parts: int) -> tuple[float, ...]:
     return tuple(length / parts for length in lengths for _ in range(parts))
 
 
-def _default_config_dir() -> Path:
-    return Path(os.environ.get("RIG_ROOT", Path.cwd())) / "config"
-
-
 def _started_filter(config: RigConfig, jit: bool | None = None) -> tuple[RigUkf, np.ndarray, np.ndarray]:
     ukf = RigUkf(config, jit=jit)
     em, g, w = ukf.em, ukf.em.wm.geometry, ukf.em.wm.well
     rho_g = w.mud.density_kgm3 * w.gravity_mps2
-    friction = 28.0e5 * CIRCULATION ** 2 / (1000.0 / 60000.0) ** 2   # about the reference well's
+    friction = 28.0e5 * CIRCULATION ** 2 / (1000.0 / LPM_PER_M3S) ** 2   # about the reference well's
     y = np.array([0.0, CHOKE_DP, w.choke_downstream_pressure_pa + CHOKE_DP + rho_g * g.node_depth_m[-1]
                   + friction, CIRCULATION])
     x0 = ukf.initial_state(y, True)
@@ -84,7 +81,7 @@ def run_benchmark(config_dir: str | os.PathLike | None = None, repetitions: int 
     ``jit`` None follows config/estimator.yaml; True compiles the time update
     (drill_core.compiled: needs a C compiler, about a
     second once per configuration, cached)."""
-    config = load_rig(config_dir or _default_config_dir())
+    config = load_rig(config_dir or default_config_dir())
     out: dict[str, float] = {}
     for parts, tag in ((1, "n4"), (2, "n8")):
         cfg = config

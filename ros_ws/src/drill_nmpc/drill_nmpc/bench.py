@@ -21,7 +21,6 @@ import math
 import os
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -30,7 +29,9 @@ from drill_core.config import RigConfig, load_rig
 from drill_core.estimation_model import EstimationModel, fitted_friction_parameters
 from drill_core.input_layout import U_CHOKE
 from drill_core.operating_point import initial_operating_point
+from drill_core.rig_root import config_dir as default_config_dir
 from drill_core.scenario import ActiveSetpoints, Initial
+from drill_core.units import LPM_PER_M3S
 from drill_nmpc.inputs import choke_input, choke_time_constant
 from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
                                          full_state, nmpc_estimation_model, outputs)
@@ -38,10 +39,6 @@ from drill_nmpc.supervisor import Supervisor
 
 PAPER_SOLVE_TIME_S = 16.4          # Tengesdal & Holden 2020, sec. 6.3.4 (MATLAB fmincon, NMPC0)
 TRIP_DISTANCE_M = 28.0
-
-
-def default_config_dir() -> Path:
-    return Path(os.environ.get("RIG_ROOT", Path(__file__).resolve().parents[4])) / "config"
 
 
 def steady_estimate(em: EstimationModel, initial: Initial) -> tuple[np.ndarray, np.ndarray]:
@@ -156,7 +153,7 @@ def closed_loop(config: RigConfig, configuration: str, samples: int, *, out_at: 
                 initial: Initial | None = None, measured_actuators: bool = True,
                 dp_band_upper_pa: float = 0.0) -> tuple[LoopLog, Supervisor]:
     """Run ``samples`` supervisor steps on the model plant (perfect state feedback)."""
-    initial = initial or Initial(circulation_m3s=1000.0 / 60000.0, choke_dp_pa=2.0e6,
+    initial = initial or Initial(circulation_m3s=1000.0 / LPM_PER_M3S, choke_dp_pa=2.0e6,
                                  bpp_flow_m3s=0.0)
     em = nmpc_estimation_model(config, configuration)
     x0, u = steady_estimate(em, initial)

@@ -311,7 +311,8 @@ def string_pressure_margin(em: EstimationModel, x):
     """p_I - (p_n - rho g z1) - K_b q_d: string pressure above annulus-at-bit + BHA loss [Pa]."""
     w = em.wm.well
     rho_g = w.mud.density_kgm3 * w.gravity_mps2
-    return (x[em.string_pressure] - (x[em.pressure(em.n)] - rho_g * x[em.position])
+    return (hy.bit_pressure_drop(x[em.string_pressure], x[em.pressure(em.n)], rho_g,
+                                 x[em.position])
             - w.bha_loss_coefficient_pa_s_m3 * x[em.string_flow])
 
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from drill_core.event_codes import Notice
 from drill_core.input_layout import U_BLOCK
 from drill_core.scenario import SETPOINT_FIELDS, ActiveSetpoints, Scenario
+from drill_core.units import PA_PER_BAR
 from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
 
 
@@ -93,8 +94,8 @@ def within_speed_limits(sp: ActiveSetpoints, limits_mps: tuple[float, float],
 
 def describe(sp: ActiveSetpoints) -> str:
     """The setpoints as an operator reads them (bar, m, m/s)."""
-    return (f"BHP {sp.bhp_ref_pa / 1e5:.2f} +- {sp.bhp_band_pa / 1e5:.2f} bar, choke dp "
-            f"{sp.choke_dp_ref_pa / 1e5:.2f} +- {sp.choke_dp_band_pa / 1e5:.2f} bar, block target "
+    return (f"BHP {sp.bhp_ref_pa / PA_PER_BAR:.2f} +- {sp.bhp_band_pa / PA_PER_BAR:.2f} bar, choke dp "
+            f"{sp.choke_dp_ref_pa / PA_PER_BAR:.2f} +- {sp.choke_dp_band_pa / PA_PER_BAR:.2f} bar, block target "
             f"{sp.block_position_target_m:g} m, trip speed <= {sp.trip_speed_limit_mps:g} m/s, "
             f"controller {'on' if sp.controller_enabled else 'off (manual)'}, mud pump "
             f"{'on' if sp.mud_pump_on else 'off'}")
@@ -138,7 +139,7 @@ class SetpointBook:
         candidate = dataclasses.replace(self.active, bhp_ref_pa=float(bhp_ref_pa),
                                         bhp_band_pa=band, choke_dp_ref_pa=dp_ref)
         ok, reason = validate_setpoints(candidate, self.envelope)
-        window = f"window {low / 1e5:.1f}-{high / 1e5:.1f} bar"
+        window = f"window {low / PA_PER_BAR:.1f}-{high / PA_PER_BAR:.1f} bar"
         if not ok:
             return [Event(Notice("well_control_refused", f"protection: well-control target "
                                                          f"refused ({window}): {reason}"))]

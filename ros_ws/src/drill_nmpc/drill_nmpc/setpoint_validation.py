@@ -18,12 +18,13 @@ import math
 from dataclasses import dataclass
 
 from drill_core.config import RigConfig
+from drill_core.units import PA_PER_BAR
 from drill_core.well import WellGeometry
 from drill_core.scenario import SETPOINT_NUMERIC_FIELDS
 
 
 def _bar(pa: float) -> str:
-    return f"{pa:.6g} Pa ({pa / 1e5:.2f} bar)"
+    return f"{pa:.6g} Pa ({pa / PA_PER_BAR:.2f} bar)"
 
 
 @dataclass(frozen=True)

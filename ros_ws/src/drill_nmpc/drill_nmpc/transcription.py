@@ -335,7 +335,6 @@ class NmpcProblem:
         """Variable and row bounds: hard input limits (the block reference also within
         ``block_range``), slew, the soft constraints' band edges (SI) and the constraints
         dropped (relaxed retry; no circulation)."""
-        cfg = self.cfg
         lbz = np.full(self.nz, -_INF)
         ubz = np.full(self.nz, _INF)
         lo = self.inputs["min"].copy()

@@ -68,7 +68,7 @@ def test_one_nan_sample_holds_the_choke_and_does_not_poison_its_controller(setup
     clean, hit = Choke(config, wm, 0.4), Choke(config, wm, 0.4)
     flow_ref = float(hy.choke_flow(wm, 0.45, DP_PA))
     for k in range(30):
-        a = clean.frame(flow_ref, DP_PA, STEP_S, STEPS)
+        clean.frame(flow_ref, DP_PA, STEP_S, STEPS)
         b = hit.frame(flow_ref, math.nan if k == 10 else DP_PA, STEP_S, STEPS)
         assert np.all(np.isfinite(b.output))
         if k == 10:

@@ -174,7 +174,7 @@ class ProcessProtection:
             if ok.all():
                 return float(cap), f"{cap_reason} {cap:.2f} m/s"
             speed = float(grid[max(int(np.argmin(ok)) - 1, 0)])
-            return speed, (f"{word} model keeps BHP inside {low / 1e5:.1f}-{high / 1e5:.1f} bar "
+            return speed, (f"{word} model keeps BHP inside {low / PA_PER_BAR:.1f}-{high / PA_PER_BAR:.1f} bar "
                            f"only up to {speed:.2f} m/s")
 
         down, up = allowed(surge, static_bhp, "surge"), allowed(swab, static_bhp, "swab")

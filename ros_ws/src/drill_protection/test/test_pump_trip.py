@@ -4,7 +4,6 @@ held shut once while the BHP without friction is under the window, within the fr
 limit; and how the limiter applies it."""
 from pathlib import Path
 
-import math
 
 import numpy as np
 import pytest

@@ -1,14 +1,13 @@
 """Parameters every rig node takes: config_dir, scenario, mode (fast | realtime)."""
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
-from pathlib import Path
 
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
 from drill_core.mismatch import read_truth_file, truth_config
 from drill_core.operating_point import OperatingPoint, initial_operating_point
+from drill_core.rig_root import rig_root
 from drill_core.scenario import Scenario, load_scenario_config
 
 MODES = ("fast", "realtime")
@@ -27,15 +26,10 @@ class NodeContext:
         return self.mode == "fast"
 
 
-def default_root() -> Path:
-    """The repository: RIG_ROOT, else the working directory."""
-    return Path(os.environ.get("RIG_ROOT", Path.cwd()))
-
-
 def common_parameters(node, default_scenario: str) -> tuple[str, str, str]:
     """Declare and read the parameters every node of a run gets: (config_dir, scenario
     path, mode), the scenario by default config/scenarios/<default_scenario>.yaml."""
-    root = default_root()
+    root = rig_root()
     config_dir = node.declare_parameter("config_dir", str(root / "config")).value
     scenario_path = node.declare_parameter(
         "scenario", str(root / "config" / "scenarios" / f"{default_scenario}.yaml")).value
