@@ -40,14 +40,15 @@ PLOT_FILE = "sweep.png"
 # Display edge: a figure's SI key suffix -> (unit shown, factor from SI); solve times in ms.
 SUFFIXES = (("_pa", "bar", 1.0 / PA_PER_BAR), ("_m3s", "L/min", LPM_PER_M3S),
             ("_share", "%", 100.0), ("_mps", "m/s", 1.0), ("_s", "s", 1.0), ("_m", "m", 1.0))
-LABELS = {"bhp_rmse_pa": "BHP RMSE", "bhp_time_outside_s": "outside band",
+LABELS = {"bhp_rmse_pa": "BHP RMSE", "bhp_rmse_settled_pa": "BHP RMSE, settled",
+          "bhp_time_outside_s": "outside band",
           "bhp_time_outside_settled_s": "outside band, settled",
           "bhp_worst_excursion_pa": "worst excursion", "leg_out_s": "leg out",
           "leg_in_s": "leg in", "max_string_speed_mps": "max string speed",
           "trip_overshoot_m": "past target", "bhp_estimate_rmse_pa": "BHP estimate RMSE",
           "fallback_share": "fallbacks / solves", "fallbacks": "fallbacks",
           "solve_median_s": "solve median", "solve_p99_s": "solve p99",
-          "solve_max_s": "solve max"}
+          "solve_max_s": "solve max", "false_alarms": "false alarms"}
 
 
 def display(key: str) -> tuple[str, float]:
@@ -61,8 +62,29 @@ def display(key: str) -> tuple[str, float]:
 
 
 def run_figures(summary: dict) -> dict:
-    """The figures a sweep aggregates: compare's, and the fallback count."""
-    return {**compare.figures(summary), "fallbacks": summary.get("fallbacks")}
+    """The figures a sweep aggregates: compare's, the fallback count and the protection's
+    false alarms (every alarm of a run without formation flow)."""
+    return {**compare.figures(summary), "fallbacks": summary.get("fallbacks"),
+            "false_alarms": compare.false_alarms(summary)}
+
+
+def command(index: dict) -> str:
+    """The command that makes (and, run again, re-renders) this sweep."""
+    parts = ["scripts/rig sweep", Path(index["scenario_file"]).stem,
+             f"--seeds {len(index['seeds'])}", f"--first-seed {index['seeds'][0]}",
+             "--controller " + " ".join(index["controllers"])]
+    if index.get("mismatch_draws"):
+        parts.append(f"--mismatch-draws {index['mismatch_draws']}")
+    parts += [f"--set {key}={value}" for key, value in _flat(index["overrides"])]
+    return " ".join(parts)
+
+
+def _flat(tree: dict, prefix: str = ""):
+    for key, value in tree.items():
+        if isinstance(value, dict):
+            yield from _flat(value, f"{prefix}{key}.")
+        else:
+            yield f"{prefix}{key}", value
 
 
 def sweep_scenario(source: Path, sets, output: Path) -> Path:
@@ -149,8 +171,9 @@ def _cell(stat: dict, factor: float) -> str:
     return text + (f", {stat['missing']} none" if stat["missing"] else "")
 
 
-def markdown(index: dict, stats: dict) -> str:
-    """The sweep's table: a row per figure, a column per controller."""
+def markdown(index: dict, stats: dict, workers: int = 1, picture: str | None = None) -> str:
+    """The sweep's page: a row per figure, a column per controller, the plot and the
+    command that made it."""
     controllers = list(stats)
     rows = index["runs"]
     failed = [r for r in rows if not r["ok"]]
@@ -163,7 +186,10 @@ def markdown(index: dict, stats: dict) -> str:
              f"{json.dumps(index['overrides']) if index['overrides'] else 'none'}; "
              f"{len(rows) - len(failed)} of {len(rows)} runs finished. Each cell: mean ± "
              "standard deviation over the seeds (worst); *none*: runs without the figure "
-             "(a trip leg not reached).", "",
+             "(a trip leg not reached). "
+             + (f"{workers} runs at a time shared the cores: the solve times are inflated."
+                if workers > 1 else "One run at a time: the solve times are this machine's."),
+             "",
              "| figure | " + " | ".join(controllers) + " |",
              "| --- |" + " --- |" * len(controllers)]
     keys = list(next(iter(stats.values()))) if stats else []
@@ -175,6 +201,10 @@ def markdown(index: dict, stats: dict) -> str:
         lines += ["", "Failed runs:", ""] + [f"- {r['controller']} seed {r['seed']}"
                                             f"{' ' + r['mismatch'] if r.get('mismatch') else ''}: "
                                             f"{first_line(r['message'])}" for r in failed]
+    if picture:
+        lines += ["", f"![Each figure per controller: box over the runs, one dot per run]"
+                      f"({picture})"]
+    lines += ["", f"Command: `{command(index)}`"]
     return "\n".join(lines) + "\n"
 
 
@@ -251,9 +281,10 @@ def sweep(case: str, seeds: int, first_seed: int | None = None, controllers=(), 
     ordered = [rows[s] for s in specs]
     index = write_index(output, settings, ordered)
     stats = aggregate(ordered)
-    (output / TABLE_FILE).write_text(markdown(index, stats))
     picture = plot(ordered, output / PLOT_FILE)
-    say(markdown(index, stats))
+    page = markdown(index, stats, workers, picture.name if picture else None)
+    (output / TABLE_FILE).write_text(page)
+    say(page)
     say(f"[sweep] wrote {output / TABLE_FILE}" + (f", {picture}" if picture else ""))
     return 0 if all(r["ok"] for r in ordered) else 1
 

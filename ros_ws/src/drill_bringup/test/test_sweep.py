@@ -115,7 +115,8 @@ def test_aggregation_gives_mean_spread_and_worst_per_controller():
     rows = [_row("nmpc", 1, summary(0.2, solves=600, fallbacks=0)),
             _row("nmpc", 2, summary(0.4, legs=(33.0, None), solves=600, fallbacks=6)),
             _row("nmpc", 3, None, ok=False),
-            _row("baseline", 1, summary(1.0)), _row("baseline", 2, summary(2.0))]
+            _row("baseline", 1, summary(1.0)),
+            _row("baseline", 2, {**summary(2.0), "detection": {"kick": {"false_alarms": 3}}})]
     stats = sweep.aggregate(rows)
     rmse = stats["nmpc"]["bhp_rmse_pa"]
     assert rmse["mean"] == pytest.approx(0.3e5) and rmse["std"] == pytest.approx(0.1e5)
@@ -124,14 +125,20 @@ def test_aggregation_gives_mean_spread_and_worst_per_controller():
                                          "missing": 1}
     assert stats["nmpc"]["fallback_share"]["worst"] == pytest.approx(0.01)
     assert stats["baseline"]["fallbacks"]["missing"] == 2
-    text = sweep.markdown({"scenario": "case2", "seeds": [1, 2, 3], "overrides": {},
-                           "runs": rows}, stats)
+    index = {"scenario": "case2", "scenario_file": "/c/config/scenarios/case2.yaml",
+             "seeds": [1, 2, 3], "overrides": {"nmpc": {"bhp_bias_gain": 0}},
+             "controllers": ["nmpc", "baseline"], "mismatch_draws": 4, "runs": rows}
+    text = sweep.markdown(index, stats, workers=2, picture="sweep.png")
     assert "| figure | nmpc | baseline |" in text
     assert "| BHP RMSE [bar] | 0.300 ± 0.100 (worst 0.400) | 1.500 ± 0.500 (worst 2.000) |" in text
     assert "| leg in [s] | 31.0 ± 0.0 (worst 31.0), 1 none |" in text
     assert "| fallbacks / solves [%] | 0.500 ± 0.500 (worst 1.000) |" in text
     assert "| solve p99 [ms] | 20.0 ± 0.0 (worst 20.0) |" in text
     assert "4 of 5 runs finished" in text and "- nmpc seed 3:" in text
+    assert "| false alarms [1] | 0.000 ± 0.000 (worst 0.000) | 1.500 ± 1.500 (worst 3.000) |" in text
+    assert "2 runs at a time shared the cores" in text and "](sweep.png)" in text
+    assert ("Command: `scripts/rig sweep case2 --seeds 3 --first-seed 1 --controller nmpc "
+            "baseline --mismatch-draws 4 --set nmpc.bhp_bias_gain=0`") in text
 
 
 def test_display_units_follow_the_key_suffix():

@@ -23,6 +23,7 @@ from drill_core.config import RigConfig
 from drill_core.estimation_model import EstimationModel, build_estimation_model, drift, measurement
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE, U_SIZE
 from drill_core.integrators import euler_step, rk4_step
+from drill_core.state_layout import StateLayout
 
 OUTPUT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa")
 
@@ -80,6 +81,28 @@ class ActuatorLags:
 
 
 ACTUATOR_KEYS = ("block_m", "bpp_flow_m3s", "spp_pa")    # measured actuator outputs
+# The lagged actuator outputs' state names, in the prediction state's order after the
+# estimation model's evolving states, and the lag each needs.
+LAGGED_OUTPUTS = (("drawworks_output_m", "drawworks_s"), ("bpp_flow_output_m3s", "bpp_s"),
+                  ("spp_output_pa", "pump_s"))
+
+
+class PredictionLayout(StateLayout):
+    """The prediction state's names: the estimation model's states before theta_2, then
+    the actuator outputs whose lag is modelled."""
+
+    def __init__(self, em: EstimationModel, lags: ActuatorLags):
+        self.model_size = em.theta(2)
+        self._names = (*em.names[:self.model_size],
+                       *(name for name, lag in LAGGED_OUTPUTS if getattr(lags, lag)))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self._names
+
+    def lagged(self, name: str) -> int | None:
+        """Index of a lagged actuator output, None where its lag is not modelled."""
+        return self.index(name) if name in self._names else None
 
 
 class PredictionModel:
@@ -109,16 +132,11 @@ class PredictionModel:
         self.lags = lags or ActuatorLags()
         self.table = table
         self.choke_time_constant_s = choke_time_constant_s
-        self.nd_model = em.theta(2)
-        index = self.nd_model
-        self.block = self.bpp = self.pump = None
-        if self.lags.drawworks_s:
-            self.block, index = index, index + 1
-        if self.lags.bpp_s:
-            self.bpp, index = index, index + 1
-        if self.lags.pump_s:
-            self.pump, index = index, index + 1
-        self.nd = index
+        self.layout = PredictionLayout(em, self.lags)
+        self.nd_model = self.layout.model_size
+        (self.block, self.bpp, self.pump) = (self.layout.lagged(name)
+                                             for name, _ in LAGGED_OUTPUTS)
+        self.nd = self.layout.size
         self.npar = em.size - self.nd_model
         g = em.wm.geometry
         self._stretch = g.static_stretch_m

@@ -102,7 +102,7 @@ class NmpcProblem:
         # reference speed per sample); it needs u_r two samples back in the stage state.
         self.accel = acceleration_limit_mps2
         self.nw = 1 if acceleration_limit_mps2 else 0
-        self.ns = self.nd + 4 + self.nw + self.ne   # stage state: x~, u~_{k-1}, u~_r,k-2, e
+        self.ns = self.nd + U_SIZE + self.nw + self.ne   # stage state: x~, u~_{k-1}, u~_r,k-2, e
         self.Sx = self.model.scale()
         self.inputs = input_arrays(cfg)
         self.Su = self.inputs["slew"]
