@@ -29,7 +29,7 @@ import pytest
 pytestmark = [pytest.mark.dds,
               pytest.mark.filterwarnings("ignore::DeprecationWarning:lark.utils")]
 
-HELPERS = Path(__file__).resolve().parent / "helpers"
+HELPERS = Path(__file__).resolve().parent / "processes"
 DOMAIN_PUBSUB = 71
 DOMAIN_SERVICE = 72
 TIMEOUT_S = 20.0           # each child gives up after this; the test waits a little longer

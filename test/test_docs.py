@@ -5,7 +5,9 @@ import re
 import subprocess
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from drill_core.rig_root import rig_root
+
+ROOT = rig_root()
 REFERENCE = re.compile(r"docs/([A-Za-z0-9_.-]+\.(?:md|png|json))(?:`?\s*§(\d+))?")
 
 

@@ -13,7 +13,9 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+from drill_core.rig_root import rig_root
+
+ROOT = rig_root()
 SETUP = ROOT / "scripts" / "setup"
 STAMPS = ROOT / ".venv" / ".rig-stamps"
 BUILD_LOG = ROOT / "ros_ws" / "colcon-build.log"

@@ -6,7 +6,7 @@ KeyboardInterrupt was thrown into whatever bytecode ran next; when that was the
 constructor of a message that rclpy's C++ take was converting, the take failed with
 pybind11's "Unable to convert call argument '0' to Python object" and the process exited
 with code 1 (a console or gateway node, now and then, at the end of a DDS test). The
-helper (test/helpers/stop_while_converting.py) sends itself SIGINT from inside that
+helper (test/processes/stop_while_converting.py) sends itself SIGINT from inside that
 constructor, under each executor, on ROS domain 55: exit code 0, no fatal line.
 """
 from __future__ import annotations
@@ -23,7 +23,7 @@ from drill_core.ros.executors import EXECUTOR_ENV, EXECUTORS
 pytestmark = [pytest.mark.dds,
               pytest.mark.filterwarnings("ignore::DeprecationWarning:lark.utils")]
 
-HELPER = Path(__file__).resolve().parent / "helpers" / "stop_while_converting.py"
+HELPER = Path(__file__).resolve().parent / "processes" / "stop_while_converting.py"
 DOMAIN_ID = 55
 TIMEOUT_S = 60.0          # start-up on a busy machine, the first message, the exit
 

@@ -1,12 +1,12 @@
 """The in-process closed loop (drill_bringup.loop_bench) that the ladder of docs/nmpc.md
 stands on: the truth plant, the actuator models, a state source and a controller (and the
 scenario's events and the process protection)."""
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from drill_bringup import loop_bench
+from drill_core.rig_root import rig_root
 
 
 @pytest.mark.slow
@@ -32,7 +32,7 @@ def test_nmpc_on_the_ukf_state_trips_and_holds_bhp():
 def test_a_pump_trip_in_process_meets_the_protections_answer():
     """The scenario's events act (the mud pump trips on its actuator) and the process
     protection is in the loop: it finds the lost circulation and BHP stays in the window."""
-    scenario = Path(__file__).resolve().parents[4] / "test" / "scenarios" / "pump_trip_short.yaml"
+    scenario = rig_root() / "test" / "scenarios" / "pump_trip_short.yaml"
     r = loop_bench.run(str(scenario), "nmpc", "ukf", protection=True)
     trace = r["trace"]
     assert [t for t, text in r["alarms"]] == [pytest.approx(8.1)]

@@ -15,9 +15,10 @@ import pytest
 import yaml
 
 from drill_core.config import ConfigError, RigConfig, load_rig
+from drill_core.rig_root import config_dir
 from drill_core.yaml_files import load_yaml
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 
 
 # ----------------------------------------------------------------------- helpers

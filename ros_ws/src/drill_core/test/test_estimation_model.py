@@ -4,8 +4,6 @@ quadratic law (paper eq. 46) unchanged, and both laws stable under RK4 at the NM
 UKF's steps over a 15 s horizon at rest and while tripping."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -14,8 +12,9 @@ from drill_core.config import ConfigError, load_rig, replace
 from drill_core.estimation_model import (annulus_friction, build_discrete_model,
                                          build_estimation_model, fitted_friction_parameters,
                                          friction_flow_gain_bound)
+from drill_core.rig_root import config_dir
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 LPM = 1.0 / 60000.0
 BAR = 1.0e5
 NMPC_STEP_S = 0.05          # 1 s sample / 20 RK4 steps (config/nmpc.yaml, checked below)

@@ -2,12 +2,12 @@
 category, every code's kind is one an OperatorEvent carries, and a Notice refuses a code
 outside the table."""
 import math
-from pathlib import Path
 
 import pytest
 
 from drill_core.event_codes import ENDED, EVENT_CODES, Notice, markdown_table, scenario_notice
 from drill_core.events import EVENT_KINDS, ScenarioEvent
+from drill_core.rig_root import rig_root
 
 KINDS = {"alarm", "clamp", "refusal", "mode", "emergency_stop", "setpoint", "acknowledge",
          "fault", "formation"}
@@ -39,5 +39,5 @@ def test_a_notice_with_a_code_outside_the_table_is_refused():
 
 
 def test_the_documented_table_is_the_declared_one():
-    doc = (Path(__file__).resolve().parents[4] / "docs" / "events.md").read_text(encoding="utf-8")
+    doc = (rig_root() / "docs" / "events.md").read_text(encoding="utf-8")
     assert markdown_table() in doc, "regenerate it: python -m drill_core.event_codes"

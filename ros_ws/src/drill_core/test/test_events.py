@@ -1,16 +1,16 @@
 """Scenario events: validated against their table, with errors that name the key."""
 import math
-from pathlib import Path
 
 import pytest
 import yaml
 
 from drill_core.config import ConfigError
 from drill_core.events import EVENT_KINDS, ScenarioEvent, of_owner
+from drill_core.rig_root import rig_root
 from drill_core.scenario import load_scenario
 from drill_core.schema import build
 
-ROOT = Path(__file__).resolve().parents[4]
+ROOT = rig_root()
 
 
 def event(**fields):

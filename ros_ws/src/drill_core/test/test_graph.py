@@ -1,12 +1,12 @@
 """The graph declaration: run node sets, the lockstep endpoints the plant waits for, and
 docs/architecture.md's topic table generated from it."""
-from pathlib import Path
 
 import pytest
 
+from drill_core.rig_root import rig_root
 from drill_core.ros import graph, topics
 
-ROOT = Path(__file__).resolve().parents[4]
+ROOT = rig_root()
 FRAMES = [topics.actuator_frame(n) for n in topics.ACTUATORS]
 
 

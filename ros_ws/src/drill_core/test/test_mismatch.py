@@ -1,7 +1,6 @@
 """Plant-model mismatch (drill_core.mismatch): the suite, what a mismatch changes, the
 seeded draws, the washed-out hole and a scenario's truth section."""
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,10 +8,11 @@ import pytest
 from drill_core.config import ConfigError, load_rig
 from drill_core.mismatch import (Mismatch, draw, load_suite, mismatch_from, read_truth_file,
                                  resolve, truth_config, write_truth_file)
+from drill_core.rig_root import config_dir
 from drill_core.scenario import load_scenario, scenario_truth, without_truth
 from drill_core.well import build_geometry, circle_area
 
-CONFIG = Path(__file__).resolve().parents[4] / "config"
+CONFIG = config_dir()
 
 
 @pytest.fixture(scope="module")

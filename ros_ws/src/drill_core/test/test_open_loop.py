@@ -11,9 +11,10 @@ import yaml
 
 from drill_core.config import ConfigError
 from drill_core.open_loop import OpenLoopPlan, start_command
+from drill_core.rig_root import rig_root
 from drill_core.scenario import ActiveSetpoints, Initial, SetpointChange, load_scenario, setpoints_at
 
-ROOT = Path(__file__).resolve().parents[4]
+ROOT = rig_root()
 LPM = 1.0 / 60000.0
 STILL = Initial(circulation_m3s=0.0, choke_dp_pa=0.0, bpp_flow_m3s=0.0)
 CIRCULATING = Initial(circulation_m3s=1000.0 * LPM, choke_dp_pa=2.0e6, bpp_flow_m3s=0.0)

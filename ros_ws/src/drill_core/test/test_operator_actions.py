@@ -1,16 +1,16 @@
 """A scenario's operator actions: validated with errors that name the key, read from the
 scenario file, and handed out once each when their time has come."""
-from pathlib import Path
 
 import pytest
 import yaml
 
 from drill_core.config import ConfigError
 from drill_core.operator_actions import OperatorAction, OperatorScript
+from drill_core.rig_root import rig_root
 from drill_core.scenario import load_scenario
 from drill_core.schema import build
 
-ROOT = Path(__file__).resolve().parents[4]
+ROOT = rig_root()
 
 
 def action(**fields):

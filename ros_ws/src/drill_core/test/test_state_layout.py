@@ -1,6 +1,5 @@
 """The named layouts hold the paper's state order (Paper I eqs. 45-48 for the estimation
 model; the truth plant without the block integral, plus its three volumes)."""
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,10 +8,11 @@ from drill_core.config import InputVector, load_rig
 from drill_core.estimation_model import build_estimation_model
 from drill_core.input_layout import (COMMAND_NAMES, U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE,
                                      U_SIZE)
+from drill_core.rig_root import config_dir
 from drill_msgs.msg import RigCommand
 from drill_plant.plant_model import PlantLayout
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 
 
 @pytest.mark.parametrize("n", [1, 3, 6])

@@ -1,7 +1,6 @@
 """The quasi-steady surge/swab model against the estimation model's own balances: at the
 flows and pressures it computes for a constant string speed, every mass and momentum
 balance of the shared drift is at rest."""
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,9 +8,10 @@ import pytest
 from drill_core.backend import NUMPY
 from drill_core.config import load_rig
 from drill_core.estimation_model import build_estimation_model, drift, path_friction
+from drill_core.rig_root import config_dir
 from drill_core.surge_swab import SurgeSwabModel
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 BIT_FLOW = 1000.0 / 60000.0          # 1000 L/min
 CHOKE_DP = 2.0e6
 

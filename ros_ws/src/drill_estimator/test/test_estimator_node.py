@@ -12,16 +12,17 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
+
+from drill_core.rig_root import config_dir
 
 pytestmark = [pytest.mark.dds,
               pytest.mark.filterwarnings("ignore::DeprecationWarning:lark.utils")]
 
 DOMAIN_ID = 83
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 SCENARIO = CONFIG_DIR / "scenarios" / "case2.yaml"
 FRAME_NS = 100_000_000
 CIRCULATION = 1000.0 / 60000.0

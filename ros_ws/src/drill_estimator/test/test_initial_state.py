@@ -1,6 +1,5 @@
 """The UKF's first state (drill_estimator.initial_state): a steady state of the model that
 puts the first BHP reading's departure from the report's profile on the parameters."""
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,11 +7,12 @@ import pytest
 from drill_core.backend import NUMPY
 from drill_core.config import load_rig
 from drill_core.estimation_model import build_estimation_model, drift
+from drill_core.rig_root import config_dir
 from drill_estimator.initial_state import initial_state
 from drill_estimator.model_inputs import ModelInputs
 from drill_estimator.ukf import RigUkf
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 CIRCULATION = 1000.0 / 60000.0      # 1000 L/min
 CHOKE_DP_PA = 20.0e5
 

@@ -1,5 +1,4 @@
 """The UKF's model inputs from actuator frames (drill_estimator.model_inputs)."""
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -9,10 +8,11 @@ from drill_core import hydraulics as hy
 from drill_core.backend import NUMPY
 from drill_core.config import load_rig
 from drill_core.estimation_model import build_estimation_model, drift
+from drill_core.rig_root import config_dir
 from drill_estimator.initial_state import initial_state
 from drill_estimator.model_inputs import ModelInputs
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 CIRCULATION = 1000.0 / 60000.0      # 1000 L/min
 
 

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -27,12 +26,13 @@ from scipy.stats import chi2
 from drill_core import hydraulics as hy
 from drill_core.block_control import block_command, integral_rate
 from drill_core.config import load_rig, replace
+from drill_core.rig_root import config_dir
 from drill_estimator.model_inputs import frame_inputs
 from drill_estimator.ukf import RigUkf
 from drill_plant.plant_model import (CLOSED_BOTTOM, PlantLayout, build_frame_function,
                                      held_parameters, steady_state, wiener_increments)
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 CIRCULATION = 1000.0 / 60000.0      # 1000 L/min
 LPM = 1.0 / 60000.0
 

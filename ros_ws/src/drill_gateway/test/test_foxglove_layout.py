@@ -3,12 +3,12 @@ the graph and a field of that topic's message type (an index only on an array fi
 and the panels the live view promises are there."""
 import json
 import re
-from pathlib import Path
 
 from drill_bringup import mcap_io
+from drill_core.rig_root import rig_root
 from drill_core.ros import graph, topics
 
-ROOT = Path(__file__).resolve().parents[4]
+ROOT = rig_root()
 LAYOUT = ROOT / "config" / "foxglove" / "rig-layout.json"
 PATH = re.compile(r"^(?P<topic>/[A-Za-z0-9_/]+?)(?:\.(?P<field>[a-z0-9_]+)(?P<index>\[\d+\])?)?$")
 

@@ -1,15 +1,15 @@
 """The OPC-UA name map: every name bound to a real field of its message, units by their
 UNECE codes, writable exactly where the console can write, the sources read from the
 topics the graph declares for the gateway, and the documented table."""
-from pathlib import Path
 
 from drill_bringup import console_state as cs
 from drill_bringup import mcap_io
+from drill_core.rig_root import rig_root
 from drill_core.ros import graph
 from drill_gateway import opcua_names as names
 from drill_gateway.opcua_node import source_topics
 
-ROOT = Path(__file__).resolve().parents[4]
+ROOT = rig_root()
 
 
 def test_every_variable_reads_an_existing_field_of_its_source():

@@ -1,20 +1,20 @@
 """Automated MPD core: the trip's motion profile and the model-based choke-dp set-point."""
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from drill_core.config import load_rig
 from drill_core.estimation_model import build_estimation_model
+from drill_core.rig_root import config_dir
 from drill_core.scenario import ActiveSetpoints
 from drill_core.surge_swab import SurgeSwabModel
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.motion_profile import MotionProfile
 from drill_nmpc.setpoint_book import HELD_TRIP_PLAN_SPEED_MPS, within_speed_limits
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 FLOW = 1000.0 / 60000.0
 
 

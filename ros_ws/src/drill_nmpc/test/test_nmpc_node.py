@@ -15,16 +15,17 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
+
+from drill_core.rig_root import config_dir
 
 pytestmark = [pytest.mark.dds,
               pytest.mark.filterwarnings("ignore::DeprecationWarning:lark.utils")]
 
 DOMAIN_ID = 86
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 SCENARIO = CONFIG_DIR / "scenarios" / "case2.yaml"
 SAMPLE_NS = 1_000_000_000
 TIMEOUT_S = 60.0

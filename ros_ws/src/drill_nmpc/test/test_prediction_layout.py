@@ -1,11 +1,11 @@
 """The NMPC's prediction state: the estimation model's evolving states in their order, then
 the actuator outputs whose lag is modelled, each found by name."""
-from pathlib import Path
 
 from drill_core.config import load_rig
+from drill_core.rig_root import config_dir
 from drill_nmpc.prediction_model import ActuatorLags, PredictionModel, nmpc_estimation_model
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 
 
 def test_the_lagged_outputs_follow_the_models_states_in_order():

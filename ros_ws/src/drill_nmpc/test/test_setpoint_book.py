@@ -3,16 +3,16 @@ resolved once, operator requests validated, the protection's narrowed window and
 well-control target followed; every change and refusal an event."""
 import dataclasses
 import math
-from pathlib import Path
 
 import pytest
 
+from drill_core.rig_root import rig_root
 from drill_core.scenario import SetpointChange, initial_setpoints, load_scenario_config
 from drill_core.hydraulics import build_well_model
 from drill_nmpc.setpoint_book import SetpointBook
 from drill_nmpc.setpoint_validation import Envelope
 
-ROOT = Path(__file__).resolve().parents[4]
+ROOT = rig_root()
 BHP_PA = 6.85e7
 
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -16,6 +15,7 @@ import pytest
 
 from drill_core.config import load_rig
 from drill_core.integrators import rk4_step
+from drill_core.rig_root import config_dir
 from drill_core.scenario import ActiveSetpoints, Initial
 from drill_nmpc.bench import (ModelPlant, closed_loop, steady_estimate, supervisor_input,
                               trip_setpoints)
@@ -27,7 +27,7 @@ from drill_nmpc.supervisor import Supervisor
 from drill_nmpc.transcription import GAP_TOLERANCE
 from drill_nmpc.setpoint_validation import Envelope, validate_setpoints
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 INITIAL = Initial(circulation_m3s=1000.0 / 60000.0, choke_dp_pa=2.0e6, bpp_flow_m3s=0.0)
 
 

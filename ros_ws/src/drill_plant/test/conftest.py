@@ -1,12 +1,12 @@
 """Fixtures shared by the plant's tests: the reference configuration and its well model."""
-from pathlib import Path
 
 import pytest
 
 from drill_core import hydraulics as hy
 from drill_core.config import load_rig
+from drill_core.rig_root import config_dir
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 
 
 @pytest.fixture(scope="session")

@@ -6,16 +6,16 @@ that sample is bad."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from drill_core import hydraulics as hy
 from drill_core.config import load_rig
+from drill_core.rig_root import config_dir
 from drill_plant.actuators import Choke
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 STEP_S, STEPS = 0.01, 10
 DP_PA = 5.0e5
 

@@ -4,18 +4,18 @@ opening in force without a kick, and a bad sample leaves its state as it was."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from drill_core import hydraulics as hy
 from drill_core.config import load_rig
+from drill_core.rig_root import config_dir
 from drill_plant.actuators import Choke
 from drill_plant.plant_model import steady_state
 from drill_plant.simulator import PlantSimulator
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 FLOW = 1000.0 / 60000.0
 
 

@@ -7,18 +7,18 @@ controller without a jump."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from drill_core import hydraulics as hy
 from drill_core.config import load_rig
+from drill_core.rig_root import config_dir
 from drill_plant.actuators import Choke, Drawworks, FirstOrderLag
 from drill_plant.plant_model import steady_state
 from drill_plant.simulator import PlantSimulator
 
-CONFIG_DIR = Path(__file__).resolve().parents[4] / "config"
+CONFIG_DIR = config_dir()
 FLOW = 1000.0 / 60000.0
 STOP_S = 40.0            # pulled out from 0 s, stopped here
 SPEED_MPS = 0.3          # the pull-out's speed

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from drill_core.config import KickDetection
+from drill_core.rig_root import config_dir
 from drill_protection.kick_detection import FlowSample, KickDetector
 
 CONFIG = KickDetection(window_s=10.0, pressure_average_s=1.0, flow_threshold_m3s=3.3e-4,
@@ -89,12 +90,10 @@ def test_bad_samples_are_counted_and_a_pump_stop_restarts_the_balance():
 
 
 def test_the_reference_wells_detector_splits_all_its_compliance_between_the_gauges():
-    from pathlib import Path
-
     from drill_core import hydraulics as hy
     from drill_core.config import load_rig
     from drill_protection.kick_detection import detector_for
-    cfg = load_rig(Path(__file__).resolve().parents[4] / "config")
+    cfg = load_rig(config_dir())
     wm = hy.build_well_model(cfg.well, 0.005, 1.0e4)
     g = wm.geometry
     detector = detector_for(cfg, g)

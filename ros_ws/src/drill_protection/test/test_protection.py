@@ -5,12 +5,11 @@ import pytest
 
 from drill_core import hydraulics as hy
 from drill_core.config import load_rig
+from drill_core.rig_root import config_dir
 from drill_protection.protection import ProcessProtection, surge_swab_pa
 from drill_protection.well_control import Hold
 
-from pathlib import Path
-
-CONFIG = Path(__file__).resolve().parents[4] / "config"
+CONFIG = config_dir()
 CIRCULATION = 1000.0 / 60000.0          # 1000 L/min
 
 

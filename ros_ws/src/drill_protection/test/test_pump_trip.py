@@ -2,7 +2,6 @@
 the command and the string-flow meter only, the back-pressure pump kept going, the choke
 held shut once while the BHP without friction is under the window, within the fracture
 limit; and how the limiter applies it."""
-from pathlib import Path
 
 
 import numpy as np
@@ -11,10 +10,11 @@ import pytest
 from drill_core import hydraulics as hy
 from drill_core.config import load_rig
 from drill_core.event_codes import Notice
+from drill_core.rig_root import config_dir
 from drill_protection.protection import ProcessProtection
 from drill_protection.pump_trip import PumpTripResponse, TripAction
 
-CONFIG = Path(__file__).resolve().parents[4] / "config"
+CONFIG = config_dir()
 SPP_PA = 1.06e7
 BHP_PA = 6.85e7
 PERIOD_S = 0.1

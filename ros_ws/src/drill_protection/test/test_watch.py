@@ -1,7 +1,6 @@
 """The protection's measurement watch (drill_protection.watch): the block velocity over
 the last second, a lost circulation raised once as an alarm and answered, the stop's BHP
 median fed from every measurement."""
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -9,10 +8,11 @@ import pytest
 
 from drill_core import hydraulics as hy
 from drill_core.config import load_rig
+from drill_core.rig_root import config_dir
 from drill_protection.protection import ProcessProtection
 from drill_protection.watch import MeasurementWatch
 
-CONFIG = Path(__file__).resolve().parents[4] / "config"
+CONFIG = config_dir()
 FRAME_NS = 100_000_000
 
 

@@ -2,17 +2,17 @@
 window's edge stepped from the BHP the well flowed at while the flow judged after each step
 says it still flows, a margin once it does not, never past the other edge's gap or the
 configured window; and the limiter holding BHP in the narrowed window."""
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from drill_core import hydraulics as hy
 from drill_core.config import WellControl, load_rig
+from drill_core.rig_root import config_dir
 from drill_protection.protection import ProcessProtection
 from drill_protection.well_control import Hold, WindowResponse
 
-CONFIG = Path(__file__).resolve().parents[4] / "config"
+CONFIG = config_dir()
 WINDOW_PA = (6.65e7, 7.05e7)
 THRESHOLD_M3S = 3.3e-4
 STEP = WellControl(step_pa=2.5e5, interval_s=15.0, settle_s=5.0, kick_margin_pa=1.0e5,

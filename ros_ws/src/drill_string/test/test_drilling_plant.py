@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from drill_core.rig_root import rig_root
 from drill_msgs.msg import DownholeMeasurement, DrillingTruth, SurfaceMeasurement
 
 from drill_core.config import ConfigError, Lag
@@ -18,7 +19,7 @@ from drill_string.plant import (DOWNHOLE_CHANNELS, SURFACE_CHANNELS, DrillingPla
 from drill_string.scenario import load_drilling_scenario
 from drill_string.simulate import DEFAULT_SCALED_STEP, TRAJECTORY_FIELDS
 
-ROOT = Path(__file__).resolve().parents[4]
+ROOT = rig_root()
 CONFIG = ROOT / "config"
 SCENARIOS = ROOT / "config" / "scenarios"
 LAG = Lag(time_constant_s=0.5, minimum=0.0, maximum=26.0, rate_limit_per_s=2.0)
