@@ -7,6 +7,7 @@ import pytest
 
 from drill_core.config import load_rig
 from drill_core.estimation_model import build_estimation_model
+from drill_core.operating_point import operating_point
 from drill_core.rig_root import config_dir
 from drill_core.scenario import ActiveSetpoints
 from drill_core.surge_swab import SurgeSwabModel
@@ -72,11 +73,13 @@ def _estimate(em, bhp_pa, position=0.0, velocity=0.0):
 
 
 def test_at_rest_the_set_point_is_the_steady_dp_of_the_reference(rig, em):
+    """At rest the set-point is the choke dp whose steady U-tube balance (the closed-form
+    operating point: each node its mud column and its path's friction) puts the BHP on the
+    reference."""
     mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
-    model = SurgeSwabModel(em)
-    steady = model.choke_dp_for_bhp(6.85e7, (1.0,) * 3, FLOW, 0.0, 0.0)
     c = mpd.step(_estimate(em, 6.85e7), _setpoints(), 6.85e7)
-    assert c.choke_dp_ref_pa == pytest.approx(steady)
+    balance = operating_point(em.wm, FLOW, c.choke_dp_ref_pa, 0.0)
+    assert balance.annulus_pressure_pa[-1] == pytest.approx(6.85e7, abs=0.01e5)
     assert c.choke_dp_ref_rate_pa_s == 0.0 and c.trim_pa == 0.0
     assert c.choke_flow_feedforward_m3s == pytest.approx(FLOW)
     assert (c.bpp_flow_m3s, c.spp_pa) == (0.0, 1.06e7)          # the pumps hold
