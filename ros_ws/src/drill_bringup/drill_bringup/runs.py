@@ -13,10 +13,10 @@ from pathlib import Path
 import yaml
 
 from drill_bringup import launcher, report
-from drill_core.rig_root import rig_root
-from drill_core.ros import graph as graph_decl
 from drill_core.config import ConfigError
 from drill_core.mismatch import resolve, truth_config, write_truth_file
+from drill_core.rig_root import rig_root
+from drill_core.ros import graph as graph_decl
 from drill_core.scenario import (load_scenario, load_scenario_config, scenario_kind,
                                  scenario_truth, without_truth)
 
@@ -60,7 +60,7 @@ def scenario_path(name: str) -> Path:
     candidate = ROOT / "config" / "scenarios" / f"{name}.yaml"
     if not candidate.exists():
         known = ", ".join(sorted(p.stem for p in (ROOT / "config" / "scenarios").glob("*.yaml")))
-        raise SystemExit(f"unknown scenario '{name}'; known: {known}")
+        raise ConfigError(f"unknown scenario '{name}'; known: {known}")
     return candidate
 
 
@@ -82,9 +82,9 @@ def _drilling_scenario(path: Path, realtime: bool, controller: str | None):
     before launch; it runs in fast mode, on its own node set."""
     from drill_string.scenario import load_drilling_scenario
     if realtime:
-        raise SystemExit(f"{path.name}: a drilling scenario runs in fast mode only")
+        raise ConfigError(f"{path.name}: a drilling scenario runs in fast mode only")
     if controller:
-        raise SystemExit(f"{path.name}: a drilling scenario has no --controller (its driller "
+        raise ConfigError(f"{path.name}: a drilling scenario has no --controller (its driller "
                          "follows the scenario's schedule)")
     return load_drilling_scenario(path, ROOT / "config")[0]
 
