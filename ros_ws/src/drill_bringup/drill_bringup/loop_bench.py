@@ -278,7 +278,8 @@ class Protection:
         self.applied_block_m = float(d.command[U_BLOCK])
         dp = d.choke_dp_setpoint
         c = d.command
-        return Command(float(c[0]), float(c[1]), float(c[2]), float(c[3]),
+        return Command(float(c[U_BLOCK]), float(c[U_CHOKE]), float(c[U_BPP_FLOW]),
+                       float(c[U_PUMP_PRESSURE]),
                        dp[0] if dp else math.nan, dp[1] if dp else 0.0, t, advised.mud_pump_on)
 
 

@@ -359,14 +359,15 @@ class ProcessProtection:
         once, so the annulus fills, instead of slewing down from a return flow that still
         drains it (a string come to rest, a pump winding down)."""
         measured = [float(v) for v in (surface_flows or (np.nan, np.nan))]
-        now = [m if np.isfinite(m) else self.previous[i] for i, m in zip((1, 2), measured)]
+        now = [m if np.isfinite(m) else self.previous[i] for i, m in zip((U_CHOKE, U_BPP_FLOW), measured)]
         flowing_in = now[1] + circulation_m3s
         start = max(now[0], flowing_in) if guard > 0 else min(now[0], flowing_in)
-        choke = start + guard * self.slew[1]
-        pump = now[1] - guard * self.slew[2]
+        choke = start + guard * self.slew[U_CHOKE]
+        pump = now[1] - guard * self.slew[U_BPP_FLOW]
         command[U_CHOKE] = max(command[U_CHOKE], choke) if guard > 0 else min(command[U_CHOKE], choke)
         command[U_BPP_FLOW] = min(command[U_BPP_FLOW], pump) if guard > 0 else max(command[U_BPP_FLOW], pump)
-        command[1:3] = np.clip(command[1:3], self.lower[1:3], self.upper[1:3])
+        flows = slice(U_CHOKE, U_BPP_FLOW + 1)      # the choke flow and the back-pressure pump's
+        command[flows] = np.clip(command[flows], self.lower[flows], self.upper[flows])
 
     def _window_guard(self, bhp_pa: float, clamps: list[Notice],
                       friction_free_bhp_pa: float = float("nan")) -> int:
