@@ -4,15 +4,14 @@ without DDS (the rungs below the full graph in docs/nmpc.md's ladder).
 
 A bench, not a product path: the ``truth`` state source reads the truth plant's state
 (an oracle); ``ukf`` runs the estimator on the noisy measurements as the graph does.
-It steps the nodes' own classes (the estimator's and the advisors' ticks, the
-protection's measurement watch and limiter), so with ``ukf`` and ``--protection`` it
-reproduces the graph's fast-mode run sample by sample (test/test_closed_loop.py).
-The scenario's events act as in the graph (sensor faults and formation changes on the
-plant, a pump trip or a stuck actuator on its actuator). The process protection
-(drill_protection.protection, with the kick detector's trip hold and the well-control
-window whose target the advisor's setpoint book takes) is in the loop with
-``--protection``; without it the controllers' commands go to the actuators as they are
-(they respect its limits on the normal cases).
+It steps the nodes' own tick classes (the plant's, the actuators', the estimator's, the
+advisors', the protection's), so with ``ukf`` and ``--protection`` it reproduces the
+graph's fast-mode run sample by sample (test/test_closed_loop.py): the scenario's events
+act as in the graph (sensor faults and formation changes on the plant, a pump trip or a
+stuck actuator on its actuator), and with the protection in the loop so do its operator
+actions (the emergency stop, the automation level). Without ``--protection`` the
+controllers' commands go to the actuators as they are (they respect its limits on the
+normal cases).
 
     python -m drill_bringup.loop_bench case2 --controller automated_mpd --state ukf --seeds 1 2 3
     python -m drill_bringup.loop_bench pump_trip --controller baseline --protection
@@ -22,7 +21,6 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -35,24 +33,26 @@ from drill_core.estimation_model import (BLOCK_INTEGRAL, BULK_MODULUS, DENSITY_O
                                          STRING_FRICTION, build_estimation_model,
                                          fitted_friction_parameters)
 from drill_core.event_codes import Notice
-from drill_core.events import ACTUATORS, of_owner
+from drill_core.events import ACTUATORS
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.mismatch import Mismatch, resolve, truth_config
+from drill_core.operating_point import initial_operating_point
+from drill_core.ros.stamps import NS_PER_S, seconds_to_ns
 from drill_core.scenario import initial_setpoints, load_scenario_config
 from drill_core.units import L_PER_M3, PA_PER_BAR
 from drill_estimator.tick import EstimatorTick
 from drill_nmpc.advisor_ticks import (AdvisorCommand, AutomatedMpdTick, BaselineTick, NmpcTick,
-                                      StartInputs)
+                                      StartInputs, SupervisorRequest)
 from drill_nmpc.automated_mpd import EstimateView
 from drill_nmpc.prediction_model import nmpc_estimation_model
 from drill_nmpc.setpoint_book import SetpointBook, as_delivered, within_speed_limits
 from drill_nmpc.setpoint_validation import Envelope
 from drill_nmpc.supervisor import Fallback
-from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
-from drill_plant.plant_model import EVENT_PARAMETERS, PARAMETER_NAMES, PlantLayout, steady_state
-from drill_plant.sensor_faults import SensorFaults
-from drill_plant.simulator import PlantSimulator
-from drill_protection.tick import ProtectionTick
+from drill_plant.actuator_tick import ActuatorTick
+from drill_plant.actuators import FrameOutput
+from drill_plant.plant_model import PARAMETER_NAMES, PlantLayout, steady_state
+from drill_plant.plant_tick import PlantTick
+from drill_protection.tick import MachineCommand, ProtectionTick
 from drill_protection.watch import DETECTOR_CODES
 
 CONTROLLERS = ("automated_mpd", "nmpc", "baseline")
@@ -60,106 +60,43 @@ NO_ANSWER = (math.nan, math.nan)    # trip-speed limits without a protection in 
 PORE, FRACTURE = (PARAMETER_NAMES.index(n) for n in ("pore_pressure_pa", "fracture_pressure_pa"))
 
 
-@dataclass
-class Command:
-    """What the actuators act on (SI); choke in pressure mode when dp_ref is finite."""
-    block_ref_m: float
-    choke_flow_m3s: float
-    bpp_m3s: float
-    spp_pa: float
-    dp_ref_pa: float = math.nan
-    dp_rate_pa_s: float = 0.0
-    stamp_s: float = 0.0
-    mud_pump_on: bool = True
-
-    @classmethod
-    def of(cls, c: AdvisorCommand, stamp_s: float) -> "Command":
-        """An advisor's command as the actuators take it, acting from ``stamp_s``."""
-        pressure = c.choke_pressure_control
-        return cls(c.block_position_ref_m, c.choke_flow_ref_m3s, c.bpp_flow_m3s, c.spp_pa,
-                   c.choke_dp_ref_pa if pressure else math.nan,
-                   c.choke_dp_ref_rate_pa_s if pressure else 0.0, stamp_s, c.mud_pump_on)
-
-
-@dataclass
-class Request(AdvisorCommand):
-    """An advisor's command as the protection reads it off drill_msgs/RigCommand: with the
-    BHP reference it rides with (an advisor never asks for a manual choke)."""
-    bhp_ref_pa: float = math.nan
-    choke_manual: bool = False
-    choke_opening_ref: float = 0.0
-
-
 class Rig:
-    """Truth plant and the four actuator models, one sensor frame per call, with the
-    scenario's events: the plant's parameter steps and sensor faults, the actuators' own
-    faults (stuck, trip)."""
+    """Truth plant and the four actuators, one sensor frame per call: the plant node's and
+    the actuator nodes' ticks (drill_plant.plant_tick, drill_plant.actuator_tick), with
+    the scenario's events acting on them as in the graph."""
 
     def __init__(self, config: RigConfig, scenario, seed: int):
-        ini = scenario.initial
         self.config = config
-        self.op = steady_state(hy.build_well_model(config.well,
-                                                   config.plant.yield_regularisation_velocity_mps,
-                                                   config.plant.choke_regularisation_pa),
-                               ini.circulation_m3s, ini.choke_dp_pa, ini.bpp_flow_m3s)
-        self.sim = PlantSimulator(config, self.op, seed)
-        u_b, opening, bpp, spp = (float(v) for v in self.op.inputs)
-        a = config.actuators
-        self.drawworks = Drawworks(a, self.sim.wm.geometry.static_stretch_m, u_b)
-        self.choke = Choke(a, self.sim.wm, opening)
-        self.bpp = Pump(a.bpp, bpp)
-        self.pump = Pump(a.mud_pump, spp)
-        self.step_s, self.steps = config.plant.step_s, config.plant.steps_per_frame
+        wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
+                                 config.plant.choke_regularisation_pa)
+        self.op = initial_operating_point(wm, scenario.initial)
+        self.plant = PlantTick(config, self.op, scenario, seed)
+        self.sim = self.plant.sim
+        self.actuators = {name: ActuatorTick(name, config, wm, self.op, scenario.events)
+                          for name in ACTUATORS}
+        self.drawworks = self.actuators["drawworks"].model
+        self.steps = config.plant.steps_per_frame
         self.layout = PlantLayout(self.sim.wm.n)
         self.frames: dict[str, FrameOutput] = {}    # every actuator's last frame, by name
-        self.circulating = ini.circulation_m3s > 0.0
-        self.parameter_events = [e for e in of_owner(scenario.events, "plant")
-                                 if e.kind in EVENT_PARAMETERS]
-        self.actuator_faults = of_owner(scenario.events, "actuator")
-        self.sensor_faults = SensorFaults(scenario.events, seed)
+        self.bad_frames = 0
 
-    def measure(self, t_s: float):
-        """The sample at t_s: parameter events due first, then the sensors and their faults."""
-        for event in [e for e in self.parameter_events if t_s + 1e-9 >= e.time_s]:
-            self.sim.set_parameter(EVENT_PARAMETERS[event.kind], event.value)
-            self.parameter_events.remove(event)
-        return self.sensor_faults.apply(t_s, self.sim.measure(self.circulating))
+    def measure(self, stamp_ns: int):
+        """The sample stamped ``stamp_ns``: the events due first, then the sensors."""
+        return self.plant.sample(stamp_ns / NS_PER_S)[1]
 
-    def _fault(self, name: str, t_s: float) -> str:
-        return next((e.kind for e in self.actuator_faults
-                     if e.target == name and e.active(t_s)), "")
+    def command(self, command, stamp_ns: int) -> None:
+        """The machine command stamped ``stamp_ns`` to every actuator."""
+        for tick in self.actuators.values():
+            tick.command(command, stamp_ns, stamp_ns)
 
-    def _frame(self, name: str, model, target: float, t_s: float, act) -> FrameOutput:
-        """An actuator's frame under its fault: stuck freezes the output, a trip stops the
-        pump whatever it is commanded."""
-        fault = self._fault(name, t_s)
-        if fault == "stuck":
-            return FrameOutput(target, target, np.full(self.steps, model.lag.value))
-        return act(0.0 if fault == "trip" else target)
-
-    def frame(self, cmd: Command, m, t_s: float) -> np.ndarray:
+    def frame(self, m, stamp_ns: int) -> np.ndarray:
         """Actuator outputs over the frame [4 x steps] and the plant advanced by them."""
-        step, steps = self.step_s, self.steps
-        dw = self._frame("drawworks", self.drawworks, cmd.block_ref_m, t_s,
-                         lambda r: self.drawworks.frame(r, m.block_position_m, step, steps))
-        if math.isfinite(cmd.dp_ref_pa):
-            ch = self._frame("choke", self.choke, cmd.choke_flow_m3s, t_s,
-                             lambda q: self.choke.pressure_frame(
-                                 cmd.dp_ref_pa, cmd.dp_rate_pa_s, t_s - cmd.stamp_s, q,
-                                 m.choke_dp_pa, step, steps))
-        else:
-            ch = self._frame("choke", self.choke, cmd.choke_flow_m3s, t_s,
-                             lambda q: self.choke.frame(q, m.choke_dp_pa, step, steps,
-                                                        return_flow_m3s=m.return_flow_m3s))
-        bpp = self._frame("bpp", self.bpp, cmd.bpp_m3s, t_s,
-                          lambda q: self.bpp.frame(q, step, steps))
-        pump = self._frame("mud_pump", self.pump, cmd.spp_pa if cmd.mud_pump_on else 0.0, t_s,
-                           lambda p: self.pump.frame(p, step, steps))
-        self.frames = dict(zip(ACTUATORS, (dw, ch, bpp, pump)))
-        self.circulating = pump.command > 0.0
-        rows = np.vstack([dw.output, ch.output, bpp.output, pump.output])
-        self.sim.advance(rows)
-        return rows
+        time_s = stamp_ns / NS_PER_S
+        self.frames = {name: tick.step(m, stamp_ns, stamp_ns, time_s).output
+                       for name, tick in self.actuators.items()}
+        self.bad_frames += len(self.plant.advance(
+            {name: (f.output, f.command) for name, f in self.frames.items()}))
+        return np.vstack([f.output for f in self.frames.values()])
 
 
 class TruthState:
@@ -247,40 +184,33 @@ class NmpcController:
 
 class Protection:
     """The protection node's tick (drill_protection.tick) fed as the node feeds it; its
-    clamps, alarms and last answer kept."""
+    clamps, alarms, operator and window notices and its last machine command kept."""
 
     def __init__(self, config: RigConfig, scenario, wm: hy.WellModel, op):
-        self.tick = ProtectionTick(config, wm, scenario.initial, op)
-        self.protection = self.tick.protection
-        self.speed_limit = config.protection.trip_speed_max_mps
-        self.clamps: list[tuple[float, str]] = []
+        self.tick = ProtectionTick(config, wm, scenario, op)
+        self.latched_speed_limit_mps = config.protection.trip_speed_max_mps
+        self.clamps: list[tuple[float, Notice]] = []
         self.alarms: list[tuple[float, Notice]] = []     # the answers' events (t, notice)
         self.raised: list[tuple[float, str]] = []        # the detector's alarms (t, kind)
-        self.answer = None          # (window Pa, BHP reference in force Pa, the advisor's Pa)
-        self.speed_limits_mps = (math.nan, math.nan)     # of the last answer (running in,
-        self.applied_block_m = math.nan                  # pulling out) and its block reference
+        self.notices: list[tuple[float, Notice]] = []    # operator actions, window exits
+        self.answer: MachineCommand | None = None        # to the last request
 
-    def measurement(self, m, t: float) -> None:
-        for notice in self.tick.observe(round(t * 1e9), m):
+    def measurement(self, m, stamp_ns: int) -> None:
+        t = stamp_ns / NS_PER_S
+        for notice in self.tick.observe(stamp_ns, m):
             if notice.code.endswith("_detected"):
                 self.raised.append((t, notice.code.removesuffix("_detected")))
             elif notice.code not in DETECTOR_CODES:
                 self.alarms.append((t, notice))
 
-    def limit(self, advised: AdvisorCommand, m, sp, t: float) -> Command:
-        if math.isfinite(sp.trip_speed_limit_mps) and sp.trip_speed_limit_mps > 0.0:
-            self.speed_limit = sp.trip_speed_limit_mps
-        d = self.tick.limit(Request(**asdict(advised), bhp_ref_pa=sp.bhp_ref_pa), m,
-                            round(t * 1e9), self.speed_limit)
-        self.clamps += [(t, text) for text in d.clamps]
-        self.answer = (self.protection.window_pa, d.bhp_ref_pa, sp.bhp_ref_pa)
-        self.speed_limits_mps = d.standing_speed_limits_mps
-        self.applied_block_m = float(d.command[U_BLOCK])
-        dp = d.choke_dp_setpoint
-        c = d.command
-        return Command(float(c[U_BLOCK]), float(c[U_CHOKE]), float(c[U_BPP_FLOW]),
-                       float(c[U_PUMP_PRESSURE]),
-                       dp[0] if dp else math.nan, dp[1] if dp else 0.0, t, advised.mud_pump_on)
+    def limit(self, request: SupervisorRequest, m, stamp_ns: int) -> MachineCommand:
+        t = stamp_ns / NS_PER_S
+        self.notices += [(t, n) for n in self.tick.press_due(t)]
+        d = self.tick.limit(request, m, stamp_ns, self.latched_speed_limit_mps)
+        self.clamps += [(t, notice) for notice in d.clamps]
+        self.notices += [(t, n) for n in self.tick.check_window(m.bhp_pa)]
+        self.answer = self.tick.machine_command(d, request)
+        return self.answer
 
 
 def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf",
@@ -314,27 +244,31 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
     baseline = BaselineTick(config, scenario.baseline_trip_speed_mps, start) \
         if controller == "baseline" else None
     guard = Protection(config, scenario, wm, op) if protection else None
-    cmd = Command(0.0, start.choke_flow_m3s, start.bpp_flow_m3s, start.spp_pa)
+    request = None
     frames = int(round(scenario.duration_s / config.plant.sensor_period_s))
     per_sample = int(round(config.nmpc.sample_time_s / config.plant.sensor_period_s))
     log = {k: [] for k in ("t", "bhp", "pos", "ref", "band", "target", "bhp_est", "velocity",
                            "choke_dp", "choke_dp_ref", "opening", "block_ref", "pore",
                            "fracture", "choke_flow_ref", "bpp", "spp", "return_flow")}
     inputs = np.repeat(rig.op.inputs[:, None], rig.steps, axis=1)
+    frame_ns = seconds_to_ns(config.plant.sensor_period_s)
     for k in range(frames):
-        t = k * config.plant.sensor_period_s
-        m = rig.measure(t)
+        t, stamp = k * config.plant.sensor_period_s, k * frame_ns
+        m = rig.measure(stamp)
         view, x_hat = source.observe(m, inputs, t)
         if guard is not None:
-            guard.measurement(m, t)
+            guard.measurement(m, stamp)
         if k % per_sample == 0:         # the advisor's sample, as advisor_node runs it
-            if guard is not None and guard.answer is not None:
-                book.follow_protection(*guard.answer)
+            answer = guard.answer if guard is not None else None
+            if answer is not None:
+                book.follow_protection((answer.bhp_window_low_pa, answer.bhp_window_high_pa),
+                                       answer.bhp_ref_pa, request.bhp_ref_pa)
             book.advance(t)
             book.resolve_bhp(m.bhp_pa if baseline is not None else view.bhp_pa)   # as each node
             sp = book.active
-            limits = guard.speed_limits_mps if guard is not None else NO_ANSWER
-            applied = guard.applied_block_m if guard is not None else math.nan
+            limits = NO_ANSWER if answer is None else (answer.trip_speed_limit_in_mps,
+                                                       answer.trip_speed_limit_out_mps)
+            applied = math.nan if answer is None else answer.block_position_ref_m
             if nmpc is not None:
                 advised = nmpc.step(x_hat, within_speed_limits(sp, limits, view.string_position_m),
                                     inputs, t, bool(m.string_flow_valid), sp.mud_pump_on)
@@ -343,7 +277,11 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
                                            applied)
             else:
                 advised, _ = mpd.step(view, sp, book.bhp_resolved, limits, applied)
-            cmd = Command.of(advised, t) if guard is None else guard.limit(advised, m, sp, t)
+            request = SupervisorRequest.of(advised, book)
+            cmd = MachineCommand.as_requested(request) if guard is None \
+                else guard.limit(request, m, stamp)
+            rig.command(cmd, stamp)
+            cmd_t = t
         truth = rig.sim.state
         log["t"].append(t)
         log["bhp"].append(truth[rig.layout.pressure(em.n)])
@@ -354,13 +292,14 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
         log["bhp_est"].append(view.bhp_pa)
         log["velocity"].append(truth[rig.layout.velocity])
         log["choke_dp"].append(m.choke_dp_pa)
-        log["choke_dp_ref"].append(cmd.dp_ref_pa + cmd.dp_rate_pa_s * (t - cmd.stamp_s))
-        log["block_ref"].append(cmd.block_ref_m)
-        log["choke_flow_ref"].append(cmd.choke_flow_m3s)
+        log["choke_dp_ref"].append(cmd.choke_dp_ref_pa + cmd.choke_dp_ref_rate_pa_s * (t - cmd_t)
+                                   if cmd.choke_pressure_control else math.nan)
+        log["block_ref"].append(cmd.block_position_ref_m)
+        log["choke_flow_ref"].append(cmd.choke_flow_ref_m3s)
         log["return_flow"].append(m.return_flow_m3s)
         log["pore"].append(rig.sim.parameters[PORE])
         log["fracture"].append(rig.sim.parameters[FRACTURE])
-        inputs = rig.frame(cmd, m, t)
+        inputs = rig.frame(m, stamp)
         log["opening"].append(inputs[U_CHOKE, 0])
         log["bpp"].append(inputs[U_BPP_FLOW, 0])
         log["spp"].append(inputs[U_PUMP_PRESSURE, 0])
@@ -376,6 +315,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
     out["influx_volume_m3"] = float(rig.sim.state[rig.layout.influx_volume])
     out["loss_volume_m3"] = float(rig.sim.state[rig.layout.loss_volume])
     out["trace"] = a
+    out["bad_frames"] = rig.bad_frames
     if nmpc is not None:
         out["solve_time_median_s"] = float(np.median(nmpc.solve_times))
         out["solve_time_p99_s"] = float(np.percentile(nmpc.solve_times, 99))
@@ -383,6 +323,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
         out["fallback_log"] = nmpc.statuses
     if guard is not None:
         out["clamps"], out["alarms"], out["raised"] = guard.clamps, guard.alarms, guard.raised
+        out["notices"] = guard.notices
     return out
 
 

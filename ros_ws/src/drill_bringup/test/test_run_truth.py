@@ -24,8 +24,7 @@ def _scenario(tmp_path: Path, truth) -> Path:
     ({"hole_diameter_factors": [1.0, 1.1]}, ("hole_diameter_factors", "one factor per annulus segment")),
     ({"flow_index_offset": 0.3}, ("flow_index_offset", "outside [0.1, 1]")),
 ])
-def test_a_truth_the_plant_cannot_take_is_refused_before_launch(tmp_path, truth, words):
-    runs_dir = tmp_path / "runs"
+def test_a_truth_the_plant_cannot_take_is_refused_before_launch(tmp_path, runs_dir, truth, words):
     with pytest.raises(ConfigError) as info:
         runs.run_scenario(_scenario(tmp_path, truth), runs_dir=runs_dir, quiet=True)
     for word in words:

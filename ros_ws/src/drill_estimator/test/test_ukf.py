@@ -25,27 +25,18 @@ from scipy.stats import chi2
 
 from drill_core import hydraulics as hy
 from drill_core.block_control import block_command, integral_rate
-from drill_core.config import load_rig, replace
-from drill_core.rig_root import config_dir
+from drill_core.config import replace
 from drill_estimator.model_inputs import frame_inputs
 from drill_estimator.ukf import RigUkf
 from drill_plant.plant_model import (CLOSED_BOTTOM, PlantLayout, build_frame_function,
                                      held_parameters, steady_state, wiener_increments)
 
-CONFIG_DIR = config_dir()
 CIRCULATION = 1000.0 / 60000.0      # 1000 L/min
 LPM = 1.0 / 60000.0
 
 
 @pytest.fixture(scope="module")
-def cfg():
-    return load_rig(CONFIG_DIR)
-
-
-@pytest.fixture(scope="module")
-def plant(cfg):
-    wm = hy.build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
-                             cfg.plant.choke_regularisation_pa)
+def plant(cfg, wm):
     return wm, build_frame_function(wm, cfg)
 
 

@@ -13,6 +13,7 @@ limits and the block reference it applied are kept for the subclass to plan with
 from __future__ import annotations
 
 from collections import deque
+from dataclasses import asdict
 
 from drill_msgs.msg import OperatorEvent, RigCommand, Setpoints
 
@@ -24,7 +25,7 @@ from drill_core.ros.sampling import SampleGate
 from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
 from drill_core.scenario import initial_setpoints
-from drill_nmpc.advisor_ticks import AdvisorCommand, StartInputs
+from drill_nmpc.advisor_ticks import AdvisorCommand, StartInputs, SupervisorRequest
 from drill_nmpc.setpoint_book import Event, SetpointBook
 from drill_nmpc.setpoint_messages import to_msg
 from drill_nmpc.setpoint_validation import Envelope
@@ -129,19 +130,9 @@ class AdvisorNode(RigNode):
         """``command`` stamped ``stamp_ns`` with the book's BHP reference (NaN until resolved),
         the window it keeps to and its trip-speed limit (the protection takes the operator's
         limit from the command it limits, the same in every run)."""
-        c = command
-        cmd = RigCommand(block_position_ref_m=c.block_position_ref_m,
-                         choke_flow_ref_m3s=c.choke_flow_ref_m3s, bpp_flow_m3s=c.bpp_flow_m3s,
-                         spp_pa=c.spp_pa, mud_pump_on=c.mud_pump_on, choke_manual=False,
-                         choke_pressure_control=c.choke_pressure_control,
-                         choke_dp_ref_pa=c.choke_dp_ref_pa,
-                         choke_dp_ref_rate_pa_s=c.choke_dp_ref_rate_pa_s, source=self.get_name())
+        cmd = RigCommand(**asdict(SupervisorRequest.of(command, self.book)),
+                         source=self.get_name())
         cmd.header.stamp = from_ns(stamp_ns)
-        cmd.bhp_ref_pa = float(self.book.active.bhp_ref_pa) if self.book.bhp_resolved \
-            else float("nan")
-        cmd.bhp_window_low_pa, cmd.bhp_window_high_pa = self.book.window_pa
-        cmd.trip_speed_limit_in_mps = cmd.trip_speed_limit_out_mps = \
-            float(self.book.active.trip_speed_limit_mps)
         self.cmd_pub.publish(cmd)
         self.sent_bhp_ref_pa[stamp_ns] = cmd.bhp_ref_pa
         for old in sorted(self.sent_bhp_ref_pa)[:-SENT_KEPT]:

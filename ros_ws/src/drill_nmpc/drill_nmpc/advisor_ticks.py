@@ -6,7 +6,7 @@ bench (drill_bringup.loop_bench) steps the same classes."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -36,6 +36,31 @@ class AdvisorCommand:
     choke_pressure_control: bool = False
     choke_dp_ref_pa: float = 0.0     # pressure loop: set-point at the command's stamp
     choke_dp_ref_rate_pa_s: float = 0.0
+
+
+@dataclass
+class SupervisorRequest(AdvisorCommand):
+    """An advisor's command as it goes to the process protection: drill_msgs/RigCommand's
+    fields an advisor sets (SI), with the setpoint book's BHP reference (NaN until it is
+    resolved), the window it keeps to and the operator's trip-speed limit it planned under
+    (the protection limits with the limit on the command, the same in every run)."""
+    choke_manual: bool = False
+    choke_opening_ref: float = 0.0
+    bhp_ref_pa: float = math.nan
+    bhp_window_low_pa: float = math.nan
+    bhp_window_high_pa: float = math.nan
+    trip_speed_limit_in_mps: float = math.nan
+    trip_speed_limit_out_mps: float = math.nan
+
+    @classmethod
+    def of(cls, command: AdvisorCommand, book) -> "SupervisorRequest":
+        """``command`` with the setpoint book ``book``'s reference, window and limit."""
+        limit = float(book.active.trip_speed_limit_mps)
+        low, high = book.window_pa
+        return cls(**asdict(command),
+                   bhp_ref_pa=float(book.active.bhp_ref_pa) if book.bhp_resolved else math.nan,
+                   bhp_window_low_pa=low, bhp_window_high_pa=high,
+                   trip_speed_limit_in_mps=limit, trip_speed_limit_out_mps=limit)
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,5 @@
-"""Actuator node (one process per actuator): drawworks, choke, bpp or mud_pump.
+"""Actuator node (one process per actuator): drawworks, choke, bpp or mud_pump; the
+per-frame rules are its tick (drill_plant.actuator_tick), the node moves messages.
 
 On each measurement stamped t_k it publishes its output over the coming frame,
 stamped t_k. In fast mode, when a supervisor command is due at t_k (t_k a multiple
@@ -23,7 +24,6 @@ import sys
 import numpy as np
 from drill_msgs.msg import ActuatorFrame, RigCommand, RigMeasurement
 
-from drill_core.events import of_owner
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
 from drill_core.ros.inbox import StampedInbox
@@ -31,9 +31,7 @@ from drill_core.ros.node import RigNode
 from drill_core.ros.runner import run
 from drill_core.ros.stamps import ScenarioClock, seconds_to_ns, to_ns
 from drill_core.ros.status import StatusReporter
-from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump, Watchdog
-
-UNITS = {"drawworks": "m", "choke": "1", "bpp": "m^3/s", "mud_pump": "Pa"}
+from drill_plant.actuator_tick import UNITS, ActuatorTick
 
 
 class ActuatorNode(RigNode):
@@ -47,23 +45,9 @@ class ActuatorNode(RigNode):
             raise ValueError(f"parameter actuator: {self.actuator!r} is not one of {', '.join(UNITS)}")
         period = self.declare_parameter("command_period_s", ctx.config.nmpc.sample_time_s).value
         self.command_period_ns = seconds_to_ns(period)
-        cfg = ctx.config
-        initial = ctx.operating_point
-        u_b, opening, bpp, spp = (float(v) for v in initial.inputs)
-        self.model = {
-            "drawworks": lambda: Drawworks(cfg.actuators, ctx.well_model.geometry.static_stretch_m, u_b),
-            "choke": lambda: Choke(cfg.actuators, ctx.well_model, opening),
-            "bpp": lambda: Pump(cfg.actuators.bpp, bpp),
-            "mud_pump": lambda: Pump(cfg.actuators.mud_pump, spp),
-        }[self.actuator]()
-        self.held_command = {"drawworks": 0.0, "choke": initial.choke_flow_m3s, "bpp": bpp,
-                             "mud_pump": spp}[self.actuator]
-        self.step_s = cfg.plant.step_s
-        self.steps = cfg.plant.steps_per_frame
-        self.watchdog = Watchdog(cfg.actuators.watchdog_timeout_s)
-        self.safe_hold = None
-        self.command = None
-        self.faults = of_owner(ctx.scenario.events, "actuator", self.actuator)
+        self.tick = ActuatorTick(self.actuator, ctx.config, ctx.well_model, ctx.operating_point,
+                                 ctx.scenario.events)
+        self.step_s = ctx.config.plant.step_s
         self.clock = ScenarioClock()             # the faults' times
         self.inbox = StampedInbox(("measurement", "command"))
         self.status = StatusReporter(self, ctx.mode)
@@ -82,8 +66,7 @@ class ActuatorNode(RigNode):
         if self.ctx.fast:
             self._process_pending()
         else:
-            self.command = msg
-            self.watchdog.feed(self.get_clock().now().nanoseconds)
+            self.tick.command(msg, to_ns(msg.header.stamp), self.get_clock().now().nanoseconds)
 
     def _on_measurement(self, msg: RigMeasurement) -> None:
         self.inbox.put("measurement", msg)
@@ -102,80 +85,29 @@ class ActuatorNode(RigNode):
             return
         self.inbox.take("measurement", stamp)
         if due:
-            self.command = self.inbox.take("command", stamp)
-            self.watchdog.feed(stamp)
+            command = self.inbox.take("command", stamp)
+            self.tick.command(command, to_ns(command.header.stamp), stamp)
         self._act(msg, stamp)
 
     def _act(self, measurement: RigMeasurement, now_ns: int) -> None:
-        tripped = self.watchdog.tripped(now_ns)
-        if tripped and self.safe_hold is None:
-            self.safe_hold = self._safe_command(measurement)
-            if self.command is not None:
-                self.status.error("command stream silent: holding the safe state")
-        elif not tripped:
-            self.safe_hold = None
-        target = self.safe_hold if tripped else self._command_value(self.command)
-        fault = self._fault(to_ns(measurement.header.stamp))
-        if fault == "stuck":
-            out = FrameOutput(target, target, self.model.lag.hold(self.steps))
-        else:
-            out = self._frame(0.0 if fault == "trip" else target, measurement, hold=tripped)
+        stamp = to_ns(measurement.header.stamp)
+        self.clock.start(stamp)
+        step = self.tick.step(measurement, stamp, now_ns, self.clock.seconds(stamp))
+        if step.fell_silent:
+            self.status.error("command stream silent: holding the safe state")
+        out = step.output
         frame = ActuatorFrame(actuator=self.actuator, unit=UNITS[self.actuator],
                               command=float(out.command),
                               output=np.asarray(out.output, dtype=float).tolist(),
                               sample_period_s=self.step_s, reference=float(out.reference),
-                              watchdog_active=tripped, fault=fault)
+                              watchdog_active=step.watchdog_active, fault=step.fault)
         frame.header.stamp = measurement.header.stamp
         self.pub.publish(frame)
-        self.status.mode = f"{self.ctx.mode}/{'watchdog' if tripped else 'commanded'}"
+        self.status.mode = f"{self.ctx.mode}/{'watchdog' if step.watchdog_active else 'commanded'}"
         self.status.values = {"command": out.command, "output": float(out.output[-1])}
         if self.actuator == "choke":     # frames its flow loop ran on the valve law
-            self.status.values["valve_law_frames"] = float(self.model.valve_law_frames)
+            self.status.values["valve_law_frames"] = float(self.tick.model.valve_law_frames)
         self.status.tick(now_ns)
-
-    def _fault(self, stamp_ns: int) -> str:
-        """The scenario fault acting at this measurement ('' none)."""
-        self.clock.start(stamp_ns)
-        time_s = self.clock.seconds(stamp_ns)
-        return next((e.kind for e in self.faults if e.active(time_s)), "")
-
-    def _command_value(self, cmd: RigCommand) -> float:
-        return {"drawworks": cmd.block_position_ref_m, "choke": cmd.choke_flow_ref_m3s,
-                "bpp": cmd.bpp_flow_m3s,
-                "mud_pump": cmd.spp_pa if cmd.mud_pump_on else 0.0}[self.actuator]
-
-    def _safe_command(self, measurement: RigMeasurement) -> float:
-        if self.actuator == "drawworks":
-            return self.model.safe_reference(measurement.block_position_m)
-        if self.command is None:
-            return self.held_command
-        return self._command_value(self.command)
-
-    def _frame(self, target: float, m: RigMeasurement, hold: bool) -> FrameOutput:
-        stop = self.command is not None and self.command.emergency_stop   # even if then silent
-        if self.actuator == "drawworks":
-            if stop:
-                return self.model.brake(self.step_s, self.steps)
-            return self.model.frame(target, m.block_position_m, self.step_s, self.steps)
-        if self.actuator == "choke":
-            if stop:
-                cmd = self.command
-                return self.model.bhp_frame(cmd.emergency_bhp_pa, m.bhp_pa, cmd.choke_dp_ref_pa,
-                                            target, m.choke_dp_pa, self.step_s, self.steps)
-            if hold:
-                opening = self.model.lag.value
-                return FrameOutput(opening, target, self.model.lag.advance(opening, self.step_s,
-                                                                           self.steps))
-            cmd = self.command
-            if cmd.choke_pressure_control and not cmd.choke_manual:
-                since_s = (to_ns(m.header.stamp) - to_ns(cmd.header.stamp)) * 1e-9
-                return self.model.pressure_frame(cmd.choke_dp_ref_pa, cmd.choke_dp_ref_rate_pa_s,
-                                                 since_s, target, m.choke_dp_pa, self.step_s,
-                                                 self.steps)
-            manual = cmd.choke_opening_ref if cmd.choke_manual else None
-            return self.model.frame(target, m.choke_dp_pa, self.step_s, self.steps, manual,
-                                    m.return_flow_m3s)
-        return self.model.frame(target, self.step_s, self.steps)
 
 
 def main(args=None) -> None:

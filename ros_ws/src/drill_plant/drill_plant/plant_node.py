@@ -1,4 +1,5 @@
-"""Plant node: integrates the truth plant and publishes sensors, truth, /clock and status.
+"""Plant node: integrates the truth plant and publishes sensors, truth, /clock and status;
+the per-frame rules are its tick (drill_plant.plant_tick), the node moves messages.
 
 fast mode (lockstep on simulated time): publish /clock, measurement and truth stamped
 t_k, then wait for the four actuator frames stamped t_k, integrate the frame and go
@@ -20,7 +21,6 @@ import numpy as np
 from drill_msgs.msg import ActuatorFrame, OperatorEvent, PlantTruth, RigMeasurement
 from rosgraph_msgs.msg import Clock
 
-from drill_core.event_codes import scenario_notice
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.ros import topics
 from drill_core.ros.context import load_context
@@ -32,9 +32,9 @@ from drill_core.ros.runner import run
 from drill_core.ros.stamps import from_ns, seconds_to_ns
 from drill_core.ros.status import StatusReporter
 from drill_plant.frame_lateness import FrameLateness
-from drill_plant.plant_model import EVENT_PARAMETERS, PlantLayout, plant_steady_state
-from drill_plant.sensor_faults import SensorFaults
-from drill_plant.simulator import PlantDiverged, PlantSimulator
+from drill_plant.plant_model import PlantLayout
+from drill_plant.plant_tick import PlantTick
+from drill_plant.simulator import PlantDiverged
 
 
 class PlantNode(RigNode):
@@ -46,9 +46,8 @@ class PlantNode(RigNode):
         seed = self.declare_parameter("seed", ctx.scenario.seed).value
         self.wait_for = self.declare_parameter("wait_for", [""]).value
         self.stall_timeout_s = self.declare_parameter("stall_timeout_s", 60.0).value
-        ini = ctx.scenario.initial
-        initial = plant_steady_state(ctx.well_model.n, ctx.operating_point)
-        self.sim = PlantSimulator(ctx.config, initial, seed)
+        self.tick = PlantTick(ctx.config, ctx.operating_point, ctx.scenario, seed)
+        self.sim = self.tick.sim
         self.layout = PlantLayout(ctx.well_model.n)
         n = ctx.well_model.n      # the truth message's rows of the state
         self._pressure_rows = [self.layout.pressure(i) for i in range(1, n + 1)]
@@ -56,12 +55,8 @@ class PlantNode(RigNode):
         self.frame_ns = seconds_to_ns(ctx.config.plant.sensor_period_s)
         self.last_k = int(round(ctx.scenario.duration_s / ctx.config.plant.sensor_period_s))
         self.k = 0
-        self.circulating = ini.circulation_m3s > 0.0
         self.frames = StampedInbox(topics.ACTUATORS)
         self.status = StatusReporter(self, ctx.mode)
-        self.events = ctx.scenario.events
-        self.sensor_faults = SensorFaults(self.events, seed)
-        self._announced: set[tuple[int, str]] = set()     # (event index, "starts" | "ends")
 
         self.pub_measurement = self.create_publisher(RigMeasurement, topics.MEASUREMENT, topics.RELIABLE)
         self.pub_truth = self.create_publisher(PlantTruth, topics.TRUTH, topics.RELIABLE)
@@ -123,22 +118,14 @@ class PlantNode(RigNode):
         self._advance(frames)
 
     # --------------------------------------------------------------------- shared
-    def _inputs_from(self, frames) -> np.ndarray:
-        rows = []
-        for i, name in enumerate(topics.ACTUATORS):
-            f = frames[name]
-            samples = np.asarray(f.output if isinstance(f, ActuatorFrame) else f, dtype=float)
-            if samples.size != self.sim.steps_per_frame or not np.all(np.isfinite(samples)):
-                self.status.error(f"{name}: bad frame ({samples.size} samples); holding last input")
-                samples = np.full(self.sim.steps_per_frame, self.sim.inputs[i])
-            rows.append(samples)
-        pump = frames["mud_pump"]
-        self.circulating = bool((pump.command if isinstance(pump, ActuatorFrame) else pump[-1]) > 0.0)
-        return np.vstack(rows)
-
     def _advance(self, frames) -> None:
+        """One frame on the actuators' frames (in realtime a held input array stands in
+        for one not yet received)."""
+        outputs = {name: (f.output, f.command) if isinstance(f, ActuatorFrame) else (f, f[-1])
+                   for name, f in frames.items()}
         try:
-            self.sim.advance(self._inputs_from(frames))
+            for error in self.tick.advance(outputs):
+                self.status.error(error)
         except PlantDiverged as err:
             self.status.error(str(err), fatal=True)
             self.status.publish(self.k * self.frame_ns)
@@ -154,8 +141,9 @@ class PlantNode(RigNode):
         if self.pub_clock is not None:
             self.pub_clock.publish(Clock(clock=stamp))
         time_s = self.k * self.ctx.config.plant.sensor_period_s
-        self._scenario_events(time_s, stamp)
-        m = self.sensor_faults.apply(time_s, self.sim.measure(self.circulating))
+        notices, m = self.tick.sample(time_s)
+        for notice in notices:
+            self.pub_events.publish(event_message(notice, stamp))
         msg = RigMeasurement(block_position_m=m.block_position_m, choke_dp_pa=m.choke_dp_pa,
                              bhp_pa=m.bhp_pa, string_flow_m3s=m.string_flow_m3s,
                              string_flow_valid=m.string_flow_valid,
@@ -171,17 +159,6 @@ class PlantNode(RigNode):
             self._try_advance()
         elif self.k >= self.last_k:
             self._finish(stamp_ns)
-
-    def _scenario_events(self, time_s: float, stamp) -> None:
-        """Apply the parameter events due by ``time_s``; announce starts and ends."""
-        for i, event in enumerate(self.events):
-            for edge, at_s in (("starts", event.time_s), ("ends", event.end_s)):
-                if (i, edge) in self._announced or time_s + 1e-9 < at_s:
-                    continue
-                self._announced.add((i, edge))
-                if edge == "starts" and event.kind in EVENT_PARAMETERS:
-                    self.sim.set_parameter(EVENT_PARAMETERS[event.kind], event.value)
-                self.pub_events.publish(event_message(scenario_notice(event, edge == "ends"), stamp))
 
     def _truth_msg(self, stamp) -> PlantTruth:
         t = self.sim.truth()

@@ -1,0 +1,29 @@
+"""Fixtures every test may ask for: the rig's configuration as committed (config/), its
+plant well model, and a scratch directory for run directories."""
+from __future__ import annotations
+
+import pytest
+
+from drill_core import hydraulics as hy
+from drill_core.config import load_rig
+from drill_core.rig_root import config_dir
+
+
+@pytest.fixture(scope="session")
+def cfg():
+    """The rig configuration of config/ (frozen dataclasses: safe to share)."""
+    return load_rig(config_dir())
+
+
+@pytest.fixture(scope="session")
+def wm(cfg):
+    """The reference well as the truth plant builds it (its yield and choke regularisation)."""
+    return hy.build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
+                               cfg.plant.choke_regularisation_pa)
+
+
+@pytest.fixture()
+def runs_dir(tmp_path):
+    """Where a test's runs put their run directories: private to the test, not created
+    (a run makes it; a refused run must leave it absent)."""
+    return tmp_path / "runs"

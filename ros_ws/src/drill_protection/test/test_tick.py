@@ -1,0 +1,84 @@
+"""The protection's tick (drill_protection.tick) beyond the limiter: the operator's
+buttons and the scenario's actions pressing them, the pore/fracture window's exits, and
+the machine command it sends under an emergency stop."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from types import SimpleNamespace
+
+import pytest
+
+from drill_core.operating_point import initial_operating_point
+from drill_core.operator_actions import OperatorAction
+from drill_core.rig_root import config_dir
+from drill_core.scenario import load_scenario
+from drill_protection.tick import MachineCommand, ProtectionTick
+
+CONFIG = config_dir()
+
+
+@pytest.fixture()
+def setup(cfg, wm):
+    config = cfg
+    scenario = load_scenario(CONFIG / "scenarios" / "short_trip.yaml")[0]
+    scenario = dataclasses.replace(scenario, operator=(
+        OperatorAction(time_s=2.0, action="emergency_stop"),
+        OperatorAction(time_s=1.0, action="automation_level", level="advisory")))
+    op = initial_operating_point(wm, scenario.initial)
+    return config, ProtectionTick(config, wm, scenario, op), op
+
+
+def test_scenario_actions_press_the_buttons_in_time_order_once(setup):
+    _, tick, _ = setup
+    assert tick.press_due(0.5) == []
+    assert [n.code for n in tick.press_due(2.0)] == ["automation_level", "estop_engaged"]
+    assert tick.protection.emergency_stop and tick.protection.automation_level == "advisory"
+    assert tick.press_due(3.0) == []
+    assert tick.set_emergency_stop(True) == []                   # already engaged: no notice
+    assert [n.code for n in tick.set_emergency_stop(False)] == ["estop_released"]
+
+
+def test_an_unknown_automation_level_is_refused_and_changes_nothing(setup):
+    _, tick, _ = setup
+    [notice] = tick.set_automation_level("autopilot")
+    assert notice.code == "level_refused" and "autopilot" in notice.text
+    assert tick.protection.automation_level == "closed_loop"
+
+
+def test_the_window_is_left_and_reentered_once_each(setup):
+    config, tick, _ = setup
+    f = config.well.formation
+    assert tick.check_window(0.5 * (f.pore_pressure_pa + f.fracture_pressure_pa)) == []
+    [out] = tick.check_window(f.pore_pressure_pa - 1.0e5)
+    assert out.code == "window_exit" and out.value == f.pore_pressure_pa - 1.0e5
+    assert tick.check_window(math.nan) == [] and tick.check_window(f.pore_pressure_pa - 2e5) == []
+    assert [n.code for n in tick.check_window(f.pore_pressure_pa)] == ["window_return"]
+    assert tick.window_exits == 1
+
+
+def sample(op):
+    return SimpleNamespace(return_flow_m3s=float(op.choke_flow_m3s),
+                           string_flow_m3s=float(op.string_flow_m3s), string_flow_valid=True,
+                           bpp_flow_m3s=0.0, block_position_m=0.0, choke_dp_pa=2.0e6,
+                           bhp_pa=6.85e7, pit_volume_m3=0.0)
+
+
+def test_under_the_emergency_stop_the_machine_command_starts_the_choke_bhp_loop(setup):
+    _, tick, op = setup
+    request = SimpleNamespace(      # an advisor's, as drill_msgs/RigCommand carries it
+        block_position_ref_m=3.0, choke_flow_ref_m3s=0.0167, bpp_flow_m3s=0.0, spp_pa=2.0e7,
+        mud_pump_on=True, choke_manual=False, choke_opening_ref=0.0,
+        choke_pressure_control=False, choke_dp_ref_pa=0.0, choke_dp_ref_rate_pa_s=0.0,
+        bhp_ref_pa=6.85e7, bhp_window_low_pa=math.nan, bhp_window_high_pa=math.nan,
+        trip_speed_limit_in_mps=math.nan, trip_speed_limit_out_mps=math.nan)
+    for k in range(12):
+        tick.observe(k * 100_000_000, sample(op))
+    free = tick.machine_command(tick.limit(request, sample(op), 11 * 100_000_000, 0.5), request)
+    assert not free.emergency_stop and not free.choke_pressure_control
+    tick.set_emergency_stop(True)
+    d = tick.limit(request, sample(op), 12 * 100_000_000, 0.5)
+    stop = tick.machine_command(d, request)
+    assert stop.emergency_stop and stop.emergency_bhp_pa == pytest.approx(6.85e7)
+    assert stop.choke_dp_ref_pa == d.emergency_dp_start_pa and math.isfinite(stop.choke_dp_ref_pa)
+    assert MachineCommand.as_requested(request).emergency_stop is False
