@@ -14,9 +14,11 @@ import numpy as np
 import pytest
 from rig_testing import assert_same_recorded_data
 
-from drill_bringup import cli, launcher, mcap_io, report
+from drill_bag import mcap_io
+
+from drill_bringup import cli, launcher, report
 from drill_core.config import load_rig
-from drill_core.ros import topics
+from drill_ros import topics
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]
 SCENARIO = cli.ROOT / "config" / "scenarios" / "short_trip.yaml"

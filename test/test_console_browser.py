@@ -33,8 +33,10 @@ from pathlib import Path
 
 import pytest
 
-from drill_bringup import cli, launcher, mcap_io
-from drill_core.ros import topics
+from drill_bag import mcap_io
+
+from drill_bringup import cli, launcher
+from drill_ros import topics
 
 pytestmark = [pytest.mark.dds,
               pytest.mark.filterwarnings("ignore::DeprecationWarning")]
@@ -82,7 +84,7 @@ class Listener:
         from rclpy.context import Context
         from rclpy.executors import SingleThreadedExecutor
 
-        from drill_bringup.console import DISPLAY
+        from drill_hmi.console import DISPLAY
 
         self.rclpy = rclpy
         self.context = Context()
@@ -209,7 +211,7 @@ def screenshot(driver, name: str, shots: list) -> None:
 
 
 def operator_cli(*args: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "drill_bringup.operator_cli", "--domain", str(DOMAIN_ID),
+    return subprocess.Popen([sys.executable, "-m", "drill_hmi.operator_cli", "--domain", str(DOMAIN_ID),
                              "--timeout", "15", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True)
 

@@ -18,9 +18,9 @@ from rig_testing import spinning_node, wait_for
 from std_msgs.msg import String
 
 from drill_bringup import cli
-from drill_bringup.console import ConsoleNode
+from drill_hmi.console import ConsoleNode
 from drill_core import access
-from drill_core.ros import topics
+from drill_ros import topics
 from drill_core.schema import ConfigError
 
 pytestmark = [pytest.mark.dds, pytest.mark.filterwarnings("ignore::DeprecationWarning")]

@@ -12,8 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drill_bringup import cli, drilling_report, mcap_io
-from drill_core.ros import topics
+from drill_bag import mcap_io
+
+from drill_bringup import cli, drilling_report
+from drill_ros import topics
 from drill_string import simulate
 from drill_string.plant import plant_step_s
 from drill_string.scenario import load_drilling_scenario

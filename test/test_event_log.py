@@ -7,8 +7,8 @@ import pytest
 from drill_msgs.msg import OperatorEvent
 from rig_testing import spinning_node, wait_for
 
-from drill_bringup.recorder import offer_from_profile, subscription_qos
-from drill_core.ros import graph, topics
+from drill_bag.recorder import offer_from_profile, subscription_qos
+from drill_ros import graph, topics
 from rclpy.qos import DurabilityPolicy
 
 pytestmark = [pytest.mark.dds,

@@ -14,8 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drill_bringup import cli, mcap_io, report
-from drill_core.ros import topics
+from drill_bag import mcap_io
+
+from drill_bringup import cli, report
+from drill_ros import topics
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]
 SCENARIOS = Path(__file__).resolve().parent / "scenarios"

@@ -34,7 +34,7 @@ from rig_testing import spinning_node, wait_for
 
 from drill_bringup import cli, launcher
 from drill_core import access
-from drill_core.ros import topics
+from drill_ros import topics
 from drill_gateway import certificates
 from drill_gateway import opcua_names as names
 

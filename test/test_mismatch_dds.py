@@ -11,10 +11,12 @@ import pytest
 import yaml
 from rig_testing import spinning_node
 
-from drill_bringup import cli, mcap_io
+from drill_bag import mcap_io
+
+from drill_bringup import cli
 from drill_core.mismatch import read_truth_file, resolve
-from drill_core.ros import graph as graph_decl
-from drill_core.ros import topics
+from drill_ros import graph as graph_decl
+from drill_ros import topics
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]
 SCENARIO = cli.ROOT / "config" / "scenarios" / "short_trip.yaml"

@@ -13,8 +13,10 @@ import pytest
 from net_namespaces import HostPair, unavailable
 from rig_testing import assert_same_recorded_data, wait_for
 
-from drill_bringup import cli, mcap_io
-from drill_core.ros import topics
+from drill_bag import mcap_io
+
+from drill_bringup import cli
+from drill_ros import topics
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow,
               pytest.mark.skipif(unavailable() is not None, reason=str(unavailable()))]

@@ -1,5 +1,5 @@
 """A rig process stopped while rclpy converts a message it takes exits cleanly
-(drill_core.ros.stopping).
+(drill_ros.stopping).
 
 The launcher stops every node with SIGINT. Under rclpy's own signal handling Python's
 KeyboardInterrupt was thrown into whatever bytecode ran next; when that was the
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from drill_core.ros.executors import EXECUTOR_ENV, EXECUTORS
+from drill_ros.executors import EXECUTOR_ENV, EXECUTORS
 
 pytestmark = [pytest.mark.dds,
               pytest.mark.filterwarnings("ignore::DeprecationWarning:lark.utils")]

@@ -7,7 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from drill_bringup import export, sweep
+from drill_bag import export
+
+from drill_bringup import sweep
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]
 SCENARIO = str(Path(__file__).resolve().parent / "scenarios" / "sweep_short.yaml")

@@ -1,4 +1,4 @@
-"""Helper process for test_stop_signal: a rig node (drill_core.ros.runner) publishing
+"""Helper process for test_stop_signal: a rig node (drill_ros.runner) publishing
 drill_msgs/RigMeasurement to itself, whose process receives SIGINT while rclpy converts
 the first message it takes to Python, as the launcher's stop can arrive at any point:
 once armed, the message class's constructor, which rclpy's C++ take calls to build the
@@ -14,9 +14,9 @@ import sys
 
 from drill_msgs.msg import RigMeasurement
 
-from drill_core.ros import topics
-from drill_core.ros.node import RigNode
-from drill_core.ros.runner import run
+from drill_ros import topics
+from drill_ros.node import RigNode
+from drill_ros.runner import run
 
 TOPIC = "/stop_test/measurement"
 PERIOD_S = 0.05

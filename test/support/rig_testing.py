@@ -14,8 +14,8 @@ import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 
-from drill_bringup import mcap_io
-from drill_core.ros import topics
+from drill_bag import mcap_io
+from drill_ros import topics
 
 # what a fast-mode run's scenario and seed alone decide: the lockstep's data
 DETERMINISTIC_TOPICS = (topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.COMMAND,

@@ -12,6 +12,6 @@ setup(
     ],
     install_requires=["setuptools"],
     zip_safe=True,
-    description="Launcher, MCAP recorder and replay, scenarios and reports.",
+    description="Launcher, split runs, the rig CLI, reports, comparisons, sweeps and the in-process benches.",
     license="Apache-2.0",
 )

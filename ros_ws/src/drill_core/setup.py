@@ -12,6 +12,6 @@ setup(
     ],
     install_requires=["setuptools"],
     zip_safe=True,
-    description="Plain-Python core of the rig: typed configuration, well description, rheology, the shared wellbore model, integrators; plus thin rclpy helpers in drill_core.ros.",
+    description="Plain-Python core of the rig: typed configuration, well description, rheology, the shared wellbore model, integrators.",
     license="Apache-2.0",
 )

@@ -1,1 +1,1 @@
-"""Launcher, MCAP recorder and replay, scenarios and reports."""
+"""Launcher, split runs, the rig CLI, reports, comparisons, sweeps and the in-process benches."""

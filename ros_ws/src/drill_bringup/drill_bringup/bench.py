@@ -22,10 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from drill_bringup import launcher, report, runs
-from drill_core.ros import budget
-from drill_core.ros.executors import DEFAULT_EXECUTOR, EXECUTOR_ENV
-from drill_core.ros import graph as graph_decl
-from drill_core.ros import topics
+from drill_ros import budget
+from drill_ros.executors import DEFAULT_EXECUTOR, EXECUTOR_ENV
+from drill_ros import graph as graph_decl
+from drill_ros import topics
 from drill_core import hydraulics as hy
 from drill_core.scenario import load_scenario_config
 from drill_plant.plant_model import steady_state
@@ -67,7 +67,7 @@ def plant_frame_cost(repetitions: int = 2000) -> dict:
 
 @contextlib.contextmanager
 def _executor(kind: str):
-    """The graph's processes spin with executor ``kind`` (drill_core.ros.executors)."""
+    """The graph's processes spin with executor ``kind`` (drill_ros.executors)."""
     previous = os.environ.get(EXECUTOR_ENV)
     os.environ[EXECUTOR_ENV] = kind
     try:
@@ -93,7 +93,7 @@ def graph_rtf(scenario: str, domain_id: int, layout: str | None = "separate",
     """Wall time of a whole scenario through the graph in fast mode in a process layout
     (None: the default one, as ``rig run`` without ``--layout``) with an executor: from starting the processes to the recorder closing its file (the
     report afterwards is timed apart), and where the processes' time went
-    (drill_core.ros.budget)."""
+    (drill_ros.budget)."""
     path = runs.scenario_path(scenario)
     with _executor(executor), tempfile.TemporaryDirectory() as tmp:
         scenario_obj, _ = load_scenario_config(path, runs.ROOT / "config")
@@ -220,7 +220,7 @@ def write_doc(results: dict, path: Path) -> None:
         lines += ["## Whole graph by process layout", "",
                   "Case 2 (600 s) through the graph over DDS in fast mode, from process start to "
                   "the recording closed (target: <= 30 s wall, RTF <= 0.05), in each process "
-                  "layout (`scripts/rig run --layout`; drill_core.ros.graph.LAYOUTS), median "
+                  "layout (`scripts/rig run --layout`; drill_ros.graph.LAYOUTS), median "
                   f"of {len(first['walls_s'])} runs with their range; the time budget is the "
                   "median run's:", "",
                   "| layout | executor | wall | real-time factor | vs the first row | report afterwards |",

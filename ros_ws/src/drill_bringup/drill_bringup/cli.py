@@ -67,7 +67,7 @@ from drill_bringup.runs import ROOT, run_scenario, scenario_path
 from drill_bringup.split_run import split_options
 from drill_core.access import require_security_beyond_loopback
 from drill_core.config import ConfigError
-from drill_core.ros.graph import CONTROLLERS, HOST_GROUPS, LAYOUTS, SelectionError
+from drill_ros.graph import CONTROLLERS, HOST_GROUPS, LAYOUTS, SelectionError
 from drill_core.units import PA_PER_BAR
 
 
@@ -169,7 +169,7 @@ def main(argv=None) -> int:
     stab.add_argument("--bha", action="store_true", help="the lowest block(s) are collars")
     stab.add_argument("--mud-viscosity", type=float, help="Pa s (default: the section's)")
     stab.add_argument("--output", type=Path, help="write the Fig. 3, 4 and 7 like plots here")
-    from drill_bringup import export
+    from drill_bag import export
     export.add_arguments(sub.add_parser("export", help="a run's recording as CSV or Parquet tables"))
     from drill_bringup import sweep
     sweep.add_arguments(sub.add_parser("sweep", help="a scenario on many seeds, aggregated"))
@@ -251,7 +251,7 @@ def main(argv=None) -> int:
                   f"({result['estimates']} estimates for {result['measurements']} measurements); "
                   f"{result['mcap']}")
             return 0
-        from drill_bringup import replay
+        from drill_bag import replay
         return replay.main(rest) or 0
     except ConfigError as err:
         print(f"[rig] configuration error: {err}", file=sys.stderr)

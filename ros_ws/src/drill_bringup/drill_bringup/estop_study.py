@@ -22,9 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from drill_bringup import mcap_io, report, runs
+from drill_bag import mcap_io
+
+from drill_bringup import report, runs
 from drill_core.config import RigConfig, load_rig
-from drill_core.ros import topics
+from drill_ros import topics
 from drill_core.units import PA_PER_BAR
 
 SCENARIOS = ("estop_trip", "estop_pump_trip", "estop_kick")

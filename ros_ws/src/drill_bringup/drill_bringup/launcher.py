@@ -1,8 +1,8 @@
 """Launch the rig graph as processes (there is no ros2 launch in our stack).
 
 In the default layout every node runs as ``python -m <module> --ros-args -p ...``; a
-process layout (drill_core.ros.graph.LAYOUTS) puts groups of nodes into one container
-process each (drill_core.ros.container). Every process runs on an isolated ROS_DOMAIN_ID
+process layout (drill_ros.graph.LAYOUTS) puts groups of nodes into one container
+process each (drill_ros.container). Every process runs on an isolated ROS_DOMAIN_ID
 with localhost discovery; its output goes to ``<run>/logs/<process>.log`` and its time
 budget to ``<run>/budget/<process>.json``. The recorder starts first and stops last. In fast mode
 the plant starts the lockstep once every subscription the graph needs is
@@ -30,9 +30,9 @@ from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from drill_core.ros import graph as graph_decl
-from drill_core.ros import topics
-from drill_core.ros.budget import BUDGET_DIR_ENV
+from drill_ros import graph as graph_decl
+from drill_ros import topics
+from drill_ros.budget import BUDGET_DIR_ENV
 
 LOG_TAIL_LINES = 15
 CONSOLE_PORT = 8080
@@ -58,7 +58,7 @@ class NodeSpec:
 
     @classmethod
     def of(cls, name: str, params: dict | None = None, finishes: bool = False) -> NodeSpec:
-        """The declared node ``name`` (drill_core.ros.graph) with these parameters."""
+        """The declared node ``name`` (drill_ros.graph) with these parameters."""
         node = graph_decl.BY_NAME[name]
         return cls(name, node.module, node.node_class, dict(params or {}), finishes)
 
@@ -83,7 +83,7 @@ class ProcessSpec:
                   "finishes": n.finishes} for n in self.nodes]
         declared = [graph_decl.BY_NAME[n.name] for n in self.nodes]
         local = sorted(graph_decl.local_topics(declared, self.run_nodes))
-        return [sys.executable, "-m", "drill_core.ros.container", self.name, json.dumps(specs),
+        return [sys.executable, "-m", "drill_ros.container", self.name, json.dumps(specs),
                 str(marker), json.dumps(local)]
 
 
@@ -91,7 +91,7 @@ def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool,
           layout: str = "separate", kind: str = "tripping",
           extras: dict[str, dict] | None = None,
           node_params: dict[str, dict] | None = None) -> list[NodeSpec]:
-    """The node set of a run of a ``kind`` scenario (drill_core.ros.graph), recorder first
+    """The node set of a run of a ``kind`` scenario (drill_ros.graph), recorder first
     and plant last; the plant waits for the lockstep's endpoints of exactly this set in
     this process layout (a container takes some topics on its local bus, not in the
     middleware). ``extras``: optional nodes (graph OPTIONAL) to add, name -> parameters;
@@ -163,7 +163,7 @@ def finish_watch(nodes: list[NodeSpec], here: set[str]) -> FinishWatch | None:
 
 def processes(nodes: list[NodeSpec], layout: str = "separate",
               here: set[str] | None = None) -> list[ProcessSpec]:
-    """The processes of ``nodes`` in ``layout`` (drill_core.ros.graph.LAYOUTS); with
+    """The processes of ``nodes`` in ``layout`` (drill_ros.graph.LAYOUTS); with
     ``here``, those of a split run's share that runs on this host (a process of the layout
     must be wholly here or wholly elsewhere: its local bus does not cross hosts)."""
     by_name = {n.name: n for n in nodes}

@@ -37,7 +37,7 @@ from drill_core.events import ACTUATORS
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.mismatch import Mismatch, resolve, truth_config
 from drill_core.operating_point import initial_operating_point
-from drill_core.ros.stamps import NS_PER_S, seconds_to_ns
+from drill_ros.stamps import NS_PER_S, seconds_to_ns
 from drill_core.scenario import initial_setpoints, load_scenario_config
 from drill_core.units import L_PER_M3, PA_PER_BAR
 from drill_estimator.tick import EstimatorTick
@@ -47,7 +47,7 @@ from drill_nmpc.automated_mpd import EstimateView
 from drill_nmpc.prediction_model import nmpc_estimation_model
 from drill_nmpc.setpoint_book import SetpointBook, as_delivered, within_speed_limits
 from drill_nmpc.setpoint_validation import Envelope
-from drill_nmpc.supervisor import Fallback
+from drill_nmpc.solve_result import Fallback
 from drill_plant.actuator_tick import ActuatorTick
 from drill_plant.actuators import FrameOutput
 from drill_plant.plant_model import PARAMETER_NAMES, PlantLayout, steady_state

@@ -15,8 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from drill_bringup import launcher, mcap_io
-from drill_core.ros import topics
+from drill_bag import mcap_io
+
+from drill_bringup import launcher
+from drill_ros import topics
 
 REPLAYED = [topics.MEASUREMENT, "/clock", *[topics.actuator_frame(a) for a in topics.ACTUATORS]]
 
@@ -45,7 +47,7 @@ def reestimate(run_dir: Path, config_dir: Path, rate: float, domain_id: int) -> 
     launch = launcher.Launch(nodes, out_dir, domain_id)
     expected = mcap_io.topics(original)[topics.MEASUREMENT].message_count
     first_ns, last_ns = mcap_io.time_range_ns(original)
-    replay_cmd = [sys.executable, "-m", "drill_bringup.replay", str(original), "--rate", str(rate),
+    replay_cmd = [sys.executable, "-m", "drill_bag.replay", str(original), "--rate", str(rate),
                   "--topics", *REPLAYED, "--wait-for-subscribers"]
     launch.start()
     replay_log = launch.logs / "replay.log"

@@ -14,10 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from drill_bringup import drilling_report, mcap_io
+from drill_bag import mcap_io
+
+from drill_bringup import drilling_report
 from drill_bringup import well_control_report as well_control
 from drill_core.config import load_rig
-from drill_core.ros import topics
+from drill_core.rig_root import rig_root
+from drill_ros import topics
 from drill_core.units import LPM_PER_M3S, PA_PER_BAR
 
 ARRIVAL_TOLERANCE_M = 0.5     # a trip leg ends when the string is this close to its target
@@ -241,8 +244,7 @@ def run_config_dir(run_dir: Path | None) -> Path:
     made before runs kept one, or a recording without its directory) this checkout's."""
     if run_dir is not None and (run_dir / RUN_CONFIG).is_dir():
         return run_dir / RUN_CONFIG
-    from drill_bringup.runs import ROOT       # (runs imports this module)
-    return ROOT / "config"
+    return rig_root() / "config"
 
 
 def summarise(s: Series, config_dir: Path | None = None) -> dict:

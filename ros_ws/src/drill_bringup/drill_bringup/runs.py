@@ -16,7 +16,7 @@ from drill_bringup import launcher, report
 from drill_core.config import ConfigError
 from drill_core.mismatch import resolve, truth_config, write_truth_file
 from drill_core.rig_root import rig_root
-from drill_core.ros import graph as graph_decl
+from drill_ros import graph as graph_decl
 from drill_core.scenario import (load_scenario, load_scenario_config, scenario_kind,
                                  scenario_truth, without_truth)
 
@@ -134,8 +134,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     """Launch a scenario, record it and report; returns (exit code, run directory).
     ``seed`` replaces the scenario's plant seed and ``controller`` its controller (the same
     trip under another controller: ``rig compare``); ``layout`` groups nodes into processes
-    (drill_core.ros.graph.LAYOUTS; None: the mode's default, graph.default_layout). ``here`` (node and group names,
-    drill_core.ros.graph.host_nodes) launches only that share of the graph, reaching the
+    (drill_ros.graph.LAYOUTS; None: the mode's default, graph.default_layout). ``here`` (node and group names,
+    drill_ros.graph.host_nodes) launches only that share of the graph, reaching the
     others' on ``peers`` (docs/multihost.md); the report is made where the recorder runs.
     ``extras`` adds optional nodes (the gateways), name -> parameters; in a share they run
     on this host. ``pin_cpus`` False leaves the processes on every CPU (several graphs
@@ -191,7 +191,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     launch.start()
     if realtime:
         say(f"[rig] ROS_DOMAIN_ID {launch.env['ROS_DOMAIN_ID']} (operator CLI: "
-            f"python -m drill_bringup.operator_cli --domain {launch.env['ROS_DOMAIN_ID']} watch)")
+            f"python -m drill_hmi.operator_cli --domain {launch.env['ROS_DOMAIN_ID']} watch)")
         if "console" in names:
             say(f"[rig] console: {reported_url(run_dir / 'logs' / 'console.log', 'CONSOLE_URL')}")
     for name, key in (("foxglove_bridge", "FOXGLOVE_URL"), ("opcua_gateway", "OPCUA_URL")):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import ipaddress
 import re
 
-from drill_core.ros.graph import SelectionError
+from drill_ros.graph import SelectionError
 
 DOMAIN_IDS = range(0, 102)       # the ROS domain ids whose DDS ports are valid on any host
 _HOST_NAME = re.compile(r"[A-Za-z0-9]([A-Za-z0-9-]*[A-Za-z0-9])?(\.[A-Za-z0-9]([A-Za-z0-9-]*[A-Za-z0-9])?)*")

@@ -28,7 +28,7 @@ import yaml
 from drill_bringup import batch, compare, runs
 from drill_bringup.batch import RunSpec
 from drill_core.config import ConfigError, parse_settings
-from drill_core.ros.graph import CONTROLLERS
+from drill_ros.graph import CONTROLLERS
 from drill_core.scenario import load_scenario_config, scenario_kind
 from drill_core.units import LPM_PER_M3S, PA_PER_BAR
 from drill_core.yaml_files import load_yaml, merge

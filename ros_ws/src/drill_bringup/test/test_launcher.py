@@ -5,8 +5,8 @@ from pathlib import Path
 import pytest
 
 from drill_bringup import launcher
-from drill_core.ros import topics
-from drill_core.ros.graph import default_layout
+from drill_ros import topics
+from drill_ros.graph import default_layout
 
 COMMON = {"config_dir": "/c", "scenario": "/c/s.yaml", "mode": "fast"}
 
@@ -68,7 +68,7 @@ def test_layouts_put_groups_in_one_process_and_the_recorder_alone():
     assert [n.name for n in two["control"].nodes] == ["estimator", "nmpc", "protection"]
     assert two["plant"].finishes and two["control"].finishes and not two["recorder"].finishes
     command = two["plant"].command_line(Path("/r/logs/plant.finished"))
-    assert command[1:3] == ["-m", "drill_core.ros.container"]
+    assert command[1:3] == ["-m", "drill_ros.container"]
     assert command[5] == "/r/logs/plant.finished"
     specs = json.loads(command[4])
     assert [s["node_class"] for s in specs] == ["ActuatorNode"] * 4 + ["PlantNode"]

@@ -7,8 +7,8 @@ import pytest
 
 from drill_bringup import finish_watch, launcher
 from drill_bringup.split_run import split_options
-from drill_core.ros import topics
-from drill_core.ros.graph import SelectionError
+from drill_ros import topics
+from drill_ros.graph import SelectionError
 
 COMMON = {"config_dir": "/c", "scenario": "/c/s.yaml", "mode": "fast"}
 PLANT_SIDE = {"recorder", "plant", *topics.ACTUATORS}

@@ -1,1 +1,1 @@
-"""Plain-Python core of the rig: typed configuration, well description, rheology, the shared wellbore model, integrators, the open-loop command sequence; plus thin rclpy helpers in drill_core.ros."""
+"""Plain-Python core of the rig: typed configuration, well description, rheology, the shared wellbore model, integrators, the open-loop command sequence."""

@@ -2,7 +2,7 @@
 
 Design knowledge of the well, not a measurement: the truth plant starts from it, the
 actuators start at its inputs and the advisors hold its commands until they act. Nodes
-get it once from their context (``drill_core.ros.context``), built from the scenario's
+get it once from their context (``drill_ros.context``), built from the scenario's
 ``initial`` section.
 """
 from __future__ import annotations

@@ -33,13 +33,13 @@ from drill_msgs.msg import ActuatorFrame, RigMeasurement, StateEstimate
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 
-from drill_core.ros import topics
-from drill_core.ros.context import load_context
-from drill_core.ros.inbox import StampedInbox
-from drill_core.ros.node import RigNode
-from drill_core.ros.runner import run
-from drill_core.ros.stamps import to_ns
-from drill_core.ros.status import StatusReporter
+from drill_ros import topics
+from drill_ros.context import load_context
+from drill_ros.inbox import StampedInbox
+from drill_ros.node import RigNode
+from drill_ros.runner import run
+from drill_ros.stamps import to_ns
+from drill_ros.status import StatusReporter
 from drill_core.estimation_model import MEASUREMENT_NAMES
 from drill_estimator.tick import EstimatorTick
 from drill_estimator.ukf import UpdateResult

@@ -74,7 +74,7 @@ class Feeder:
         from rclpy.executors import SingleThreadedExecutor
         from rosgraph_msgs.msg import Clock
 
-        from drill_core.ros import topics
+        from drill_ros import topics
 
         monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         monkeypatch.delenv("ROS_STATIC_PEERS", raising=False)
@@ -116,7 +116,7 @@ class Feeder:
                 and self.sub.get_publisher_count() >= 1)
 
     def measurement(self, k: int, y, circulating: bool = True) -> None:
-        from drill_core.ros.stamps import from_ns
+        from drill_ros.stamps import from_ns
         stamp = from_ns(k * FRAME_NS)
         self.pub_clock.publish(self.Clock(clock=stamp))
         msg = self.RigMeasurement()
@@ -127,7 +127,7 @@ class Feeder:
         self.pub_measurement.publish(msg)
 
     def frames(self, k: int, outputs: dict) -> None:
-        from drill_core.ros.stamps import from_ns
+        from drill_ros.stamps import from_ns
         for name, (value, reference) in outputs.items():
             msg = self.ActuatorFrame()
             msg.header.stamp = from_ns(k * FRAME_NS)

@@ -2,7 +2,7 @@
 channel per rig topic, forwarding each message's CDR bytes as they came off DDS.
 
 Each channel carries the topic's ``ros2msg`` schema, the dependency-expanded definition
-the recorder writes into the run's MCAP (drill_bringup.mcap_io.message_definition), and
+the recorder writes into the run's MCAP (drill_bag.mcap_io.message_definition), and
 message encoding ``cdr``, so Foxglove decodes live data and a recording the same way and
 one layout (config/foxglove/rig-layout.json) serves both. No rclpy here: the node
 (drill_gateway.foxglove_node) discovers the topics and hands over the bytes.
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import foxglove
 
-from drill_bringup import mcap_io
+from drill_bag import mcap_io
 
 HOST = "127.0.0.1"          # this machine only (docs/gateways.md)
 DEFAULT_PORT = 8765         # Foxglove's usual port

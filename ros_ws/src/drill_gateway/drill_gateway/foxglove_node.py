@@ -19,12 +19,12 @@ from ament_index_python.packages import PackageNotFoundError
 from rclpy.clock import Clock, ClockType
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from drill_bringup import mcap_io
-from drill_bringup.recorder import offer_from_profile
-from drill_core.ros import topics
-from drill_core.ros.node import RigNode
-from drill_core.ros.runner import run
-from drill_core.ros.status import StatusReporter
+from drill_bag import mcap_io
+from drill_bag.recorder import offer_from_profile
+from drill_ros import topics
+from drill_ros.node import RigNode
+from drill_ros.runner import run
+from drill_ros.status import StatusReporter
 from drill_gateway.foxglove_bridge import DEFAULT_PORT, HOST, Bridge
 
 OBSERVER = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,

@@ -119,8 +119,3 @@ def markdown_table(topic_of: dict[str, str]) -> str:
     rows.append(f"| `{ROOT}/{LAST_WRITE_RESULT}` | (the gateway: the last write's outcome) | "
                 "text | no |")
     return "\n".join(rows)
-
-
-if __name__ == "__main__":
-    from drill_gateway.opcua_node import source_topics
-    print(markdown_table(source_topics()))

@@ -8,7 +8,7 @@ Parameters: ``endpoint`` (opc.tcp://127.0.0.1:4840/drill-rig: this machine only)
 ``security_dir`` (a directory of ``rig certs``: Basic256Sha256, users and roles; needed
 for an endpoint other machines reach, docs/security.md), ``service_timeout_s`` (5 s). Setpoint writes go through the supervisor's validating
 /set_setpoints service and the automation level out on /operator/automation_level, both
-through the console's operator link (drill_bringup.console.OperatorLink: the same
+through the console's operator link (drill_hmi.console.OperatorLink: the same
 requests, the same recorded operator events, source "opcua"). Display subscriptions are
 best-effort keep-last (latched topics: as published), so the gateway never holds up the
 graph. Prints ``OPCUA_URL <endpoint>`` once it serves.
@@ -23,12 +23,12 @@ from pathlib import Path
 from drill_msgs.msg import RigMeasurement, Setpoints, StateEstimate
 from std_msgs.msg import String
 
-from drill_bringup import console
+from drill_hmi import console
 from drill_core.access import SecurityDir
-from drill_core.ros import topics
-from drill_core.ros.node import RigNode
-from drill_core.ros.runner import run
-from drill_core.ros.status import StatusReporter
+from drill_ros import topics
+from drill_ros.node import RigNode
+from drill_ros.runner import run
+from drill_ros.status import StatusReporter
 from drill_gateway import opcua_writes
 from drill_gateway.opcua_gateway import DEFAULT_ENDPOINT, Gateway
 from drill_gateway.opcua_names import by_source
@@ -36,7 +36,7 @@ from drill_gateway.opcua_names import by_source
 
 def source_topics() -> dict[str, str]:
     """The topic each source of drill_gateway.opcua_names.SOURCES is read from (the
-    gateway's subscriptions in drill_core.ros.graph)."""
+    gateway's subscriptions in drill_ros.graph)."""
     return {"measurement": topics.MEASUREMENT, "estimate": topics.ESTIMATE,
             "setpoints": topics.SETPOINTS, "level": topics.LEVEL_IN_FORCE}
 

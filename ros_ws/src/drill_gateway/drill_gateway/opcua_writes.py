@@ -2,10 +2,10 @@
 
 A setpoint write replaces one field of the setpoints in force and goes to the
 supervisor's validating /set_setpoints service through the console's operator link
-(``request``: drill_bringup.console.OperatorLink.request_setpoints), so the gateway
+(``request``: drill_hmi.console.OperatorLink.request_setpoints), so the gateway
 accepts exactly what the console accepts; the automation level goes out as the console
 sends it (``set_level``: OperatorLink.set_level). The checks before that are the
-console's (drill_bringup.console_state: numbers, signs, levels). Every outcome is a
+console's (drill_hmi.console_state: numbers, signs, levels). Every outcome is a
 ``Outcome``: ``status`` None (Good) or the name of the OPC-UA Bad status, and the reason.
 """
 from __future__ import annotations
@@ -14,7 +14,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from drill_bringup import console_state as cs
+from drill_hmi import console_state as cs
 from drill_gateway.opcua_names import Variable
 
 BAD_OUT_OF_RANGE = "BadOutOfRange"              # refused here: not a value the field takes

@@ -8,7 +8,7 @@ from drill_msgs.msg import RigMeasurement
 from foxglove_client import FoxgloveClient
 from rclpy.serialization import deserialize_message, serialize_message
 
-from drill_bringup import mcap_io
+from drill_bag import mcap_io
 from drill_gateway.foxglove_bridge import Bridge
 
 TOPIC, TYPE = "/rig/measurement", "drill_msgs/msg/RigMeasurement"

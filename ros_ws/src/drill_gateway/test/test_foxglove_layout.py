@@ -4,9 +4,9 @@ and the panels the live view promises are there."""
 import json
 import re
 
-from drill_bringup import mcap_io
+from drill_bag import mcap_io
 from drill_core.rig_root import rig_root
-from drill_core.ros import graph, topics
+from drill_ros import graph, topics
 
 ROOT = rig_root()
 LAYOUT = ROOT / "config" / "foxglove" / "rig-layout.json"
@@ -36,7 +36,7 @@ def test_every_message_path_names_a_declared_topic_and_a_field_of_its_type():
     for path in paths:
         match = PATH.match(path)
         if not match or match["topic"] not in graph.BY_TOPIC:
-            wrong.append(f"{path}: not a topic of drill_core.ros.graph")
+            wrong.append(f"{path}: not a topic of drill_ros.graph")
             continue
         if match["field"] is None:
             continue

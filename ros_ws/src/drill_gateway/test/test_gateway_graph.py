@@ -3,7 +3,7 @@ plant waits for like any other, never readers of the truth that decide anything.
 import pytest
 
 from drill_bringup import launcher
-from drill_core.ros import graph, topics
+from drill_ros import graph, topics
 
 
 def test_the_gateways_join_a_run_only_when_asked_for():

@@ -2,10 +2,10 @@
 UNECE codes, writable exactly where the console can write, the sources read from the
 topics the graph declares for the gateway, and the documented table."""
 
-from drill_bringup import console_state as cs
-from drill_bringup import mcap_io
+from drill_hmi import console_state as cs
+from drill_bag import mcap_io
 from drill_core.rig_root import rig_root
-from drill_core.ros import graph
+from drill_ros import graph
 from drill_gateway import opcua_names as names
 from drill_gateway.opcua_node import source_topics
 
@@ -49,4 +49,4 @@ def test_the_sources_are_the_topics_the_graph_declares_for_the_gateway():
 def test_the_documented_table_is_the_map():
     doc = (ROOT / "docs" / "gateways.md").read_text(encoding="utf-8")
     assert names.markdown_table(source_topics()) in doc, \
-        "regenerate it: python -m drill_gateway.opcua_names"
+        "regenerate it: python -m drill_gateway.opcua_table"

@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from drill_bringup import console_state as cs
+from drill_hmi import console_state as cs
 from drill_gateway import opcua_names as names
 from drill_gateway import opcua_writes as w
 

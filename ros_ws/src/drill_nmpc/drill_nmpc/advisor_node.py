@@ -17,13 +17,13 @@ from dataclasses import asdict
 
 from drill_msgs.msg import OperatorEvent, RigCommand, Setpoints
 
-from drill_core.ros import topics
-from drill_core.ros.context import load_context
-from drill_core.ros.events import event_message
-from drill_core.ros.node import RigNode
-from drill_core.ros.sampling import SampleGate
-from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
-from drill_core.ros.status import StatusReporter
+from drill_ros import topics
+from drill_ros.context import load_context
+from drill_ros.events import event_message
+from drill_ros.node import RigNode
+from drill_ros.sampling import SampleGate
+from drill_ros.stamps import from_ns, seconds_to_ns, to_ns
+from drill_ros.status import StatusReporter
 from drill_core.scenario import initial_setpoints
 from drill_nmpc.advisor_ticks import AdvisorCommand, StartInputs, SupervisorRequest
 from drill_nmpc.setpoint_book import Event, SetpointBook

@@ -18,7 +18,8 @@ from drill_nmpc.baseline import Baseline
 from drill_nmpc.inputs import choke_command, choke_input
 from drill_nmpc.setpoint_book import adopt_applied_block, within_speed_limits
 from drill_nmpc.soft_constraints import SLACK_NAMES
-from drill_nmpc.supervisor import SolveResult, Supervisor
+from drill_nmpc.solve_result import SolveResult
+from drill_nmpc.supervisor import Supervisor
 
 BASELINE_KP_M3S_PER_PA = 5.0e-9     # the PI baseline's default gains: 30 L/min per bar
 BASELINE_TI_S = 5.0

@@ -25,9 +25,9 @@ import sys
 from drill_msgs.msg import StateEstimate
 
 from drill_core.estimation_model import DENSITY_OFFSET, build_estimation_model
-from drill_core.ros import topics
-from drill_core.ros.runner import run
-from drill_core.ros.stamps import to_ns
+from drill_ros import topics
+from drill_ros.runner import run
+from drill_ros.stamps import to_ns
 from drill_nmpc.advisor_node import AdvisorNode
 from drill_nmpc.advisor_ticks import AutomatedMpdTick
 from drill_nmpc.automated_mpd import EstimateView

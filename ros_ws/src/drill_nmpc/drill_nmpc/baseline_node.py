@@ -31,9 +31,9 @@ import sys
 
 from drill_msgs.msg import RigMeasurement
 
-from drill_core.ros import topics
-from drill_core.ros.runner import run
-from drill_core.ros.stamps import to_ns
+from drill_ros import topics
+from drill_ros.runner import run
+from drill_ros.stamps import to_ns
 from drill_nmpc.advisor_node import AdvisorNode
 from drill_nmpc.advisor_ticks import BASELINE_KP_M3S_PER_PA, BASELINE_TI_S, BaselineTick
 

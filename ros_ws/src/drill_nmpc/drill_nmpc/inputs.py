@@ -6,15 +6,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from drill_core.config import Nmpc
 from drill_core.input_layout import U_CHOKE, U_SIZE
-
-if TYPE_CHECKING:
-    from drill_nmpc.supervisor import SolveResult
+from drill_nmpc.solve_result import SolveResult
 
 
 
@@ -53,7 +50,7 @@ class ChokeCommand:
     dp_ref_rate_pa_s: float      # pressure loop: its ramp to the next planned set-point
 
 
-def choke_command(cfg: Nmpc, result: "SolveResult", fallback_flow_m3s: float) -> ChokeCommand:
+def choke_command(cfg: Nmpc, result: SolveResult, fallback_flow_m3s: float) -> ChokeCommand:
     """What the choke is told for a supervisor result: on the pressure loop u[U_CHOKE] is the
     set-point, ramped toward the next planned one, with the predicted choke flow (the
     operating point's ``fallback_flow_m3s`` before any solve predicted one) as feedforward.

@@ -42,16 +42,16 @@ from drill_msgs.srv import SetSetpoints
 
 from drill_core.estimation_model import BOTTOM_INFLUX
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE, U_SIZE
-from drill_core.ros import topics
-from drill_core.ros.runner import run
-from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
+from drill_ros import topics
+from drill_ros.runner import run
+from drill_ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_nmpc.advisor_node import AdvisorNode
 from drill_nmpc.advisor_ticks import NmpcTick
 from drill_nmpc.prediction_model import nmpc_estimation_model
 from drill_nmpc.setpoint_book import as_delivered, within_speed_limits
 from drill_nmpc.setpoint_messages import merge_request, to_msg
 from drill_nmpc.soft_constraints import SLACK_NAMES
-from drill_nmpc.supervisor import Fallback, SolveResult
+from drill_nmpc.solve_result import Fallback, SolveResult
 
 
 class NmpcNode(AdvisorNode):
@@ -79,7 +79,7 @@ class NmpcNode(AdvisorNode):
 
         self.status_pub = self.create_publisher(NmpcStatus, topics.NMPC_STATUS, topics.RELIABLE)
         self.create_service(SetSetpoints, topics.SET_SETPOINTS, self._on_set_setpoints)
-        for name in wanted:      # all three, as drill_core.ros.graph declares; unmodelled ones unused
+        for name in wanted:      # all three, as drill_ros.graph declares; unmodelled ones unused
             self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
                                      lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
         self.create_subscription(StateEstimate, topics.ESTIMATE, self._on_estimate, topics.RELIABLE)

@@ -20,13 +20,13 @@ import sys
 from drill_msgs.msg import RigCommand, RigMeasurement
 
 from drill_core.open_loop import OpenLoopPlan, start_command
-from drill_core.ros import topics
-from drill_core.ros.context import load_context
-from drill_core.ros.node import RigNode
-from drill_core.ros.runner import run
-from drill_core.ros.sampling import SampleGate
-from drill_core.ros.stamps import from_ns, seconds_to_ns, to_ns
-from drill_core.ros.status import StatusReporter
+from drill_ros import topics
+from drill_ros.context import load_context
+from drill_ros.node import RigNode
+from drill_ros.runner import run
+from drill_ros.sampling import SampleGate
+from drill_ros.stamps import from_ns, seconds_to_ns, to_ns
+from drill_ros.status import StatusReporter
 
 
 class SequencerNode(RigNode):

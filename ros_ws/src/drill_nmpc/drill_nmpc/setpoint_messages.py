@@ -7,7 +7,7 @@ import math
 
 from drill_msgs.msg import Setpoints
 
-from drill_core.ros.stamps import from_ns
+from drill_ros.stamps import from_ns
 from drill_core.scenario import ActiveSetpoints
 from drill_nmpc.setpoint_validation import NUMERIC_FIELDS
 

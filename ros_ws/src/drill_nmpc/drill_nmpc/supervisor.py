@@ -15,58 +15,24 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from dataclasses import dataclass, field
-from enum import Enum
 
 import numpy as np
 
 from drill_core.config import Nmpc, RigConfig
 from drill_core.estimation_model import EstimationModel, friction_flow_gain_bound
-from drill_core.input_layout import U_BLOCK, U_CHOKE, U_PUMP_PRESSURE, U_SIZE
+from drill_core.input_layout import U_BLOCK, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.scenario import ActiveSetpoints
 from drill_core.surge_swab import SurgeSwabModel
 from drill_nmpc.motion_profile import MotionProfile
 from drill_nmpc.prediction_model import (ACTUATOR_KEYS, ActuatorLags, full_state, outputs,
                                          string_pressure_margin)
 from drill_nmpc.soft_constraints import SLACK_NAMES, SLACK_UNITS
+from drill_nmpc.solve_result import Fallback, SolveResult
 from drill_nmpc.transcription import INTEGRAL_OUTPUTS, NmpcProblem
 
 TRIP_RANGE_MARGIN_M = 0.5         # the block reference may pass the string / target by this
 THETA_STIFFNESS_LIMIT = 2.0       # |lambda| h of the annular flow modes kept below this (RK4: 2.78)
 THETA_SPEED_FLOOR_MPS = 0.1       # quadratic law: effective annular speed used for the cap near zero flow
-
-
-class Fallback(str, Enum):
-    """What a step fell back to (a str: NmpcStatus.fallback carries the value)."""
-    NONE = "none"          # the plan of a solve with the configured constraints
-    RELAXED = "relaxed"    # a retry with the relaxed constraint set
-    HOLD = "hold"          # no usable solve: the last input held (Supervisor._hold)
-
-
-@dataclass
-class SolveResult:
-    """Outcome of one supervisor step (SI units throughout)."""
-    u: np.ndarray                          # command to apply from t_k: [u_r m, q_c m^3/s, q_bpp m^3/s, p_in Pa]
-    success: bool                          # True when u comes from a converged solve
-    fallback: Fallback
-    status: str                            # solver return status (last attempt)
-    iterations: int                        # solver iterations (last attempt)
-    solve_time_s: float                    # wall time of the step, retries included
-    cost: float                            # optimal cost (NaN when holding)
-    slacks: dict = field(default_factory=dict)      # largest slack over the horizon per constraint, SI
-    predicted_time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))   # 0, t_s, ..., N t_s
-    predicted: dict = field(default_factory=dict)   # name -> array over predicted_time_s
-    planned_inputs: np.ndarray = field(default_factory=lambda: np.zeros((0, U_SIZE)))  # N x 4, u_j
-    reference: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))       # (N+1) x 3, y_ref,j
-    integral: np.ndarray = field(default_factory=lambda: np.zeros(0))             # NMPC1 e_0 [span s]
-    configuration: str = ""
-    choke_flow_m3s: float = float("nan")   # predicted choke flow under u at t_k (pressure-loop feedforward)
-    hold_choke_dp_pa: float = float("nan")  # on a hold: the choke dp to hold on the choke's pressure
-                                            # loop (Supervisor.rest_choke_dp when the holds began) [Pa]
-    reasons: tuple[str, ...] = ()           # what else the step met: each unusable attempt and why,
-                                            # a friction clamp, a warm start rolled out, a shortened step
-
-
 
 
 class Supervisor:

@@ -67,7 +67,7 @@ class Estimator:
         from rclpy.executors import SingleThreadedExecutor
         from rosgraph_msgs.msg import Clock
 
-        from drill_core.ros import topics
+        from drill_ros import topics
 
         monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         monkeypatch.delenv("ROS_STATIC_PEERS", raising=False)
@@ -122,7 +122,7 @@ class Estimator:
         return predicate()
 
     def estimate(self, stamp_ns: int, names, x) -> None:
-        from drill_core.ros.stamps import from_ns
+        from drill_ros.stamps import from_ns
         stamp = from_ns(stamp_ns)
         self.pub_clock.publish(self.Clock(clock=stamp))
         msg = self.StateEstimate(state_names=list(names), mean=[float(v) for v in x])
@@ -133,7 +133,7 @@ class Estimator:
 
     def frames(self, stamp_ns: int, outputs: dict) -> None:
         """The actuators' frames over [stamp, stamp + 0.1 s): outputs held."""
-        from drill_core.ros.stamps import from_ns
+        from drill_ros.stamps import from_ns
         for name, value in outputs.items():
             msg = self.ActuatorFrame(actuator=name, unit="", command=value, output=[value] * 10,
                                      sample_period_s=0.01, reference=value)

@@ -24,13 +24,13 @@ import sys
 import numpy as np
 from drill_msgs.msg import ActuatorFrame, RigCommand, RigMeasurement
 
-from drill_core.ros import topics
-from drill_core.ros.context import load_context
-from drill_core.ros.inbox import StampedInbox
-from drill_core.ros.node import RigNode
-from drill_core.ros.runner import run
-from drill_core.ros.stamps import ScenarioClock, seconds_to_ns, to_ns
-from drill_core.ros.status import StatusReporter
+from drill_ros import topics
+from drill_ros.context import load_context
+from drill_ros.inbox import StampedInbox
+from drill_ros.node import RigNode
+from drill_ros.runner import run
+from drill_ros.stamps import ScenarioClock, seconds_to_ns, to_ns
+from drill_ros.status import StatusReporter
 from drill_plant.actuator_tick import UNITS, ActuatorTick
 
 

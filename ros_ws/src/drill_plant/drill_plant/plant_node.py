@@ -22,15 +22,15 @@ from drill_msgs.msg import ActuatorFrame, OperatorEvent, PlantTruth, RigMeasurem
 from rosgraph_msgs.msg import Clock
 
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
-from drill_core.ros import topics
-from drill_core.ros.context import load_context
-from drill_core.ros.events import event_message
-from drill_core.ros.inbox import StampedInbox
-from drill_core.ros.lockstep import LockstepStart, flush
-from drill_core.ros.node import RigNode
-from drill_core.ros.runner import run
-from drill_core.ros.stamps import from_ns, seconds_to_ns
-from drill_core.ros.status import StatusReporter
+from drill_ros import topics
+from drill_ros.context import load_context
+from drill_ros.events import event_message
+from drill_ros.inbox import StampedInbox
+from drill_ros.lockstep import LockstepStart, flush
+from drill_ros.node import RigNode
+from drill_ros.runner import run
+from drill_ros.stamps import from_ns, seconds_to_ns
+from drill_ros.status import StatusReporter
 from drill_plant.frame_lateness import FrameLateness
 from drill_plant.plant_model import PlantLayout
 from drill_plant.plant_tick import PlantTick

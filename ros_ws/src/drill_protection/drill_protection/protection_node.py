@@ -30,14 +30,14 @@ from drill_msgs.msg import OperatorEvent, RigCommand, RigMeasurement, Setpoints
 from std_msgs.msg import Bool, String
 
 from drill_core.event_codes import Notice
-from drill_core.ros import topics
-from drill_core.ros.context import load_context
-from drill_core.ros.events import event_message
-from drill_core.ros.inbox import StampedInbox
-from drill_core.ros.node import RigNode
-from drill_core.ros.runner import run
-from drill_core.ros.stamps import ScenarioClock, from_ns, to_ns
-from drill_core.ros.status import StatusReporter
+from drill_ros import topics
+from drill_ros.context import load_context
+from drill_ros.events import event_message
+from drill_ros.inbox import StampedInbox
+from drill_ros.node import RigNode
+from drill_ros.runner import run
+from drill_ros.stamps import ScenarioClock, from_ns, to_ns
+from drill_ros.status import StatusReporter
 from drill_protection.tick import ProtectionTick
 
 

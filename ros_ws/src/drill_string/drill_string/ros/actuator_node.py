@@ -13,12 +13,12 @@ import sys
 
 from drill_msgs.msg import ActuatorFrame, DrillingCommand, SurfaceMeasurement
 
-from drill_core.ros import topics
-from drill_core.ros.inbox import StampedInbox
-from drill_core.ros.node import RigNode
-from drill_core.ros.runner import run
-from drill_core.ros.stamps import seconds_to_ns, to_ns
-from drill_core.ros.status import StatusReporter
+from drill_ros import topics
+from drill_ros.inbox import StampedInbox
+from drill_ros.node import RigNode
+from drill_ros.runner import run
+from drill_ros.stamps import seconds_to_ns, to_ns
+from drill_ros.status import StatusReporter
 from drill_string.drives import SpeedDrive
 from drill_string.ros.context import load_drilling_context
 

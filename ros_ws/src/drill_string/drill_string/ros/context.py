@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from drill_core.ros.context import common_parameters
+from drill_ros.context import common_parameters
 
 from drill_string.scenario import DrillingRig, DrillingScenario, load_drilling_scenario
 

@@ -11,12 +11,12 @@ import sys
 
 from drill_msgs.msg import DrillingCommand, SurfaceMeasurement
 
-from drill_core.ros import topics
-from drill_core.ros.node import RigNode
-from drill_core.ros.runner import run
-from drill_core.ros.sampling import SampleGate
-from drill_core.ros.stamps import seconds_to_ns, to_ns
-from drill_core.ros.status import StatusReporter
+from drill_ros import topics
+from drill_ros.node import RigNode
+from drill_ros.runner import run
+from drill_ros.sampling import SampleGate
+from drill_ros.stamps import seconds_to_ns, to_ns
+from drill_ros.status import StatusReporter
 from drill_string.ros.context import load_drilling_context
 
 

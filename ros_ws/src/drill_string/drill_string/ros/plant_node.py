@@ -5,7 +5,7 @@ For frame k (t_k = k T, T = config/drilling.yaml sensor_period_s): publish /cloc
 downhole measurement, the truth (every step of the frame just integrated) and the surface
 measurement stamped t_k; wait for the top drive's and the block feed's frames stamped t_k;
 integrate [t_k, t_k+1) on their samples and go on with t_k+1. Before t_0 it waits until
-the graph named in ``wait_for`` is connected (drill_core.ros.lockstep); it exits (code 0)
+the graph named in ``wait_for`` is connected (drill_ros.lockstep); it exits (code 0)
 once the drives' frames of the last sample have arrived.
 """
 from __future__ import annotations
@@ -16,13 +16,13 @@ from drill_msgs.msg import (ActuatorFrame, DownholeMeasurement, DrillingTruth,
                             SurfaceMeasurement)
 from rosgraph_msgs.msg import Clock
 
-from drill_core.ros import topics
-from drill_core.ros.inbox import StampedInbox
-from drill_core.ros.lockstep import LockstepStart, flush
-from drill_core.ros.node import RigNode
-from drill_core.ros.runner import run
-from drill_core.ros.stamps import from_ns, seconds_to_ns
-from drill_core.ros.status import StatusReporter
+from drill_ros import topics
+from drill_ros.inbox import StampedInbox
+from drill_ros.lockstep import LockstepStart, flush
+from drill_ros.node import RigNode
+from drill_ros.runner import run
+from drill_ros.stamps import from_ns, seconds_to_ns
+from drill_ros.status import StatusReporter
 from drill_string.plant import DOWNHOLE_CHANNELS, SURFACE_CHANNELS, DrillingPlant
 from drill_string.ros.context import load_drilling_context
 from drill_string.simulate import TRAJECTORY_FIELDS

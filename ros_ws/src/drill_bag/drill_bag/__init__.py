@@ -1,0 +1,1 @@
+"""MCAP recordings of the rig: the recorder node, replay into a graph, export to CSV and Parquet."""

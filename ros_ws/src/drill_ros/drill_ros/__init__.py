@@ -1,0 +1,1 @@
+"""The rig's ROS runtime under every node: the graph declared once (nodes, topics, QoS, process layouts), the node base, lockstep, the container and its local bus, stamps, status and event publishing."""
