@@ -1,5 +1,6 @@
-"""The gateways on a live run: the short trip in realtime with the Foxglove bridge and the
-OPC-UA gateway (``rig run short_trip --realtime --foxglove --opcua``), on ROS domain 41.
+"""The gateways on a live run: the short trip in realtime with the Foxglove bridge, the
+OPC-UA gateway and the WITS0 stream (``rig run short_trip --realtime --foxglove --opcua
+--wits0``), on ROS domain 41.
 
 * Foxglove: a client speaking the Foxglove WebSocket protocol gets the rig's channels
   with their ros2msg schemas, subscribes to /rig/measurement and decodes its CDR frames:
@@ -13,6 +14,9 @@ OPC-UA gateway (``rig run short_trip --realtime --foxglove --opcua``), on ROS do
   both are on /operator/events as the console's are; the automation level written goes
   through the process protection. An anonymous session reads, and its write comes back
   BadUserAccessDenied, changes nothing and is on /operator/events.
+* WITS0: a TCP client of the gateway parses record 01 frames with a parser written from
+  the public record layout (test/support/wits0_client.py): a plausible BHP and
+  bit depth, times that advance.
 
 At the end no process of the run, the gateways' included, stops with a failure (an exit
 code > 0).
@@ -31,6 +35,7 @@ from drill_msgs.msg import OperatorEvent, RigMeasurement, Setpoints
 from foxglove_client import FoxgloveClient
 from rclpy.serialization import deserialize_message
 from rig_testing import spinning_node, wait_for
+from wits0_client import parse_frames
 
 from drill_bringup import cli, launcher
 from drill_core import access
@@ -74,7 +79,8 @@ def live(tmp_path_factory):
     nodes = launcher.graph("nmpc", common, run_dir / "trip.mcap", fast=False, extras={
         "foxglove_bridge": {"port": 0},
         "opcua_gateway": {"endpoint": f"opc.tcp://0.0.0.0:{port}/drill-rig",
-                          "security_dir": str(security.path)}})
+                          "security_dir": str(security.path)},
+        "wits0_gateway": {"address": "127.0.0.1:0"}})
     next(n for n in nodes if n.name == "console").params["port"] = 0
     launch = launcher.Launch(nodes, run_dir, DOMAIN_ID)
     seen = {"setpoints": [], "events": []}
@@ -94,7 +100,10 @@ def live(tmp_path_factory):
             wait_for(lambda: any(i.node_name == "opcua_gateway" for i in
                                  node.get_publishers_info_by_topic(topics.OPERATOR_EVENTS)),
                      START_TIMEOUT_S, f"the gateway's writer of {topics.OPERATOR_EVENTS}")
+            wait_for(lambda: reported(launch, "wits0_gateway", "WITS0_ADDRESS"), START_TIMEOUT_S,
+                     "the WITS0 stream's address")
             yield {"launch": launch, "seen": seen, "security": security,
+                   "wits0": reported(launch, "wits0_gateway", "WITS0_ADDRESS"),
                    "endpoint": f"opc.tcp://127.0.0.1:{port}/drill-rig",
                    "foxglove": reported(launch, "foxglove_bridge", "FOXGLOVE_URL")}
         finally:
@@ -126,6 +135,24 @@ def test_a_foxglove_client_decodes_live_measurements(live):
         assert math.isfinite(m.bhp_pa) and PHYSICAL_BHP_PA[0] < m.bhp_pa < PHYSICAL_BHP_PA[1], m.bhp_pa
     stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in decoded]
     assert all(b > a for a, b in zip(stamps, stamps[1:])), stamps
+
+
+def test_a_wits0_client_parses_live_record_01_frames(live):
+    host, _, port = live["wits0"].rpartition(":")
+    with socket.create_connection((host, int(port)), timeout=TIMEOUT_S) as client:
+        data = b""
+        while data.count(b"!!\r\n") < 4:
+            chunk = client.recv(4096)
+            assert chunk, "the gateway closed the stream"
+            data += chunk
+    frames = parse_frames(data)[-3:]               # the first may have been cut
+    assert len(frames) == 3
+    for items in frames:
+        assert items["0101"] == "short_trip"
+        assert PHYSICAL_BHP_PA[0] < float(items["0141"]) * 1e3 < PHYSICAL_BHP_PA[1], items
+        assert 3500.0 < float(items["0108"]) < 3700.0, items       # bit depth [m]
+    times = [items["0105"] + items["0106"] for items in frames]
+    assert times == sorted(times) and len(set(times)) == 3, times
 
 
 def test_an_opcua_client_browses_reads_subscribes_and_writes_through_the_supervisor(live):

@@ -12,6 +12,6 @@ setup(
     ],
     install_requires=["setuptools"],
     zip_safe=True,
-    description="MCAP recordings: the recorder node, replay into a graph, export to Parquet and CSV.",
+    description="MCAP recordings: the recorder node, replay into a graph, export to Parquet and CSV, LAS and WITSML well logs.",
     license="Apache-2.0",
 )

@@ -27,10 +27,12 @@ import pyarrow as pa
 import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
-from drill_bag import mcap_io
+from drill_bag import las_export, mcap_io, well_log, witsml_export
 from drill_bag.msg_columns import Layout, names_unit, unit_token
 
-FORMATS = ("csv", "parquet")
+TABLE_FORMATS = ("csv", "parquet")
+LOG_FORMATS = ("las", "witsml")
+FORMATS = TABLE_FORMATS + LOG_FORMATS
 EXPORT_DIR = "export"
 TIME_COLUMNS = ("time_utc", "stamp_ns", "log_time_ns")
 MAX_WIDE_ROWS = 10_000_000
@@ -173,14 +175,28 @@ def write_table(table: pa.Table, path: Path, fmt: str) -> Path:
 
 def export(run_dir: Path, fmt: str = "csv", topics=None, wide_hz: float | None = None,
            output: Path | None = None) -> list[Path]:
-    """Write the run's tables (per topic, or the one wide table); their paths."""
+    """Write the run's tables (per topic, or the one wide table) or its well log; their
+    paths."""
     if fmt not in FORMATS:
         raise ExportError(f"--format: value {fmt!r} is not one of {', '.join(FORMATS)}")
     if wide_hz is not None and not (math.isfinite(wide_hz) and wide_hz > 0.0):
         raise ExportError(f"--wide: value {wide_hz!r} Hz must be a positive rate")
+    if fmt in LOG_FORMATS and (topics or wide_hz is not None):
+        raise ExportError(f"--format {fmt}: a well log has its own channels "
+                          f"(drill_bag.well_log); --topics and --wide are for "
+                          f"{' and '.join(TABLE_FORMATS)}")
     mcap = run_mcap(run_dir)
-    tables = topic_tables(mcap, topics)
     out = output or run_dir / EXPORT_DIR
+    if fmt in LOG_FORMATS:
+        try:
+            log = well_log.run_log(run_dir, mcap)
+        except (OSError, ValueError) as err:
+            raise ExportError(str(err)) from err
+        out.mkdir(parents=True, exist_ok=True)
+        if fmt == "las":
+            return [las_export.write_las(log, out / f"{run_dir.name}.las")]
+        return witsml_export.write_witsml(log, out / "witsml")
+    tables = topic_tables(mcap, topics)
     out.mkdir(parents=True, exist_ok=True)
     if wide_hz is not None:
         return [write_table(wide_table(tables, wide_hz), out / f"wide-{wide_hz:g}hz.{fmt}", fmt)]
@@ -191,7 +207,9 @@ def export(run_dir: Path, fmt: str = "csv", topics=None, wide_hz: float | None =
 def add_arguments(parser) -> None:
     """``rig export``'s options."""
     parser.add_argument("run_dir", type=Path)
-    parser.add_argument("--format", choices=FORMATS, default="csv")
+    parser.add_argument("--format", choices=FORMATS, default="csv",
+                        help="tables (csv, parquet) or a well log (las: LAS 2.0, witsml: "
+                             "WITSML 2.1 well, wellbore and log)")
     parser.add_argument("--topics", nargs="+", help="default: every recorded topic")
     parser.add_argument("--wide", type=float, metavar="RATE_HZ",
                         help="one table resampled at this rate (zero-order hold) instead of "

@@ -3,7 +3,7 @@
   rig demo                         Case 2 trip in fast mode, with summary and plots
   rig run SCENARIO [--realtime] [--seed N] [--controller NAME] [--layout LAYOUT]
           [--nodes NAMES --domain N --peers ADDR[,ADDR]] [--runs-dir DIR]
-          [--foxglove [PORT]] [--opcua [ENDPOINT]] [--mismatch NAME]
+          [--foxglove [PORT]] [--opcua [ENDPOINT]] [--wits0 [HOST:PORT]] [--mismatch NAME]
           [--security DIR] [--console-host HOST]
                                    any scenario (name under config/scenarios or a path),
                                    optionally under another controller than its own, with
@@ -11,8 +11,8 @@
                                    two); a drilling scenario (drilling_*) runs the drilling
                                    graph, fast mode only; --nodes: this host's share of a
                                    run split across hosts (docs/multihost.md); --foxglove /
-                                   --opcua add the live Foxglove bridge / the OPC-UA gateway
-                                   (docs/gateways.md)
+                                   --opcua / --wits0 add the live Foxglove bridge / the OPC-UA
+                                   gateway / the WITS0 record 01 stream (docs/gateways.md)
                                    --mismatch NAME: a plant that is not the model
                                    (config/mismatch.yaml, docs/mismatch.md)
                                    --security DIR: the console's token and the OPC-UA
@@ -32,9 +32,10 @@
                                    (Paper IV): crossing frequencies, critical delays, delay
                                    margin, critical speed; with --output the figures like
                                    the paper's Figs. 3, 4 and 7
-  rig export RUN_DIR [--format csv|parquet] [--topics T ...] [--wide RATE_HZ] [--output DIR]
+  rig export RUN_DIR [--format csv|parquet|las|witsml] [--topics T ...] [--wide RATE_HZ] [--output DIR]
                                    the recording as tables, one per topic (or one resampled
-                                   at RATE_HZ), SI columns named with units, UTC stamps
+                                   at RATE_HZ), SI columns named with units, UTC stamps; or
+                                   as a well log (LAS 2.0, WITSML 2.1) in WITS metric units
   rig sweep SCENARIO --seeds N [--first-seed S] [--controller C ...] [--set FILE.KEY=VALUE ...]
             [--workers W] [--cluster ADDRESS] [--output DIR]
                                    the scenario on N seeds through the graph, on a local pool
@@ -71,7 +72,7 @@ from drill_ros.graph import CONTROLLERS, HOST_GROUPS, LAYOUTS, SelectionError
 from drill_core.units import PA_PER_BAR
 
 
-# --foxglove / --opcua without a value: the gateway's own default (not a str: argparse would
+# --foxglove / --opcua / --wits0 without a value: the gateway's own default (not a str: argparse would
 # convert one with the option's type)
 GATEWAY_DEFAULT = object()
 
@@ -98,7 +99,8 @@ def _stability(args) -> int:
 
 def _gateways(args) -> dict[str, dict]:
     """The gateways ``rig run`` was asked for, name -> the parameter given (none: theirs)."""
-    asked = {"foxglove_bridge": ("port", args.foxglove), "opcua_gateway": ("endpoint", args.opcua)}
+    asked = {"foxglove_bridge": ("port", args.foxglove), "opcua_gateway": ("endpoint", args.opcua),
+             "wits0_gateway": ("address", args.wits0)}
     return {name: {} if value is GATEWAY_DEFAULT else {parameter: value}
             for name, (parameter, value) in asked.items() if value is not None}
 
@@ -143,6 +145,9 @@ def main(argv=None) -> int:
                      help="serve the OPC-UA gateway on ENDPOINT (without it the gateway's "
                           "default, on this machine only; read docs/gateways.md before "
                           "binding elsewhere)")
+    run.add_argument("--wits0", nargs="?", const=GATEWAY_DEFAULT, metavar="HOST:PORT",
+                     help="stream WITS0 record 01 once a second to TCP clients of HOST:PORT "
+                          "(without it 127.0.0.1:11000; port 0: a free one; docs/gateways.md)")
     run.add_argument("--mismatch", metavar="NAME",
                      help="the plant differs from the model: a member of config/mismatch.yaml "
                           "or draw:N (replaces the scenario's truth:, docs/mismatch.md)")
@@ -170,7 +175,7 @@ def main(argv=None) -> int:
     stab.add_argument("--mud-viscosity", type=float, help="Pa s (default: the section's)")
     stab.add_argument("--output", type=Path, help="write the Fig. 3, 4 and 7 like plots here")
     from drill_bag import export
-    export.add_arguments(sub.add_parser("export", help="a run's recording as CSV or Parquet tables"))
+    export.add_arguments(sub.add_parser("export", help="a run's recording as CSV or Parquet tables, or a LAS or WITSML well log"))
     from drill_bringup import sweep
     sweep.add_arguments(sub.add_parser("sweep", help="a scenario on many seeds, aggregated"))
     comp = sub.add_parser("compare", help="run Cases 1-4 under every controller; tabulate")

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from drill_bag import mcap_io
-from drill_ros import topics
+from drill_ros import topic_names as topics
 from drill_string import (longest_stick_s, rate_of_penetration_m_s, stick_slip_severity,
                           stick_time_fraction)
 from drill_string.parameters import rad_s_to_rpm

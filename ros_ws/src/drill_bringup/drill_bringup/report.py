@@ -20,7 +20,7 @@ from drill_bringup import drilling_report
 from drill_bringup import well_control_report as well_control
 from drill_core.config import load_rig
 from drill_core.rig_root import rig_root
-from drill_ros import topics
+from drill_ros import topic_names as topics
 from drill_core.units import LPM_PER_M3S, PA_PER_BAR
 
 ARRIVAL_TOLERANCE_M = 0.5     # a trip leg ends when the string is this close to its target

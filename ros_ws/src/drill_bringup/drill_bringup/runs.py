@@ -194,7 +194,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
             f"python -m drill_hmi.operator_cli --domain {launch.env['ROS_DOMAIN_ID']} watch)")
         if "console" in names:
             say(f"[rig] console: {reported_url(run_dir / 'logs' / 'console.log', 'CONSOLE_URL')}")
-    for name, key in (("foxglove_bridge", "FOXGLOVE_URL"), ("opcua_gateway", "OPCUA_URL")):
+    for name, key in (("foxglove_bridge", "FOXGLOVE_URL"), ("opcua_gateway", "OPCUA_URL"),
+                      ("wits0_gateway", "WITS0_ADDRESS")):
         if name in (extras or {}) and name in names:
             say(f"[rig] {name}: {reported_url(run_dir / 'logs' / f'{name}.log', key)}")
     limit = timeout_s or (scenario.duration_s * 1.5 + 120 if realtime else 900.0)

@@ -25,6 +25,7 @@ from collections import deque
 from dataclasses import dataclass
 
 from drill_core.config import KickDetection, RigConfig
+from drill_core.surface_flows import delta_flow_m3s
 from drill_core.well import WellGeometry
 from drill_protection.flow_baseline import FlowBaseline
 from drill_protection.recent_median import RecentMedian
@@ -118,7 +119,7 @@ class KickDetector:
             self._first_pressures = pressures
         dt = s.time_s - self._last_time_s
         self._last_time_s = s.time_s
-        self._integral_m3 += (s.return_flow_m3s - s.string_flow_m3s - s.bpp_flow_m3s) * dt
+        self._integral_m3 += delta_flow_m3s(s) * dt
         known = (self.area_m2 * (s.string_position_m - self._first.string_position_m)
                  + sum(c * (p - p0) for c, p, p0 in zip(self.compliance_m3_pa, pressures,
                                                          self._first_pressures)))

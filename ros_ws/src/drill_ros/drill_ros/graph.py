@@ -154,7 +154,7 @@ NODES = (
           topics.EMERGENCY_STOP, topics.LEVEL_IN_FORCE, topics.ESTOP_IN_FORCE, topics.RIG_EVENTS,
           *FRAMES),
          realtime_only=True),
-    # Optional observers (``rig run --foxglove`` / ``--opcua``; drill_gateway): their
+    # Optional observers (``rig run --foxglove`` / ``--opcua`` / ``--wits0``; drill_gateway): their
     # subscriptions are best-effort keep-last (latched topics: depth 1), so they never hold
     # up a writer; the plant waits for them at the start like for every other reader.
     Node("foxglove_bridge", "drill_gateway.foxglove_node", "FoxgloveBridgeNode", (),
@@ -162,6 +162,9 @@ NODES = (
     Node("opcua_gateway", "drill_gateway.opcua_node", "OpcuaGatewayNode",
          (topics.OPERATOR_EVENTS, topics.AUTOMATION_LEVEL),
          (topics.MEASUREMENT, topics.ESTIMATE, topics.SETPOINTS, topics.LEVEL_IN_FORCE),
+         optional=True),
+    Node("wits0_gateway", "drill_gateway.wits0_node", "Wits0GatewayNode", (),
+         (topics.MEASUREMENT, *(topics.actuator_frame(n) for n in ("mud_pump", "choke"))),
          optional=True),
     Node("plant", "drill_plant.plant_node", "PlantNode",
          (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, CLOCK), FRAMES, plant=True,

@@ -1,51 +1,17 @@
-"""Topic and service names and their QoS (docs/design.md §2).
+"""Topic and service names (drill_ros.topic_names) and their QoS (docs/design.md §2).
 
 Everything the fast-mode lockstep depends on, and everything recorded, is reliable
 with keep-all history; setpoints are latched (transient local, depth 1).
 """
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from drill_core.events import ACTUATORS  # noqa: F401  (re-exported: the actuator topics)
+from drill_ros.topic_names import *  # noqa: F401,F403  (the names, defined there)
 
 # Discovery precedes endpoint matching: a pause for reliable matches to complete once the
 # graph shows the endpoints. In fast mode every first message on a reliable topic also
 # waits until its publisher has matched its readers (graph.first_publish_matches), so
 # this only covers a reader that has not yet matched a publisher that matched it.
 MATCH_SETTLE_S = 0.5
-
-MEASUREMENT = "/rig/measurement"        # drill_msgs/RigMeasurement, plant -> estimator, actuators
-TRUTH = "/rig/truth"                    # drill_msgs/PlantTruth, evaluation only
-COMMAND = "/supervisor/command"         # drill_msgs/RigCommand, advisor (nmpc, baseline) -> protection
-MACHINE_COMMAND = "/rig/command"        # drill_msgs/RigCommand, protection -> actuators
-EMERGENCY_STOP = "/operator/emergency_stop"  # std_msgs/Bool, latched
-AUTOMATION_LEVEL = "/operator/automation_level"  # std_msgs/String, latched: manual|advisory|closed_loop
-PROTECTION_EVENTS = "/protection/events"     # drill_msgs/OperatorEvent: clamps and alarms
-LEVEL_IN_FORCE = "/protection/automation_level"   # std_msgs/String, latched: the level applied
-ESTOP_IN_FORCE = "/protection/emergency_stop"     # std_msgs/Bool, latched: the stop applied
-ESTIMATE = "/estimator/estimate"        # drill_msgs/StateEstimate
-NMPC_STATUS = "/nmpc/status"            # drill_msgs/NmpcStatus
-NMPC_NODE_STATUS = "/nmpc/node_status"  # drill_msgs/NodeStatus of the nmpc node (/nmpc/status is taken)
-SETPOINTS = "/setpoints"                # drill_msgs/Setpoints, latched
-SET_SETPOINTS = "/set_setpoints"        # drill_msgs/srv/SetSetpoints, validating
-OPERATOR_EVENTS = "/operator/events"    # drill_msgs/OperatorEvent
-RIG_EVENTS = "/rig/events"              # drill_msgs/OperatorEvent, plant: scenario events (faults)
-# drilling mode (drill_string): its own node set
-SURFACE = "/drilling/surface"           # drill_msgs/SurfaceMeasurement, drilling plant -> driller, drives
-DOWNHOLE = "/drilling/downhole"         # drill_msgs/DownholeMeasurement, drilling plant (wired pipe)
-DRILLING_TRUTH = "/drilling/truth"      # drill_msgs/DrillingTruth, drilling plant: evaluation only
-DRILLING_COMMAND = "/drilling/command"  # drill_msgs/DrillingCommand, driller -> top drive, block feed
-DRILLING_ACTUATORS = ("top_drive", "block_feed")   # drilling mode's machines (actuator_frame)
-
-
-def actuator_frame(name: str) -> str:
-    """drill_msgs/ActuatorFrame topic of one actuator."""
-    return f"/actuators/{name}/frame"
-
-
-def status(node: str) -> str:
-    """drill_msgs/NodeStatus topic of one node."""
-    return f"/{node}/status"
-
 
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
