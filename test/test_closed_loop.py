@@ -3,7 +3,8 @@
 A short trip must complete with BHP inside its window; the same seed must give the
 same recorded data, one process per node and with the nodes composed into two
 containers (plant and actuators; estimator, NMPC and protection); a node killed mid-run
-must make the launch fail loudly and leave a readable recording.
+must make the launch fail loudly and leave a readable recording; every node's health is
+recorded on /diagnostics.
 """
 import math
 import signal
@@ -141,6 +142,19 @@ def test_recording_complete_and_read_by_independent_reader(two_runs):
         decoded = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=conns)]
     assert len(decoded) == 901
     assert all(math.isfinite(m.bhp_pa) and m.bhp_pa > 6.0e7 for m in decoded)
+
+
+def test_every_node_reports_its_health_on_diagnostics(two_runs):
+    import json
+    for run_dir in two_runs:
+        nodes = set(json.loads((run_dir / "launch.json").read_text())["nodes"])
+        reports = [report for recorded in mcap_io.read_messages(_mcap(run_dir),
+                                                                [topics.DIAGNOSTICS])
+                   for report in mcap_io.decode(recorded).status]
+        assert {r.name for r in reports} == nodes
+        for r in reports:
+            assert r.level in (0, 1, 2) and r.hardware_id == "drill_rig", r   # OK, WARN, ERROR
+            assert {"mode", "rate_hz", "healthy", "error_count"} <= {kv.key for kv in r.values}
 
 
 def test_same_seed_reproduces_recorded_data_across_process_layouts(two_runs):

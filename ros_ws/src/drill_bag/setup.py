@@ -11,6 +11,9 @@ setup(
         ("share/" + PACKAGE, ["package.xml"]),
     ],
     install_requires=["setuptools"],
+    entry_points={"console_scripts": [   # ros2 run drill_bag <node module> (drill_ros.graph)
+        "recorder = drill_bag.recorder:main",
+    ]},
     zip_safe=True,
     description="MCAP recordings: the recorder node, replay into a graph, export to Parquet and CSV, LAS and WITSML well logs.",
     license="Apache-2.0",

@@ -9,6 +9,7 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         ("share/" + PACKAGE, ["package.xml"]),
+        ("share/" + PACKAGE + "/launch", ["launch/rig.launch.py"]),   # drill_bringup.launch_file
     ],
     install_requires=["setuptools"],
     zip_safe=True,

@@ -11,6 +11,9 @@ setup(
         ("share/" + PACKAGE, ["package.xml"]),
     ],
     install_requires=["setuptools"],
+    entry_points={"console_scripts": [   # ros2 run drill_estimator <node module> (drill_ros.graph)
+        "estimator_node = drill_estimator.estimator_node:main",
+    ]},
     zip_safe=True,
     description="Unscented Kalman filter for states and annular friction parameters, and its node.",
     license="Apache-2.0",

@@ -11,6 +11,9 @@ setup(
         ("share/" + PACKAGE, ["package.xml"]),
     ],
     install_requires=["setuptools"],
+    entry_points={"console_scripts": [   # ros2 run drill_protection <node module> (drill_ros.graph)
+        "protection_node = drill_protection.protection_node:main",
+    ]},
     zip_safe=True,
     description="Process protection between the advisors and the machines.",
     license="Apache-2.0",

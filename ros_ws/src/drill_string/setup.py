@@ -11,6 +11,11 @@ setup(
         ("share/" + PACKAGE, ["package.xml"]),
     ],
     install_requires=["setuptools"],
+    entry_points={"console_scripts": [   # ros2 run drill_string <node module> (drill_ros.graph)
+        "actuator_node = drill_string.ros.actuator_node:main",
+        "driller_node = drill_string.ros.driller_node:main",
+        "plant_node = drill_string.ros.plant_node:main",
+    ]},
     zip_safe=True,
     description="Drilling mode: on-bottom drill-string dynamics (plain-Python core) and the "
                 "drilling graph's nodes (drill_string.ros).",

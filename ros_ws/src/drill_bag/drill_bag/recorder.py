@@ -17,6 +17,7 @@ from drill_ros import topics
 from drill_ros.budget import ProcessClock
 from drill_ros.executors import create_executor
 from drill_ros.node import RigNode
+from drill_ros.status import HealthPublisher
 from drill_msgs.msg import NodeStatus
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
@@ -91,7 +92,7 @@ class Recorder(RigNode):
             self._writer.add_metadata(TRUTH_METADATA, {"truth": Path(truth_path).read_text()})
         self._subscriptions_by_topic = {}
         self._unrecordable = set()
-        self._status_pub = self.create_publisher(NodeStatus, STATUS_TOPIC, topics.RELIABLE)
+        self._status_pub = HealthPublisher(self, STATUS_TOPIC)
         self._errors: list[str] = []
         self._last_status = (time.monotonic(), 0)
         steady = Clock(clock_type=ClockType.STEADY_TIME)

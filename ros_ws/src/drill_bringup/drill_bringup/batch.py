@@ -7,21 +7,53 @@ every worker thread holds one free domain (launcher.default_domain_id, an flock 
 its process lives) and runs all its graphs on it, one at a time, so concurrent graphs
 never see each other and a worker does not take a new domain for every run. A run that
 fails comes back as a row with ``ok`` false and the launcher's message; the others go on.
+Progress (runs done, the time left) goes to stderr: a bar on a terminal, a line per run
+in a log.
 """
 from __future__ import annotations
 
 import dataclasses
 import json
 import multiprocessing
+import sys
 import threading
+import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
+from tqdm import tqdm
+
 from drill_bringup import launcher, runs
 
 _worker = threading.local()
+
+
+class Progress:
+    """Runs done of a batch, with the rate and the time left: a tqdm bar on a terminal
+    (stderr), a plain line after each run otherwise (a CI log)."""
+
+    def __init__(self, total: int, stream=None, clock=time.monotonic):
+        self.stream = stream or sys.stderr
+        self.total, self.done, self.clock, self.started_s = total, 0, clock, clock()
+        self.bar = tqdm(total=total, unit="run", file=self.stream, dynamic_ncols=True) \
+            if self.stream.isatty() else None
+
+    def step(self) -> None:
+        self.done += 1
+        if self.bar is not None:
+            self.bar.update()
+            return
+        elapsed_s = self.clock() - self.started_s
+        left_s = elapsed_s / self.done * (self.total - self.done)
+        self.stream.write(f"[batch] {self.done} / {self.total} runs, {elapsed_s:.0f} s, "
+                          f"about {left_s:.0f} s left\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
 
 
 @dataclass(frozen=True)
@@ -90,27 +122,35 @@ def execute(specs: Sequence[RunSpec], run: Callable[[RunSpec], dict] = run_one,
     ``on_done`` sees each row as its run finishes."""
     if workers < 1:
         raise ValueError(f"--workers: value {workers} must be at least 1")
-    done = on_done or (lambda row: None)
+    progress = Progress(len(specs))
+
+    def done(row: dict) -> None:
+        if on_done is not None:
+            on_done(row)
+        progress.step()
     rows: list[dict | None] = [None] * len(specs)
     if cluster or (workers > 1 and len(specs) > 1):
         specs = [dataclasses.replace(spec, alone=False) for spec in specs]
-    if cluster:
-        from distributed import Client
-        from distributed import as_completed as dask_completed
-        with Client(cluster) as client:
-            futures = {client.submit(run, spec, pure=False): i for i, spec in enumerate(specs)}
-            for future in dask_completed(futures):
-                rows[futures[future]] = future.result()
-                done(rows[futures[future]])
-    elif workers > 1 and len(specs) > 1:
-        context = multiprocessing.get_context("spawn")     # no fork of a process with threads
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            futures = {pool.submit(run, spec): i for i, spec in enumerate(specs)}
-            for future in as_completed(futures):
-                rows[futures[future]] = future.result()
-                done(rows[futures[future]])
-    else:
-        for i, spec in enumerate(specs):
-            rows[i] = run(spec)
-            done(rows[i])
+    try:
+        if cluster:
+            from distributed import Client
+            from distributed import as_completed as dask_completed
+            with Client(cluster) as client:
+                futures = {client.submit(run, spec, pure=False): i for i, spec in enumerate(specs)}
+                for future in dask_completed(futures):
+                    rows[futures[future]] = future.result()
+                    done(rows[futures[future]])
+        elif workers > 1 and len(specs) > 1:
+            context = multiprocessing.get_context("spawn")     # no fork of a process with threads
+            with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+                futures = {pool.submit(run, spec): i for i, spec in enumerate(specs)}
+                for future in as_completed(futures):
+                    rows[futures[future]] = future.result()
+                    done(rows[futures[future]])
+        else:
+            for i, spec in enumerate(specs):
+                rows[i] = run(spec)
+                done(rows[i])
+    finally:
+        progress.close()
     return rows

@@ -345,7 +345,8 @@ def main(argv=None) -> int:
     for seed in args.seeds or [None]:
         r = run(args.scenario, args.controller, args.state, seed, overrides,
                 protection=args.protection, mismatch=mismatch)
-        print(f"{args.scenario} seed {seed}: BHP RMSE {r['bhp_rmse_pa'] / PA_PER_BAR:.2f} bar, "
+        print(f"{args.scenario} seed {seed}: BHP RMSE {r['bhp_rmse_pa'] / PA_PER_BAR:.2f} bar "
+              f"({r['bhp_rmse_settled_pa'] / PA_PER_BAR:.2f} after 30 s), "
               f"outside {r['bhp_time_outside_s']:.1f} s ({r['bhp_time_outside_settled_s']:.1f} s "
               f"after 30 s), worst {r['bhp_worst_excursion_pa'] / PA_PER_BAR:.2f} bar, "
               f"under pore {r['bhp_under_pore_s']:.1f} s (worst "

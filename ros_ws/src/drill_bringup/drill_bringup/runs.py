@@ -13,6 +13,7 @@ from pathlib import Path
 import yaml
 
 from drill_bringup import launcher, report
+from drill_bringup.progress_display import ProgressDisplay
 from drill_core.config import ConfigError
 from drill_core.mismatch import resolve, truth_config, write_truth_file
 from drill_core.rig_root import rig_root
@@ -199,10 +200,18 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
         if name in (extras or {}) and name in names:
             say(f"[rig] {name}: {reported_url(run_dir / 'logs' / f'{name}.log', key)}")
     limit = timeout_s or (scenario.duration_s * 1.5 + 120 if realtime else 900.0)
+    plant_process = next((p.name for p in launch.processes
+                          if any(graph_decl.BY_NAME[n.name].plant for n in getattr(p, "nodes", ()))),
+                         None)
+    display = ProgressDisplay(run_dir / "logs" / f"{plant_process}.log", started,
+                              sys.stdout.isatty()) \
+        if plant_process and not realtime and not quiet else None
     try:
-        ok, message = launch.watch(limit)
+        ok, message = launch.watch(limit, on_poll=display.poll if display else None)
     except KeyboardInterrupt:
         ok, message = False, "interrupted"
+    if display:
+        display.close()
     codes = launch.stop()
     wall = time.monotonic() - started
     (run_dir / "launch.json").write_text(json.dumps(

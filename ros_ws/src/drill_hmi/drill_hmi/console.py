@@ -68,7 +68,8 @@ from importlib import resources
 from pathlib import Path
 from urllib.parse import parse_qs, urlparse
 
-from drill_msgs.msg import (ActuatorFrame, NmpcStatus, NodeStatus, OperatorEvent, PlantTruth,
+from diagnostic_msgs.msg import DiagnosticArray
+from drill_msgs.msg import (ActuatorFrame, NmpcStatus, OperatorEvent, PlantTruth,
                             RigMeasurement, Setpoints, StateEstimate)
 from drill_msgs.srv import SetSetpoints
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -80,7 +81,8 @@ from drill_core.access import SecurityDir
 from drill_core.config import load_rig
 from drill_core.event_codes import Notice
 from drill_core.rig_root import config_dir as default_config_dir
-from drill_ros import graph, topics
+from drill_ros import topics
+from drill_ros.diagnostics import HARDWARE_ID, status_fields
 from drill_ros.events import event_message
 from drill_ros.node import RigNode
 from drill_ros.runner import run
@@ -93,12 +95,6 @@ DISPLAY = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
 MAX_BODY_BYTES = 16384
 WILDCARD_HOSTS = ("0.0.0.0", "::")       # bound to every interface: any Host header is ours
 TOKEN_NEEDED = "this console takes an action only with its token (Authorization: Bearer TOKEN)"
-
-
-def status_topics() -> list[str]:
-    """NodeStatus topics of the graph's nodes (drill_ros.graph; the nmpc's is
-    /nmpc/node_status: /nmpc/status carries NmpcStatus)."""
-    return [node.status_topic for node in graph.NODES if node.name != "console"]
 
 
 def page_html() -> str:
@@ -165,9 +161,12 @@ def frame_dict(m: ActuatorFrame) -> dict:
             "reference": m.reference, "watchdog_active": m.watchdog_active}
 
 
-def status_dict(m: NodeStatus) -> dict:
-    return {"mode": m.mode, "rate_hz": m.rate_hz, "healthy": m.healthy, "last_error": m.last_error,
-            "error_count": int(m.error_count), "values": dict(zip(m.keys, (float(v) for v in m.values)))}
+def take_diagnostics(state, m: DiagnosticArray, own_name: str = "") -> None:
+    """Hand each rig node's report of a /diagnostics message (but ``own_name``'s) to a
+    console state."""
+    for report in m.status:
+        if report.hardware_id == HARDWARE_ID and report.name != own_name:
+            state.on_status(report.name, status_fields(report))
 
 
 def console_token(host: str, security_dir: str) -> str | None:
@@ -290,8 +289,8 @@ class ConsoleNode(RigNode):
             topics.LATCHED)
         for name in topics.ACTUATORS:
             sub(ActuatorFrame, topics.actuator_frame(name), lambda m, n=name: self._on_frame(n, m), DISPLAY)
-        for topic in status_topics():
-            sub(NodeStatus, topic, self._on_status, DISPLAY)
+        sub(DiagnosticArray, topics.DIAGNOSTICS,
+            lambda m: take_diagnostics(self.state, m, self.get_name()), DISPLAY)
 
         self.status = StatusReporter(self, self.mode)
         try:
@@ -324,8 +323,6 @@ class ConsoleNode(RigNode):
     def _on_frame(self, name: str, m: ActuatorFrame) -> None:
         self.state.on_frame(name, seconds(m.header.stamp), frame_dict(m))
 
-    def _on_status(self, m: NodeStatus) -> None:
-        self.state.on_status(m.node, status_dict(m))
 
     def _on_event(self, source: str, m: OperatorEvent) -> None:
         self.state.on_event(source, seconds(m.header.stamp), m.kind, m.code, m.text, m.accepted)

@@ -77,7 +77,8 @@ class Session:
 
     def __init__(self, args, watch: bool):
         import rclpy
-        from drill_msgs.msg import NmpcStatus, NodeStatus, RigMeasurement, Setpoints, StateEstimate
+        from diagnostic_msgs.msg import DiagnosticArray
+        from drill_msgs.msg import NmpcStatus, RigMeasurement, Setpoints, StateEstimate
         from rclpy.executors import SingleThreadedExecutor
         from std_msgs.msg import Bool, String
 
@@ -104,8 +105,8 @@ class Session:
                 console.DISPLAY)
             sub(NmpcStatus, topics.NMPC_STATUS,
                 lambda m: st.on_nmpc(console.seconds(m.header.stamp), console.nmpc_dict(m)), console.DISPLAY)
-            sub(NodeStatus, topics.status("protection"),
-                lambda m: st.on_status(m.node, console.status_dict(m)), console.DISPLAY)
+            sub(DiagnosticArray, topics.DIAGNOSTICS, lambda m: console.take_diagnostics(st, m),
+                console.DISPLAY)
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
         self._stop = threading.Event()

@@ -22,7 +22,7 @@ from drill_msgs.msg import ActuatorFrame, OperatorEvent, PlantTruth, RigMeasurem
 from rosgraph_msgs.msg import Clock
 
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
-from drill_ros import topics
+from drill_ros import progress, topics
 from drill_ros.context import load_context
 from drill_ros.events import event_message
 from drill_ros.inbox import StampedInbox
@@ -54,6 +54,7 @@ class PlantNode(RigNode):
         self._flow_rows = [self.layout.flow(i) for i in range(2, n + 1)]
         self.frame_ns = seconds_to_ns(ctx.config.plant.sensor_period_s)
         self.last_k = int(round(ctx.scenario.duration_s / ctx.config.plant.sensor_period_s))
+        self.progress = progress.PlantProgress(ctx.config.plant.sensor_period_s, ctx.scenario.duration_s)
         self.k = 0
         self.frames = StampedInbox(topics.ACTUATORS)
         self.status = StatusReporter(self, ctx.mode)
@@ -133,6 +134,7 @@ class PlantNode(RigNode):
             self.finish()
             return
         self.k += 1
+        self.progress.frame_done(self.k)           # rig run's progress line
         self._publish_sample()
 
     def _publish_sample(self) -> None:

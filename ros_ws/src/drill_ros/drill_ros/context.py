@@ -28,11 +28,12 @@ class NodeContext:
 
 def common_parameters(node, default_scenario: str) -> tuple[str, str, str]:
     """Declare and read the parameters every node of a run gets: (config_dir, scenario
-    path, mode), the scenario by default config/scenarios/<default_scenario>.yaml."""
+    path, mode); unset or empty, config/ and config/scenarios/<default_scenario>.yaml."""
     root = rig_root()
-    config_dir = node.declare_parameter("config_dir", str(root / "config")).value
-    scenario_path = node.declare_parameter(
-        "scenario", str(root / "config" / "scenarios" / f"{default_scenario}.yaml")).value
+    defaults = {"config_dir": str(root / "config"),
+                "scenario": str(root / "config" / "scenarios" / f"{default_scenario}.yaml")}
+    config_dir, scenario_path = (node.declare_parameter(name, default).value or default
+                                 for name, default in defaults.items())
     return config_dir, scenario_path, node.declare_parameter("mode", "fast").value
 
 

@@ -66,6 +66,8 @@ TOPICS = (
     Topic(topics.EMERGENCY_STOP, "std_msgs/Bool", "latched", "operator's request"),
     Topic(topics.LEVEL_IN_FORCE, "std_msgs/String", "latched", "the level applied"),
     Topic(topics.ESTOP_IN_FORCE, "std_msgs/Bool", "latched", "the stop applied"),
+    Topic(topics.DIAGNOSTICS, "diagnostic_msgs/DiagnosticArray", "reliable",
+          "each node's NodeStatus in the ROS form, once a second"),
     Topic(CLOCK, "rosgraph_msgs/Clock", "reliable", "fast mode only"),
     Topic(topics.SURFACE, "drill_msgs/SurfaceMeasurement", "reliable", "drilling mode"),
     Topic(topics.DOWNHOLE, "drill_msgs/DownholeMeasurement", "reliable",
@@ -152,7 +154,7 @@ NODES = (
          (topics.MEASUREMENT, topics.TRUTH, topics.ESTIMATE, topics.NMPC_STATUS, topics.SETPOINTS,
           topics.OPERATOR_EVENTS, topics.PROTECTION_EVENTS, topics.AUTOMATION_LEVEL,
           topics.EMERGENCY_STOP, topics.LEVEL_IN_FORCE, topics.ESTOP_IN_FORCE, topics.RIG_EVENTS,
-          *FRAMES),
+          topics.DIAGNOSTICS, *FRAMES),
          realtime_only=True),
     # Optional observers (``rig run --foxglove`` / ``--opcua`` / ``--wits0``; drill_gateway): their
     # subscriptions are best-effort keep-last (latched topics: depth 1), so they never hold
@@ -364,7 +366,7 @@ def lockstep_endpoints(nodes: list[Node], fast: bool, local: dict | None = None)
 
 def first_publish_matches(node: Node, nodes: list[Node], local: dict | None = None) -> list[str]:
     """``topic:N`` for each reliable topic ``node`` publishes in this node set, its status
-    topic included: the subscriptions (in the middleware: not the ``local`` ones, nor
+    topic and /diagnostics included: the subscriptions (in the middleware: not the ``local`` ones, nor
     ``node``'s own) its publisher must have matched before its first message. DDS matches
     a publisher with a subscription some time after the graph shows both (the plant's
     ``wait_for``, the recorder's discovery); a first sample published before that is lost
@@ -372,7 +374,7 @@ def first_publish_matches(node: Node, nodes: list[Node], local: dict | None = No
     Latched topics need no gate: a late reader still gets their last value."""
     out = []
     others = [n for n in nodes if n is not node]
-    for topic in (*node.publishes, node.status_topic):
+    for topic in (*node.publishes, node.status_topic, topics.DIAGNOSTICS):
         if latched(topic):
             continue
         readers = sum(n.reads_clock for n in others) if topic == CLOCK else \
@@ -402,7 +404,8 @@ def markdown_table() -> str:
         if name in seen:
             continue
         seen.add(name)
-        pubs = [n.name for n in NODES if t.name in n.publishes]
+        pubs = ["every node"] if t.name == topics.DIAGNOSTICS else \
+            [n.name for n in NODES if t.name in n.publishes]
         subs = [n.name for n in NODES if t.name in n.subscribes]
         if t.name in FRAMES:
             pubs = ["`<name>` (each tripping actuator)"]

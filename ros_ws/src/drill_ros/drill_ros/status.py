@@ -1,20 +1,37 @@
-"""Per-node status reporting on /<node>/status (docs/design.md §2)."""
+"""Per-node status reporting on /<node>/status and /diagnostics (docs/design.md §2)."""
 from __future__ import annotations
 
+from diagnostic_msgs.msg import DiagnosticArray
 from drill_msgs.msg import NodeStatus
 
 from drill_ros import topics
+from drill_ros.diagnostics import diagnostic_array
+
+
+class HealthPublisher:
+    """A node's NodeStatus on its status topic and, the same report, on /diagnostics."""
+
+    def __init__(self, node, topic: str):
+        self._status = node.create_publisher(NodeStatus, topic, topics.RELIABLE)
+        self._diagnostics = node.create_publisher(DiagnosticArray, topics.DIAGNOSTICS,
+                                                  topics.RELIABLE)
+        self._reported_errors = 0
+
+    def publish(self, msg: NodeStatus) -> None:
+        self._status.publish(msg)
+        self._diagnostics.publish(diagnostic_array(msg, msg.error_count - self._reported_errors))
+        self._reported_errors = msg.error_count
 
 
 class StatusReporter:
-    """Counts loop iterations and errors; publishes NodeStatus once per second of node time."""
+    """Counts loop iterations and errors; publishes NodeStatus (and /diagnostics) once per
+    second of node time."""
 
     def __init__(self, node, mode: str, period_s: float = 1.0, topic: str | None = None):
         self._node = node
         self.mode = mode
         # ``topic`` overrides /<node>/status (the nmpc node: /nmpc/status carries NmpcStatus)
-        self._pub = node.create_publisher(NodeStatus, topic or topics.status(node.get_name()),
-                                          topics.RELIABLE)
+        self._pub = HealthPublisher(node, topic or topics.status(node.get_name()))
         self._period_ns = int(period_s * 1e9)
         self._last_ns = None
         self._ticks = 0

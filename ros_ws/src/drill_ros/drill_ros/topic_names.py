@@ -18,6 +18,7 @@ NMPC_NODE_STATUS = "/nmpc/node_status"  # drill_msgs/NodeStatus of the nmpc node
 SETPOINTS = "/setpoints"                # drill_msgs/Setpoints, latched
 SET_SETPOINTS = "/set_setpoints"        # drill_msgs/srv/SetSetpoints, validating
 OPERATOR_EVENTS = "/operator/events"    # drill_msgs/OperatorEvent
+DIAGNOSTICS = "/diagnostics"            # diagnostic_msgs/DiagnosticArray, every node: its health (drill_ros.diagnostics)
 RIG_EVENTS = "/rig/events"              # drill_msgs/OperatorEvent, plant: scenario events (faults)
 # drilling mode (drill_string): its own node set
 SURFACE = "/drilling/surface"           # drill_msgs/SurfaceMeasurement, drilling plant -> driller, drives

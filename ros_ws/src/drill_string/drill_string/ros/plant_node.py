@@ -16,7 +16,7 @@ from drill_msgs.msg import (ActuatorFrame, DownholeMeasurement, DrillingTruth,
                             SurfaceMeasurement)
 from rosgraph_msgs.msg import Clock
 
-from drill_ros import topics
+from drill_ros import progress, topics
 from drill_ros.inbox import StampedInbox
 from drill_ros.lockstep import LockstepStart, flush
 from drill_ros.node import RigNode
@@ -39,6 +39,7 @@ class DrillingPlantNode(RigNode):
         self.plant = DrillingPlant(ctx.scenario, ctx.rig, seed)
         self.frame_ns = seconds_to_ns(ctx.rig.sensor_period_s)
         self.last_k = int(round(ctx.scenario.duration_s / ctx.rig.sensor_period_s))
+        self.progress = progress.PlantProgress(ctx.rig.sensor_period_s, ctx.scenario.duration_s)
         self.k = 0
         self.frames = StampedInbox(topics.DRILLING_ACTUATORS)
         self.status = StatusReporter(self, "fast")
@@ -75,6 +76,7 @@ class DrillingPlantNode(RigNode):
         for name in self.plant.advance(frames["top_drive"].output, frames["block_feed"].output):
             self.status.error(f"{name}: bad frame; holding its last input")
         self.k += 1
+        self.progress.frame_done(self.k)           # rig run's progress line
         self._publish_sample()
 
     def _stalled(self) -> None:
