@@ -114,15 +114,15 @@ def test_in_process_loop_bench_equals_the_graph(controller, two_runs, other_cont
                          (topics.MACHINE_COMMAND, "choke_flow_ref_m3s")):
         stamps[topic, field] = {round(m.header.stamp.sec * 10 + m.header.stamp.nanosec / 1e8):
                                 getattr(m, field) for _, m in mcap_io.decoded_messages(path, [topic])}
-    bench = {(topics.TRUTH, "bhp_pa"): "bhp", (topics.TRUTH, "string_position_m"): "pos",
-             (topics.ESTIMATE, "bhp_pa"): "bhp_est",
-             (topics.MACHINE_COMMAND, "block_position_ref_m"): "block_ref",
-             (topics.MACHINE_COMMAND, "choke_flow_ref_m3s"): "choke_flow_ref"}
+    bench = {(topics.TRUTH, "bhp_pa"): "bhp_pa", (topics.TRUTH, "string_position_m"):
+             "string_position_m", (topics.ESTIMATE, "bhp_pa"): "bhp_estimate_pa",
+             (topics.MACHINE_COMMAND, "block_position_ref_m"): "block_position_ref_m",
+             (topics.MACHINE_COMMAND, "choke_flow_ref_m3s"): "choke_flow_ref_m3s"}
     tolerance = {"bhp_pa": 1e-3, "string_position_m": 1e-9, "block_position_ref_m": 1e-9,
                  "choke_flow_ref_m3s": 1e-12}       # Pa, m, m, m^3/s
     for (topic, field), graph in stamps.items():
         assert len(graph) >= 91, (topic, len(graph))
-        frames = np.rint(trace["t"] * 10).astype(int)
+        frames = np.rint(trace["time_s"] * 10).astype(int)
         values = dict(zip(frames, trace[bench[topic, field]]))
         common = [k for k in graph if k in values]      # the bench stops before t = 90 s
         assert len(common) >= len(graph) - 1, (topic, len(common), len(graph))

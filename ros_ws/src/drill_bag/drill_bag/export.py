@@ -14,6 +14,8 @@ empty (null). The wide table holds, at every point of a grid at the chosen rate 
 the first stamp to the last, the latest sample of each channel at or before it
 (zero-order hold; null before a topic's first), its columns prefixed by the topic
 (``rig.measurement.bhp_pa``, with ``rig.measurement.stamp_ns`` the held sample's stamp).
+In Parquet ``time_utc`` is a ``timestamp[ns, UTC]`` (the stamp exactly) and every column
+with a unit carries it in its field metadata (``unit``: ``Pa``, ``m^3/s``, ``ns``).
 docs/exports-and-sweeps.md has the details.
 """
 from __future__ import annotations
@@ -105,7 +107,18 @@ class _TopicRows:
         for column in columns:
             data[column] = pa.array([row.get(column) for row in self.rows],
                                     KINDS[self.layout.kind(column)])
-        return _with_message_unit(pa.table(data), self.layout.placeholder_columns)
+        units = {"stamp_ns": "ns", "log_time_ns": "ns",
+                 **{c: self.layout.unit(c) for c in columns}}
+        return _with_message_unit(_with_units(pa.table(data), units),
+                                  self.layout.placeholder_columns)
+
+
+def _with_units(table: pa.Table, units: dict[str, str]) -> pa.Table:
+    """Each column's SI unit (``units``: column -> unit, '' none) in its field metadata
+    (``unit``), which Parquet keeps."""
+    fields = [field.with_metadata({"unit": units[field.name]})
+              if units.get(field.name) else field for field in table.schema]
+    return table.cast(pa.schema(fields))
 
 
 def _with_message_unit(table: pa.Table, placeholders: frozenset[str]) -> pa.Table:
@@ -123,6 +136,8 @@ def _with_message_unit(table: pa.Table, placeholders: frozenset[str]) -> pa.Tabl
         if base not in placeholders or names_unit(base, unit):
             return name
         return f"{base}_{unit_token(unit)}{bracket}{index}"
+    placeholder = {name for name in table.column_names if name.partition("[")[0] in placeholders}
+    table = _with_units(table, {name: unit for name in placeholder})
     return table.rename_columns([renamed(n) for n in table.column_names])
 
 
@@ -153,22 +168,28 @@ def wide_table(tables: dict[str, pa.Table], rate_hz: float) -> pa.Table:
     grid = first + period_ns * np.arange(rows, dtype=np.int64)
     data = {"time_utc": pa.array(iso_utc(grid), pa.string()),
             "stamp_ns": pa.array(grid, pa.int64())}
+    units = {"stamp_ns": "ns"}
     for topic, table in tables.items():
         stamps = table.column("stamp_ns").to_numpy()
         order = np.argsort(stamps, kind="stable")
         held = np.searchsorted(stamps[order], grid, side="right") - 1
         index = pa.array(order[np.maximum(held, 0)], pa.int64(), mask=held < 0)
-        for name in table.column_names:
-            if name not in ("time_utc", "log_time_ns"):
-                data[f"{file_stem(topic)}.{name}"] = table.column(name).take(index)
-    return pa.table(data)
+        for field in table.schema:
+            if field.name not in ("time_utc", "log_time_ns"):
+                column = f"{file_stem(topic)}.{field.name}"
+                data[column] = table.column(field.name).take(index)
+                units[column] = (field.metadata or {}).get(b"unit", b"").decode()
+    return _with_units(pa.table(data), units)
 
 
 def write_table(table: pa.Table, path: Path, fmt: str) -> Path:
-    """Write one table as CSV or Parquet."""
+    """Write one table as CSV or Parquet (there ``time_utc`` is a timestamp[ns, UTC], the
+    stamp exactly)."""
     if fmt == "csv":
         pa_csv.write_csv(table, path)
     else:
+        utc = table.column("stamp_ns").cast(pa.timestamp("ns", tz="UTC"))
+        table = table.set_column(table.column_names.index("time_utc"), "time_utc", utc)
         pq.write_table(table, path)
     return path
 

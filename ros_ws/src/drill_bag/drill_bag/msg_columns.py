@@ -166,6 +166,17 @@ class Layout:
             return "int"
         return "bool" if kind == "bool" else "string"
 
+    def unit(self, column: str) -> str:
+        """The SI unit of a column this layout makes, from its field's comment ('' when
+        none; a placeholder such as 'unit' when the message's ``unit`` field gives it)."""
+        fields, unit = self.types[self.top], ""
+        for part in column.split("."):
+            field = next(f for f in fields if f.column == part.split("[", 1)[0])
+            unit = field.unit
+            if not field.primitive:
+                fields = self.types[field.type_name]
+        return unit
+
     def _flatten(self, value, fields: list[Field], prefix: str, out: dict) -> None:
         for f in fields:
             name = prefix + f.column

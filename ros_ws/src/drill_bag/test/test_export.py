@@ -92,6 +92,12 @@ def run_dir(tmp_path):
     return run, written
 
 
+def csv_types(schema):
+    """The Parquet file's column types for reading its CSV twin (whose time_utc is text)."""
+    return pa.schema([pa.field("time_utc", pa.string()) if f.name == "time_utc" else f
+                      for f in schema])
+
+
 def read_back(path, fmt, schema=None):
     if fmt == "parquet":
         return pq.read_table(path)
@@ -128,7 +134,7 @@ def test_every_value_and_stamp_survives_the_round_trip(run_dir, fmt):
     assert all(p.parent == run / "export" for p in paths)
     for topic, messages in written.items():
         path = run / "export" / f"{export.file_stem(topic)}.{fmt}"
-        types = pq.read_table(path.with_suffix(".parquet")).schema    # CSV carries no types
+        types = csv_types(pq.read_table(path.with_suffix(".parquet")).schema)  # CSV has none
         table = read_back(path, fmt, types)
         rows = table.to_pylist()
         assert len(rows) == len(messages), topic
@@ -137,7 +143,10 @@ def test_every_value_and_stamp_survives_the_round_trip(run_dir, fmt):
             assert row["stamp_ns"] == stamp and row["log_time_ns"] == log_ns
             seconds, ns = divmod(stamp, NS)
             utc = np.datetime64(seconds, "s").item().strftime("%Y-%m-%dT%H:%M:%S")
-            assert row["time_utc"] == f"{utc}.{ns // 1_000_000:03d}Z"
+            if fmt == "csv":
+                assert row["time_utc"] == f"{utc}.{ns // 1_000_000:03d}Z"
+            else:                                   # the stamp exactly, as a UTC timestamp
+                assert row["time_utc"].value == stamp and str(row["time_utc"].tz) == "UTC"
             expected = dict(leaves(msg))
             for column, value in expected.items():
                 assert same(row[column], value), (topic, column, row[column], value)
@@ -151,10 +160,11 @@ def test_csv_reads_back_like_the_parquet_file(run_dir):
     export.export(run, "csv")
     for topic in TOPICS:
         parquet = pq.read_table(run / "export" / f"{export.file_stem(topic)}.parquet")
-        csv = read_back(run / "export" / f"{export.file_stem(topic)}.csv", "csv", parquet.schema)
+        csv = read_back(run / "export" / f"{export.file_stem(topic)}.csv", "csv",
+                        csv_types(parquet.schema))
         assert csv.column_names == parquet.column_names
         for a, b in zip(csv.to_pylist(), parquet.to_pylist()):
-            assert all(same(a[k], b[k]) for k in a), topic
+            assert all(same(a[k], b[k]) for k in a if k != "time_utc"), topic
     text = (run / "export" / "rig.measurement.csv").read_text().splitlines()
     assert ",nan," in text[2] and ",inf," in text[3] and ",-inf," in text[4]
 
@@ -212,5 +222,21 @@ def test_rig_export_writes_the_chosen_topics(run_dir, capsys):
     assert pq.read_table(run / "export" / "note.parquet").column("data").to_pylist() == \
         ["", "a, \"quoted\" note", "1"]
     assert "note.parquet" in capsys.readouterr().out
-    assert pa.types.is_string(pq.read_table(run / "export" / "note.parquet").schema.field(
-        "time_utc").type)
+    assert pq.read_table(run / "export" / "note.parquet").schema.field("time_utc").type == \
+        pa.timestamp("ns", tz="UTC")
+
+
+def test_parquet_columns_carry_their_units(run_dir):
+    run, _ = run_dir
+    export.export(run, "parquet")
+    export.export(run, "parquet", topics=["/rig/measurement"], wide_hz=20.0, output=run / "w")
+
+    def unit(path, column):
+        return (pq.read_schema(path).field(column).metadata or {}).get(b"unit", b"").decode()
+    measurement = run / "export" / "rig.measurement.parquet"
+    assert unit(measurement, "bhp_pa") == "Pa" and unit(measurement, "string_flow_m3s") == "m^3/s"
+    assert unit(measurement, "stamp_ns") == "ns" and unit(measurement, "string_flow_valid") == ""
+    frames = run / "export" / "actuators.drawworks.frame.parquet"    # unit from the message's
+    assert unit(frames, "output_m[0]") == "m" and unit(frames, "sample_period_s") == "s"
+    wide = run / "w" / "wide-20hz.parquet"
+    assert unit(wide, "rig.measurement.bhp_pa") == "Pa" and unit(wide, "stamp_ns") == "ns"

@@ -60,6 +60,28 @@ NO_ANSWER = (math.nan, math.nan)    # trip-speed limits without a protection in 
 PORE, FRACTURE = (PARAMETER_NAMES.index(n) for n in ("pore_pressure_pa", "fracture_pressure_pa"))
 
 
+TRACE = {   # the trace's columns (SI, named with their units) -> what each holds
+    "time_s": "simulated time",
+    "bhp_pa": "the plant's BHP (truth)",
+    "string_position_m": "the string's position, up (truth)",
+    "bhp_ref_pa": "the setpoints' BHP reference",
+    "bhp_band_pa": "its control band (half width)",
+    "block_target_m": "the trip's block target",
+    "bhp_estimate_pa": "the state source's BHP (the UKF's estimate, or the truth)",
+    "string_velocity_mps": "the string's velocity, up (truth)",
+    "choke_dp_pa": "choke differential pressure (measured)",
+    "choke_dp_ref_pa": "the choke's pressure set-point (NaN: flow control)",
+    "choke_opening_1": "choke opening (the actuator's output)",
+    "block_position_ref_m": "the machine command's block reference",
+    "pore_pressure_pa": "pore pressure in force",
+    "fracture_pressure_pa": "fracture pressure in force",
+    "choke_flow_ref_m3s": "the machine command's choke-flow reference",
+    "bpp_flow_m3s": "back-pressure pump flow (its output)",
+    "spp_pa": "stand-pipe pressure (the mud pump's output)",
+    "return_flow_m3s": "return flow (measured)",
+}
+
+
 class Rig:
     """Truth plant and the four actuators, one sensor frame per call: the plant node's and
     the actuator nodes' ticks (drill_plant.plant_tick, drill_plant.actuator_tick), with
@@ -247,9 +269,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
     request = None
     frames = int(round(scenario.duration_s / config.plant.sensor_period_s))
     per_sample = int(round(config.nmpc.sample_time_s / config.plant.sensor_period_s))
-    log = {k: [] for k in ("t", "bhp", "pos", "ref", "band", "target", "bhp_est", "velocity",
-                           "choke_dp", "choke_dp_ref", "opening", "block_ref", "pore",
-                           "fracture", "choke_flow_ref", "bpp", "spp", "return_flow")}
+    log = {k: [] for k in TRACE}
     inputs = np.repeat(rig.op.inputs[:, None], rig.steps, axis=1)
     frame_ns = seconds_to_ns(config.plant.sensor_period_s)
     for k in range(frames):
@@ -283,35 +303,38 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
             rig.command(cmd, stamp)
             cmd_t = t
         truth = rig.sim.state
-        log["t"].append(t)
-        log["bhp"].append(truth[rig.layout.pressure(em.n)])
-        log["pos"].append(truth[rig.layout.position])
-        log["ref"].append(sp.bhp_ref_pa)
-        log["band"].append(sp.bhp_band_pa)
-        log["target"].append(sp.block_position_target_m)
-        log["bhp_est"].append(view.bhp_pa)
-        log["velocity"].append(truth[rig.layout.velocity])
-        log["choke_dp"].append(m.choke_dp_pa)
-        log["choke_dp_ref"].append(cmd.choke_dp_ref_pa + cmd.choke_dp_ref_rate_pa_s * (t - cmd_t)
-                                   if cmd.choke_pressure_control else math.nan)
-        log["block_ref"].append(cmd.block_position_ref_m)
-        log["choke_flow_ref"].append(cmd.choke_flow_ref_m3s)
-        log["return_flow"].append(m.return_flow_m3s)
-        log["pore"].append(rig.sim.parameters[PORE])
-        log["fracture"].append(rig.sim.parameters[FRACTURE])
+        log["time_s"].append(t)
+        log["bhp_pa"].append(truth[rig.layout.pressure(em.n)])
+        log["string_position_m"].append(truth[rig.layout.position])
+        log["bhp_ref_pa"].append(sp.bhp_ref_pa)
+        log["bhp_band_pa"].append(sp.bhp_band_pa)
+        log["block_target_m"].append(sp.block_position_target_m)
+        log["bhp_estimate_pa"].append(view.bhp_pa)
+        log["string_velocity_mps"].append(truth[rig.layout.velocity])
+        log["choke_dp_pa"].append(m.choke_dp_pa)
+        log["choke_dp_ref_pa"].append(
+            cmd.choke_dp_ref_pa + cmd.choke_dp_ref_rate_pa_s * (t - cmd_t)
+            if cmd.choke_pressure_control else math.nan)
+        log["block_position_ref_m"].append(cmd.block_position_ref_m)
+        log["choke_flow_ref_m3s"].append(cmd.choke_flow_ref_m3s)
+        log["return_flow_m3s"].append(m.return_flow_m3s)
+        log["pore_pressure_pa"].append(rig.sim.parameters[PORE])
+        log["fracture_pressure_pa"].append(rig.sim.parameters[FRACTURE])
         inputs = rig.frame(m, stamp)
-        log["opening"].append(inputs[U_CHOKE, 0])
-        log["bpp"].append(inputs[U_BPP_FLOW, 0])
-        log["spp"].append(inputs[U_PUMP_PRESSURE, 0])
+        log["choke_opening_1"].append(inputs[U_CHOKE, 0])
+        log["bpp_flow_m3s"].append(inputs[U_BPP_FLOW, 0])
+        log["spp_pa"].append(inputs[U_PUMP_PRESSURE, 0])
     a = {k: np.asarray(v, dtype=float) for k, v in log.items()}
-    out = tracking_metrics(a["t"], a["bhp"], a["pos"], a["ref"], a["band"], a["target"])
+    bhp, pore, fracture = a["bhp_pa"], a["pore_pressure_pa"], a["fracture_pressure_pa"]
+    out = tracking_metrics(a["time_s"], bhp, a["string_position_m"], a["bhp_ref_pa"],
+                           a["bhp_band_pa"], a["block_target_m"])
     dt = config.plant.sensor_period_s
-    out["bhp_under_pore_s"] = float(np.count_nonzero(a["bhp"] < a["pore"]) * dt)
-    out["bhp_over_fracture_s"] = float(np.count_nonzero(a["bhp"] > a["fracture"]) * dt)
-    out["worst_underbalance_pa"] = float(max(np.max(a["pore"] - a["bhp"]), 0.0))
-    out["worst_over_fracture_pa"] = float(max(np.max(a["bhp"] - a["fracture"]), 0.0))
-    out["bhp_estimate_rmse_pa"] = float(np.sqrt(np.mean((a["bhp_est"] - a["bhp"]) ** 2)))
-    out["max_string_speed_mps"] = float(np.max(np.abs(a["velocity"])))
+    out["bhp_under_pore_s"] = float(np.count_nonzero(bhp < pore) * dt)
+    out["bhp_over_fracture_s"] = float(np.count_nonzero(bhp > fracture) * dt)
+    out["worst_underbalance_pa"] = float(max(np.max(pore - bhp), 0.0))
+    out["worst_over_fracture_pa"] = float(max(np.max(bhp - fracture), 0.0))
+    out["bhp_estimate_rmse_pa"] = float(np.sqrt(np.mean((a["bhp_estimate_pa"] - bhp) ** 2)))
+    out["max_string_speed_mps"] = float(np.max(np.abs(a["string_velocity_mps"])))
     out["influx_volume_m3"] = float(rig.sim.state[rig.layout.influx_volume])
     out["loss_volume_m3"] = float(rig.sim.state[rig.layout.loss_volume])
     out["trace"] = a
