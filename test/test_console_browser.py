@@ -6,7 +6,8 @@ protection, plant) plus the console on a free port, on an isolated ROS_DOMAIN_ID
 listener node in this process (its own rclpy context) checks independently of the page
 what reached the graph. In one ~45 s realtime run:
 
-* the page shows live values that change;
+* the page shows live values that change, the MPD view (flow out, ECD), and the field
+  units (psi, ppg) when chosen;
 * a BHP setpoint above fracture is refused and the supervisor's reason is on screen;
 * a valid BHP setpoint is accepted and reaches the NMPC (latched /setpoints and
   NmpcStatus.bhp_ref_pa);
@@ -252,6 +253,23 @@ def test_console_in_a_real_browser(tmp_path):
         sp_text = wait_until(lambda: number(driver, "sp-bhp"), 30,
                              "the supervisor's setpoints (BHP reference) on the page", launch)
         screenshot(driver, "1-live", shots)
+
+        # 1b. the MPD view, and the field units at the display edge
+        from selenium.webdriver.common.by import By
+        from selenium.webdriver.support.ui import Select
+        wait_until(lambda: number(driver, "mpd-out") is not None and number(driver, "mpd-ecd"),
+                   10, "the MPD view's flow out and ECD", launch)
+        assert 1.7 < number(driver, "mpd-ecd") < 2.1, "ECD in s.g."
+        Select(driver.find_element(By.ID, "units")).select_by_value("field")
+        wait_until(lambda: driver.find_element(By.CSS_SELECTOR, "#bhp-value + .unit").text == "psi",
+                   5, "the BHP unit to read psi", launch)
+        psi = number(driver, "bhp-value")
+        assert 600.0 * 14.5 < psi < 750.0 * 14.51, f"BHP {psi} psi"       # 1 bar = 14.504 psi
+        assert 14.0 < number(driver, "mpd-ecd") < 17.6, "ECD in ppg"       # 1 s.g. = 8.345 ppg
+        screenshot(driver, "1b-field-units", shots)
+        Select(driver.find_element(By.ID, "units")).select_by_value("metric")
+        wait_until(lambda: driver.find_element(By.CSS_SELECTOR, "#bhp-value + .unit").text == "bar",
+                   5, "the BHP unit to read bar again", launch)
         refused_cli = operator_cli("setpoints", "--bhp-bar", "800")
         watch_cli = operator_cli("watch", "--count", "2")
 
@@ -279,7 +297,6 @@ def test_console_in_a_real_browser(tmp_path):
         screenshot(driver, "3-accepted", shots)
 
         # 4. emergency stop while the string trips: it stops, /rig/command carries the hold
-        from selenium.webdriver.common.by import By
         wait_until(lambda: listener.speed(1.0) > MOVING_MPS, 25,
                    f"the trip to move the string faster than {MOVING_MPS} m/s", launch)
         speed_before = listener.speed(1.0)

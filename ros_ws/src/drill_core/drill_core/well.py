@@ -47,6 +47,12 @@ class WellGeometry:
     static_stretch_m: float                         # m g F_b / k_eq
 
 
+def equivalent_density_kgm3(pressure_pa: float, depth_m: float, gravity_mps2: float) -> float:
+    """The density of a static mud column that gives ``pressure_pa`` (gauge) at the
+    vertical depth ``depth_m``: ECD (circulating) or ESD (static) [kg/m^3]."""
+    return pressure_pa / (gravity_mps2 * depth_m)
+
+
 def circle_area(diameter_m: float) -> float:
     return math.pi / 4.0 * diameter_m ** 2
 

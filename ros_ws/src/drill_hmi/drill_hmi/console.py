@@ -127,7 +127,9 @@ def setpoints_from_dict(values: dict) -> Setpoints:
 
 def measurement_dict(m: RigMeasurement) -> dict:
     return {"block_position_m": m.block_position_m, "choke_dp_pa": m.choke_dp_pa, "bhp_pa": m.bhp_pa,
-            "string_flow_m3s": m.string_flow_m3s, "string_flow_valid": m.string_flow_valid}
+            "string_flow_m3s": m.string_flow_m3s, "string_flow_valid": m.string_flow_valid,
+            "return_flow_m3s": m.return_flow_m3s, "pit_volume_m3": m.pit_volume_m3,
+            "bpp_flow_m3s": m.bpp_flow_m3s}
 
 
 def truth_dict(m: PlantTruth) -> dict:

@@ -20,11 +20,14 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 from drill_core.automation import AUTOMATION_LEVELS
 from drill_core.scenario import SETPOINT_BOOL_FIELDS as BOOL_FIELDS
 from drill_core.scenario import SETPOINT_FIELDS
-from drill_core.units import LPM_PER_M3S, PA_PER_BAR
+from drill_core.surface_flows import delta_flow_m3s
+from drill_core.units import DISPLAY_UNITS, LPM_PER_M3S, PA_PER_BAR
+from drill_core.well import build_geometry, equivalent_density_kgm3
 
 STAND_LENGTH_M = 28.0          # one stand of drill pipe (docs/design.md §8)
 TREND_POINTS = 1500            # per series: 150 s at the 10 Hz sensor rate
@@ -230,12 +233,15 @@ class Window:
     fracture_pressure_pa: float
     pressure_margin_pa: float = 0.0
     trip_speed_max_mps: float = math.inf
+    bhp_depth_m: float = math.nan          # vertical depth of the BHP sensor (ECD) [m]
+    gravity_mps2: float = 9.81
 
     @classmethod
     def from_config(cls, config) -> "Window":
         f, p = config.well.formation, config.protection
         return cls(f.pore_pressure_pa, f.fracture_pressure_pa, p.pressure_margin_pa,
-                   p.trip_speed_max_mps)
+                   p.trip_speed_max_mps, build_geometry(config.well).node_depth_m[-1],
+                   config.well.gravity_mps2)
 
 
 class ConsoleState:
@@ -261,6 +267,7 @@ class ConsoleState:
         self._protection_level: str | None = None   # latched /protection/automation_level
         self._protection_estop = False              # latched /protection/emergency_stop
         self._result: dict | None = None            # last operator action and its outcome
+        self._pit_start_m3: float | None = None     # the first pit reading
 
     # ---------------------------------------------------------------- trends
     def add_point(self, series: str, t: float, value: float) -> None:
@@ -292,12 +299,26 @@ class ConsoleState:
 
     def on_measurement(self, t: float, m: dict) -> None:
         with self._lock:
-            self._touch("measurement", dict(m, t=t))
+            if self._pit_start_m3 is None and math.isfinite(m.get("pit_volume_m3", math.nan)):
+                self._pit_start_m3 = m["pit_volume_m3"]
+            self._touch("measurement", dict(m, t=t, **self._mpd_view(m)))
             self.add_point("bhp_measured", t, m["bhp_pa"])
             self.add_point("dp_measured", t, m["choke_dp_pa"])
             self.add_point("position_measured", t, m["block_position_m"])
             if m.get("string_flow_valid"):
                 self.add_point("flow_measured", t, m["string_flow_m3s"])
+
+    def _mpd_view(self, m: dict) -> dict:
+        """What the MPD engineer reads besides the sensors: delta flow (out less all in),
+        pit gain since the first reading, ECD at the BHP sensor from the measured BHP."""
+        out = {"ecd_kgm3": equivalent_density_kgm3(m["bhp_pa"], self.window.bhp_depth_m,
+                                                   self.window.gravity_mps2)}
+        if "return_flow_m3s" in m:
+            out["delta_flow_m3s"] = delta_flow_m3s(SimpleNamespace(**m)) \
+                if m.get("string_flow_valid") else None
+        if self._pit_start_m3 is not None and "pit_volume_m3" in m:
+            out["pit_gain_m3"] = m["pit_volume_m3"] - self._pit_start_m3
+        return out
 
     def on_truth(self, t: float, m: dict) -> None:
         with self._lock:
@@ -459,6 +480,7 @@ class ConsoleState:
                            "pressure_margin_pa": self.window.pressure_margin_pa,
                            "trip_speed_max_mps": self.window.trip_speed_max_mps},
                 "stand_length_m": self.stand_length_m,
+                "display_units": DISPLAY_UNITS,
                 "automation": self.level_in_force(),
                 "levels": list(AUTOMATION_LEVELS),
                 "events": [dict(e) for e in list(self._events)[-50:]],

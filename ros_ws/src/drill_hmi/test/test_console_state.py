@@ -207,3 +207,30 @@ def test_result_is_reported():
     state = cs.ConsoleState(WINDOW)
     state.set_result("setpoints", False, "BHP above fracture")
     assert state.snapshot()["result"]["reason"] == "BHP above fracture"
+
+
+def test_the_mpd_view_of_a_measurement():
+    window = cs.Window(6.6e7, 7.1e7, 5.0e5, 0.6, bhp_depth_m=3600.0, gravity_mps2=9.81)
+    state = cs.ConsoleState(window)
+    sample = {"bhp_pa": 6.85e7, "choke_dp_pa": 2.0e6, "block_position_m": 0.0,
+              "string_flow_m3s": 0.0160, "string_flow_valid": True, "return_flow_m3s": 0.0170,
+              "pit_volume_m3": 40.0, "bpp_flow_m3s": 0.0005}
+    state.on_measurement(0.0, sample)
+    state.on_measurement(0.1, dict(sample, pit_volume_m3=40.25))
+    m = state.snapshot()["measurement"]
+    assert m["ecd_kgm3"] == pytest.approx(6.85e7 / (9.81 * 3600.0))      # 1939.6 kg/m^3
+    assert m["delta_flow_m3s"] == pytest.approx(0.0170 - 0.0160 - 0.0005)
+    assert m["pit_gain_m3"] == pytest.approx(0.25)
+    state.on_measurement(0.2, dict(sample, string_flow_valid=False, string_flow_m3s=math.nan))
+    assert state.snapshot()["measurement"]["delta_flow_m3s"] is None   # pump off: no balance
+
+
+def test_the_display_unit_systems_convert_from_si():
+    units = cs.ConsoleState(WINDOW).snapshot()["display_units"]
+    field, metric = units["field"], units["metric"]
+    assert 1.0e5 * field["pressure"][1] == pytest.approx(14.5038, rel=1e-5)      # psi per bar
+    assert (1000.0 / 60000.0) * field["flow"][1] == pytest.approx(264.172, rel=1e-5)  # gpm
+    assert 1000.0 * field["density"][1] == pytest.approx(8.34540, rel=1e-5)     # ppg per s.g.
+    assert field["length"][1] == pytest.approx(3.28084, rel=1e-5)               # ft per m
+    assert field["volume"][1] == pytest.approx(6.28981, rel=1e-5)               # bbl per m^3
+    assert (metric["pressure"], metric["density"]) == (["bar", 1e-5], ["s.g.", 1e-3])

@@ -10,6 +10,7 @@ from drill_core import hydraulics as hy
 from drill_core.compiled import compiled
 from drill_core.config import RigConfig
 from drill_core.input_layout import U_BPP_FLOW
+from drill_core.well import equivalent_density_kgm3
 from drill_plant.plant_model import (PARAMETER_NAMES, PlantLayout, SteadyState,
                                      build_frame_function, build_outputs_function,
                                      held_parameters, nominal_parameters, wiener_increments)
@@ -134,7 +135,8 @@ class PlantSimulator:
                      choke_flow_m3s=float(out[0]), bit_flow_m3s=float(out[1]),
                      annulus_friction_pa=out[2:2 + n - 1].copy(),
                      string_friction_pa=float(out[1 + n]),
-                     ecd_kgm3=float(bhp / (g * self.wm.geometry.node_depth_m[-1])),
+                     ecd_kgm3=float(equivalent_density_kgm3(
+                         bhp, self.wm.geometry.node_depth_m[-1], g)),
                      influx_m3s=float(out[2 + n]), loss_m3s=float(out[3 + n]),
                      pit_gain_m3=float(self.state[lay.pit_gain]),
                      influx_volume_m3=float(self.state[lay.influx_volume]),
