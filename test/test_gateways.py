@@ -7,7 +7,7 @@ OPC-UA gateway and the WITS0 stream (``rig run short_trip --realtime --foxglove 
   a plausible BHP, stamps that advance.
 * OPC-UA, the gateway bound to every interface with a security directory (``rig run
   ... --opcua opc.tcp://0.0.0.0:PORT/drill-rig --security DIR``): an asyncua client
-  signed-and-encrypted as an operator browses to Rig/Measurements/BottomHolePressure by
+  signed-and-encrypted as an operator browses to Rig/Measurements/DownholePressure by
   name (the namespace index from the rig's URI), reads it and sees it change through a
   subscription; a valid BHP setpoint reaches the latched /setpoints, one above the
   fracture pressure comes back Bad with the supervisor's reason and changes nothing;
@@ -192,7 +192,7 @@ def test_an_opcua_client_browses_reads_subscribes_and_writes_through_the_supervi
         async with await secured(None) as client:
             idx = await client.get_namespace_index(names.NAMESPACE_URI)
             rig = await client.nodes.objects.get_child([f"{idx}:{names.ROOT}"])
-            setpoint = await rig.get_child([f"{idx}:Setpoints", f"{idx}:BottomHolePressureSetpoint"])
+            setpoint = await rig.get_child([f"{idx}:Setpoints", f"{idx}:DownholePressureSetpoint"])
             with pytest.raises(ua.uaerrors.BadUserAccessDenied):
                 await setpoint.write_value(target - 6.0e5)
             return await setpoint.read_value()
@@ -201,7 +201,7 @@ def test_an_opcua_client_browses_reads_subscribes_and_writes_through_the_supervi
         async with await secured(OPERATOR) as client:
             idx = await client.get_namespace_index(names.NAMESPACE_URI)
             rig = await client.nodes.objects.get_child([f"{idx}:{names.ROOT}"])
-            bhp = await rig.get_child([f"{idx}:Measurements", f"{idx}:BottomHolePressure"])
+            bhp = await rig.get_child([f"{idx}:Measurements", f"{idx}:DownholePressure"])
             first = await until(bhp.read_value, math.isfinite, "a measured BHP")
             assert PHYSICAL_BHP_PA[0] < first < PHYSICAL_BHP_PA[1], first
             unit = await (await bhp.get_child(["0:EngineeringUnits"])).read_value()
@@ -214,7 +214,7 @@ def test_an_opcua_client_browses_reads_subscribes_and_writes_through_the_supervi
             await until(lambda: {v for v in changes.values if math.isfinite(v)},
                         lambda values: len(values) >= 2, "the subscription to see BHP change")
 
-            setpoint = await rig.get_child([f"{idx}:Setpoints", f"{idx}:BottomHolePressureSetpoint"])
+            setpoint = await rig.get_child([f"{idx}:Setpoints", f"{idx}:DownholePressureSetpoint"])
             in_force = await until(setpoint.read_value, math.isfinite, "the setpoints in force")
             target = in_force + 3.0e5
             await setpoint.write_value(target)                                # valid: +3 bar

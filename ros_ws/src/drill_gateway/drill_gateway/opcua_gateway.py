@@ -2,10 +2,15 @@
 drill_gateway.opcua_names, values pushed in from any thread, and writes of the writable
 variables handed to the caller's validating functions before anything is stored.
 
-The server runs its own asyncio loop in a thread. ``update(source, values)`` may be
-called from any thread (the ROS callbacks): the newest values of each source are kept
-and written into the address space by the loop (a burst coalesces; subscribers see the
-changes). A client's write of a setpoint or of the automation level goes first to
+The server runs its own asyncio loop in a thread. ``update(source, values, stamp_ns)``
+may be called from any thread (the ROS callbacks): the newest values of each source are
+kept and written into the address space by the loop (a burst coalesces; subscribers see
+the changes), with the message's stamp as the SourceTimestamp. Until its first value a
+variable is BadWaitingForInitialData; a float that is not
+finite keeps the last value with the status UncertainLastUsableValue; a live source
+(measurements, estimates) silent for STALE_AFTER_S turns its variables
+BadNoCommunication until it speaks again (a client reads no value with a Bad status). Floats with a unit are AnalogItemType with
+their EngineeringUnits and EURange (OPC UA Part 8). A client's write of a setpoint or of the automation level goes first to
 ``on_setpoint(variable, value)`` / ``on_level(value)`` (blocking, run in a worker thread
 so the server keeps serving), which answer a drill_gateway.opcua_writes.Outcome: a Good
 one lets the value in, a Bad one is the write's status and the variable keeps its value.
@@ -25,7 +30,9 @@ from __future__ import annotations
 import asyncio
 import math
 import threading
+import time
 from collections.abc import Callable
+from datetime import datetime, timezone
 from functools import partial
 from urllib.parse import urlparse
 
@@ -47,6 +54,8 @@ SERVER_NAME = "Drill rig OPC-UA gateway"
 VARIANT = {"float": ua.VariantType.Double, "bool": ua.VariantType.Boolean,
            "text": ua.VariantType.String}
 INITIAL = {"float": math.nan, "bool": False, "text": ""}
+STALE_AFTER_S = 3.0         # a live source silent this long: its variables BadNoCommunication
+LIVE_SOURCES = ("measurement", "estimate")   # the rest are latched: silence is no news
 START_TIMEOUT_S = 120.0     # asyncua builds the standard address space: seconds on a busy machine
 SECURE_POLICIES = [ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt,
                    ua.SecurityPolicyType.Basic256Sha256_Sign]
@@ -154,7 +163,11 @@ class Gateway:
         self._on_setpoint = on_setpoint or (lambda v, value: Outcome("BadNotWritable", "read only"))
         self._on_level = on_level or (lambda value: Outcome("BadNotWritable", "read only"))
         self._lock = threading.Lock()
-        self._pending: dict[str, dict] = {}
+        self._pending: dict[str, tuple[dict, int | None]] = {}
+        self._heard: dict[str, float] = {}     # source -> when its last update came (monotonic)
+        self._silent: set[str] = set()         # live sources marked BadNoCommunication
+        self._last: dict[ua.NodeId, object] = {}   # the last usable value of each variable
+        self.stale_after_s = STALE_AFTER_S
         self._flush_due = False
         self._nodes: dict[tuple[str, str], ua.NodeId] = {}
         self._writable: dict[ua.NodeId, Variable] = {}
@@ -198,6 +211,7 @@ class Gateway:
         self._loop.close()
 
     async def _shutdown(self) -> None:
+        self._watch.cancel()
         await self._server.stop()
         self._stopped.set()
 
@@ -224,9 +238,9 @@ class Gateway:
             await node.write_attribute(ua.AttributeIds.Description, ua.DataValue(ua.Variant(
                 ua.LocalizedText(variable.description), ua.VariantType.LocalizedText)))
             if variable.unit:
-                units_id = ua.NodeId("/".join((*variable.path, "EngineeringUnits")), idx)
-                await node.add_property(units_id, ua.QualifiedName("EngineeringUnits", 0),
-                                        eu_information(UNITS[variable.unit]))
+                await self._analog_item(node, idx, variable)
+            await self._set(node.nodeid, variable.kind, INITIAL[variable.kind],
+                            status="BadWaitingForInitialData")
             if variable.writable:
                 await node.set_writable()
                 self._writable[node.nodeid] = variable
@@ -236,6 +250,21 @@ class Gateway:
         self._events = await server.get_event_generator()
         server.iserver.attribute_service = _GatedAttributeService(server.iserver.aspace, self._gate)
         await server.start()
+        self._watch = asyncio.ensure_future(self._watch_silence())
+
+    @staticmethod
+    async def _analog_item(node, idx: int, variable: Variable) -> None:
+        """Make ``node`` a Part 8 AnalogItemType: its type definition, EURange and
+        EngineeringUnits."""
+        await node.delete_reference(ua.NodeId(ua.ObjectIds.BaseDataVariableType),
+                                    ua.ObjectIds.HasTypeDefinition, bidirectional=False)
+        await node.add_reference(ua.NodeId(ua.ObjectIds.AnalogItemType),
+                                 ua.ObjectIds.HasTypeDefinition, bidirectional=False)
+        low, high = variable.eu_range
+        for name, value in (("EURange", ua.Range(Low=low, High=high)),
+                            ("EngineeringUnits", eu_information(UNITS[variable.unit]))):
+            await node.add_property(ua.NodeId("/".join((*variable.path, name)), idx),
+                                    ua.QualifiedName(name, 0), value)
 
     async def _secure(self, server: Server) -> None:
         sec = self.security
@@ -262,11 +291,13 @@ class Gateway:
         return self._users.roles.get(user.name, access.ANONYMOUS)
 
     # ------------------------------------------------------------------ values in
-    def update(self, source: str, values: dict) -> None:
-        """The newest ``values`` (message field -> SI value) of ``source``; any thread."""
+    def update(self, source: str, values: dict, stamp_ns: int | None = None) -> None:
+        """The newest ``values`` (message field -> SI value) of ``source``, stamped
+        ``stamp_ns`` (ns since the epoch; None: the server's time); any thread."""
         by_source(source)            # an unknown source is an error here, not in the loop
         with self._lock:
-            self._pending[source] = values
+            self._pending[source] = (values, stamp_ns)
+            self._heard[source] = time.monotonic()
             loop = self._loop
             if self._flush_due or loop is None or not self._ready.is_set() or loop.is_closed():
                 return
@@ -279,16 +310,41 @@ class Gateway:
     async def _flush(self) -> None:
         with self._lock:
             pending, self._pending, self._flush_due = self._pending, {}, False
-        for source, values in pending.items():
+            self._silent -= set(pending)
+        for source, (values, stamp_ns) in pending.items():
+            when = None if stamp_ns is None else \
+                datetime.fromtimestamp(stamp_ns / 1e9, tz=timezone.utc)
             for variable in by_source(source):
                 if variable.field in values:
                     await self._set(self._nodes[(source, variable.field)], variable.kind,
-                                    values[variable.field])
+                                    values[variable.field], when)
 
-    async def _set(self, nodeid: ua.NodeId, kind: str, value) -> None:
+    async def _set(self, nodeid: ua.NodeId, kind: str, value, when: datetime | None = None,
+                   status: str = "Good") -> None:
         value = {"float": float, "bool": bool, "text": str}[kind](value)
-        await self._server.write_attribute_value(
-            nodeid, ua.DataValue(ua.Variant(value, VARIANT[kind])))
+        if status == "Good" and kind == "float" and not math.isfinite(value):
+            value, status = self._last.get(nodeid, math.nan), "UncertainLastUsableValue"
+        if status == "Good":
+            self._last[nodeid] = value
+        await self._server.write_attribute_value(nodeid, ua.DataValue(
+            Value=ua.Variant(value, VARIANT[kind]),
+            StatusCode=ua.StatusCode(getattr(ua.StatusCodes, status)), SourceTimestamp=when))
+
+    async def _watch_silence(self) -> None:
+        """Every second: a live source silent for STALE_AFTER_S turns its variables
+        BadNoCommunication (their last values kept) until it speaks again."""
+        while True:
+            await asyncio.sleep(1.0)
+            now = time.monotonic()
+            with self._lock:
+                silent = {s for s in LIVE_SOURCES if s not in self._silent
+                          and now - self._heard.get(s, now) > self.stale_after_s}
+                self._silent |= silent
+            for source in silent:
+                for variable in by_source(source):
+                    nodeid = self._nodes[(source, variable.field)]
+                    await self._set(nodeid, variable.kind, self._last.get(nodeid, math.nan),
+                                    status="BadNoCommunication")
 
     # ------------------------------------------------------------------ writes from clients
     async def _gate(self, item: ua.WriteValue, user: User | None) -> ua.StatusCode | None:

@@ -1,6 +1,6 @@
 """OPC-UA gateway node: the rig's measurements, estimates, setpoints and automation level
-on an OPC-UA server with D-WIS-style names (``rig run ... --opcua [ENDPOINT]``;
-docs/gateways.md).
+on an OPC-UA server under the D-WIS signal-prototype names, as Part 8 analog items
+(``rig run ... --opcua [ENDPOINT]``; docs/gateways.md).
 
     python -m drill_gateway.opcua_node --ros-args -p endpoint:=opc.tcp://127.0.0.1:4840/drill-rig
 
@@ -20,12 +20,16 @@ import sys
 import threading
 from pathlib import Path
 
-from drill_msgs.msg import RigMeasurement, Setpoints, StateEstimate
+from drill_msgs.msg import ActuatorFrame, RigMeasurement, Setpoints, StateEstimate
 from std_msgs.msg import String
 
+from drill_bag.well_log import BY_MNEMONIC, FRAME_ACTUATORS, RigSnapshot, stamp_ns
 from drill_hmi import console
 from drill_core.access import SecurityDir
+from drill_core.config import Well, load_section
+from drill_core.well import build_geometry, equivalent_density_kgm3
 from drill_ros import topics
+from drill_ros.context import common_parameters
 from drill_ros.node import RigNode
 from drill_ros.runner import run
 from drill_ros.status import StatusReporter
@@ -42,8 +46,28 @@ def source_topics() -> dict[str, str]:
 
 
 def fields(msg, source: str) -> dict:
-    """The gateway's fields of a message of ``source``: field -> value."""
-    return {v.field: getattr(msg, v.field) for v in by_source(source)}
+    """The gateway's fields of a message of ``source`` (those it carries): field -> value."""
+    return {v.field: getattr(msg, v.field) for v in by_source(source) if not v.derived}
+
+
+class MeasuredView:
+    """The measurement's variables, the derived ones included (drill_gateway.opcua_names
+    ``derived``): SPP from the mud pump's frame in force, the bit depth from the block's
+    travel (drill_bag.well_log's channels), the ECD from the measured BHP."""
+
+    def __init__(self, well: Well):
+        geometry = build_geometry(well)
+        self.bit_depth_m, self.sensor_depth_m = geometry.bit_depth_m, geometry.node_depth_m[-1]
+        self.gravity_mps2 = well.gravity_mps2
+        self.frames: dict[str, ActuatorFrame] = {}
+
+    def fields(self, m: RigMeasurement) -> dict:
+        snapshot = RigSnapshot(m, dict(self.frames), stamp_ns(m), self.bit_depth_m)
+        return {**fields(m, "measurement"),
+                "spp_pa": BY_MNEMONIC["SPPA"].value_si(snapshot),
+                "bit_depth_m": BY_MNEMONIC["DBTM"].value_si(snapshot),
+                "ecd_kgm3": equivalent_density_kgm3(m.bhp_pa, self.sensor_depth_m,
+                                                    self.gravity_mps2)}
 
 
 class OpcuaGatewayNode(RigNode):
@@ -51,7 +75,8 @@ class OpcuaGatewayNode(RigNode):
         super().__init__("opcua_gateway", **node_options)
         endpoint = self.declare_parameter("endpoint", DEFAULT_ENDPOINT).value or DEFAULT_ENDPOINT
         timeout_s = float(self.declare_parameter("service_timeout_s", 5.0).value)
-        mode = self.declare_parameter("mode", "fast").value
+        config_dir, _, mode = common_parameters(self, "case2")
+        self.view = MeasuredView(load_section(Well, Path(config_dir) / "well.yaml"))
         security_dir = self.declare_parameter("security_dir", "").value
         logging.getLogger("asyncua").setLevel(logging.WARNING)
         self.link = console.OperatorLink(self, timeout_s, source="opcua")
@@ -65,9 +90,14 @@ class OpcuaGatewayNode(RigNode):
         where = source_topics()
         sub = self.create_subscription
         sub(RigMeasurement, where["measurement"],
-            lambda m: self.gateway.update("measurement", fields(m, "measurement")), console.DISPLAY)
+            lambda m: self.gateway.update("measurement", self.view.fields(m), stamp_ns(m)),
+            console.DISPLAY)
+        for actuator in FRAME_ACTUATORS:          # what the derived variables read
+            sub(ActuatorFrame, topics.actuator_frame(actuator),
+                lambda m, a=actuator: self.view.frames.__setitem__(a, m), console.DISPLAY)
         sub(StateEstimate, where["estimate"],
-            lambda m: self.gateway.update("estimate", fields(m, "estimate")), console.DISPLAY)
+            lambda m: self.gateway.update("estimate", fields(m, "estimate"), stamp_ns(m)),
+            console.DISPLAY)
         sub(Setpoints, where["setpoints"], self._on_setpoints, topics.LATCHED)
         sub(String, where["level"], lambda m: self.gateway.update("level", fields(m, "level")),
             topics.LATCHED)

@@ -1,7 +1,10 @@
 """The OPC-UA server without ROS: browse by name, engineering units, values pushed from
 another thread reaching a subscription, and writes gated by the validating function (a
-refusal is a Bad status, its reason in Rig/LastWriteResult, the value unchanged)."""
+refusal is a Bad status, its reason in Rig/LastWriteResult, the value unchanged); Part 8
+analog items (EURange, EngineeringUnits), the message stamp as SourceTimestamp, and the
+status of a variable before its first value, of a non-finite one and of a silent source."""
 import asyncio
+import math
 import socket
 import threading
 
@@ -57,11 +60,11 @@ def test_browse_read_subscribe_and_gated_writes(served):
 
     async def session():
         async with Client(gateway.endpoint) as client:
-            bhp = await child(client, "Rig", "Measurements", "BottomHolePressure")
+            bhp = await child(client, "Rig", "Measurements", "DownholePressure")
             unit = await (await bhp.get_child(["0:EngineeringUnits"])).read_value()
             assert (unit.UnitId, unit.DisplayName.Text) == (names.UNITS["Pa"].unit_id, "Pa")
             described = next(v for v in names.VARIABLES
-                             if v.path == ("Rig", "Measurements", "BottomHolePressure"))
+                             if v.path == ("Rig", "Measurements", "DownholePressure"))
             assert (await bhp.read_description()).Text == described.description
             changes = Changes()
             subscription = await client.create_subscription(50, changes)
@@ -75,7 +78,7 @@ def test_browse_read_subscribe_and_gated_writes(served):
                 return list(changes.values)
             await until(notified, lambda v: 6.85e7 in v, TIMEOUT_S, "the change notified")
             gateway.update("setpoints", {"bhp_ref_pa": 6.85e7})
-            setpoint = await child(client, "Rig", "Setpoints", "BottomHolePressureSetpoint")
+            setpoint = await child(client, "Rig", "Setpoints", "DownholePressureSetpoint")
             await until(setpoint.read_value, lambda v: v == 6.85e7, TIMEOUT_S,
                         "the setpoint in force")
 
@@ -101,8 +104,44 @@ def test_browse_read_subscribe_and_gated_writes(served):
             await subscription.delete()
 
     asyncio.run(session())
-    assert writes == [("BottomHolePressureSetpoint", 6.88e7), ("BottomHolePressureSetpoint", 7.2e7)]
+    assert writes == [("DownholePressureSetpoint", 6.88e7), ("DownholePressureSetpoint", 7.2e7)]
     assert gateway.writes == {"accepted": 1, "refused": 2}
+
+
+def test_analog_items_source_timestamps_and_the_status_of_bad_or_silent_values(served):
+    gateway, _ = served
+    gateway.stale_after_s = 0.5
+    stamp_ns = 1_764_806_400 * 10**9 + 250_000_000
+
+    async def session():
+        async with Client(gateway.endpoint) as client:
+            bhp = await child(client, "Rig", "Measurements", "DownholePressure")
+
+            async def read():
+                return await bhp.read_data_value(raise_on_bad_status=False)
+            first = await read()
+            assert first.StatusCode.value == ua.StatusCodes.BadWaitingForInitialData
+            assert (await bhp.read_type_definition()) == ua.NodeId(ua.ObjectIds.AnalogItemType)
+            eu_range = await (await bhp.get_child(["0:EURange"])).read_value()
+            assert (eu_range.Low, eu_range.High) == (0.0, 1.0e8)
+            units = await (await bhp.get_child(["0:EngineeringUnits"])).read_value()
+            assert units.UnitId == names.UNITS["Pa"].unit_id
+            gateway.update("measurement", {"bhp_pa": 6.85e7}, stamp_ns)
+            good = await until(read, lambda dv: dv.Value.Value == 6.85e7, TIMEOUT_S, "the BHP")
+            assert good.StatusCode.is_good()
+            assert good.SourceTimestamp.timestamp() == pytest.approx(stamp_ns / 1e9, abs=1e-6)
+            gateway.update("measurement", {"bhp_pa": math.nan}, stamp_ns + 10**8)
+            kept = await until(read, lambda dv: not dv.StatusCode.is_good(), TIMEOUT_S,
+                               "the non-finite BHP's status")
+            assert kept.StatusCode.value == ua.StatusCodes.UncertainLastUsableValue
+            assert kept.Value.Value == 6.85e7                 # the last usable value
+            await until(read, lambda dv: dv.StatusCode.value == ua.StatusCodes.BadNoCommunication,
+                        TIMEOUT_S, "BadNoCommunication once the measurements go silent")
+            gateway.update("measurement", {"bhp_pa": 6.86e7}, stamp_ns + 10**9)
+            await until(read, lambda dv: dv.StatusCode.is_good() and dv.Value.Value == 6.86e7,
+                        TIMEOUT_S, "Good again once they speak")
+
+    asyncio.run(session())
 
 
 def test_an_endpoint_that_is_not_opc_tcp_host_port_is_refused_with_the_form():

@@ -2,18 +2,25 @@
 UNECE codes, writable exactly where the console can write, the sources read from the
 topics the graph declares for the gateway, and the documented table."""
 
+import math
+
+import pytest
+
+from drill_bag.well_log import LOG_TOPICS
 from drill_hmi import console_state as cs
 from drill_bag import mcap_io
 from drill_core.rig_root import rig_root
 from drill_ros import graph
 from drill_gateway import opcua_names as names
-from drill_gateway.opcua_node import source_topics
+from drill_gateway.opcua_node import MeasuredView, source_topics
 
 ROOT = rig_root()
 
 
 def test_every_variable_reads_an_existing_field_of_its_source():
     for v in names.VARIABLES:
+        if v.derived:                   # computed by the node (opcua_node.MeasuredView)
+            continue
         msg_type = graph.BY_TOPIC[source_topics()[v.source]].type
         fields = mcap_io.message_class(msg_type).get_fields_and_field_types()
         assert v.field in fields, f"{'/'.join(v.path)}: {v.field} not in {msg_type}"
@@ -30,7 +37,7 @@ def test_browse_paths_are_unique_and_units_are_given_for_every_number():
 def test_unit_ids_are_the_unece_codes_as_opc_ua_part_8_packs_them():
     assert names.UNITS["Pa"].unit_id == 0x50414C         # "PAL"
     assert names.UNITS["m"].unit_id == 5067858           # "MTR" = 0x4D5452
-    assert {u.code for u in names.UNITS.values()} == {"PAL", "MTR", "MTS", "MQS", "MTQ"}
+    assert {u.code for u in names.UNITS.values()} == {"PAL", "MTR", "MTS", "MQS", "MTQ", "KMQ"}
 
 
 def test_the_writable_variables_are_the_setpoints_and_the_automation_level():
@@ -43,7 +50,30 @@ def test_the_writable_variables_are_the_setpoints_and_the_automation_level():
 
 def test_the_sources_are_the_topics_the_graph_declares_for_the_gateway():
     assert set(source_topics()) == set(names.SOURCES)
-    assert set(source_topics().values()) == set(graph.BY_NAME["opcua_gateway"].subscribes)
+    frames = {topic for topic in LOG_TOPICS if topic not in source_topics().values()}
+    assert set(source_topics().values()) | frames == \
+        set(graph.BY_NAME["opcua_gateway"].subscribes)
+
+
+def test_the_derived_variables_are_the_ones_the_node_computes(cfg):
+    from drill_msgs.msg import RigMeasurement
+    view = MeasuredView(cfg.well)
+    computed = view.fields(RigMeasurement(bhp_pa=6.85e7, block_position_m=1.0))
+    assert {v.field for v in names.by_source("measurement")} == set(computed)
+    assert computed["bit_depth_m"] == pytest.approx(3296.7 + 251.1 + 60.0 - 1.0)   # well.yaml
+    assert math.isnan(computed["spp_pa"])                  # no mud pump frame yet
+
+
+def test_names_are_d_wis_prototypes_where_given_and_floats_have_a_range():
+    prototypes = {"DownholePressure", "MPDChokePressure", "SPP", "DownholeECD", "HookPosition",
+                  "BitDepth", "FlowRateIn", "FlowRateOut", "ActiveVolume", "MPDPumpFlowRate",
+                  "HookVelocity"}        # DDHub DrillingDataSemantics PrototypeData nouns
+    assert all(v.prototype in prototypes for v in names.VARIABLES if v.prototype)
+    assert all(v.name == v.prototype for v in names.VARIABLES if v.prototype)
+    for v in names.VARIABLES:
+        assert (v.eu_range is not None) == (v.kind == "float"), v.path
+        if v.eu_range:
+            assert v.eu_range[0] < v.eu_range[1], v.path
 
 
 def test_the_documented_table_is_the_map():

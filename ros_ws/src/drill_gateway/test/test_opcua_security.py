@@ -24,7 +24,7 @@ pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
 TIMEOUT_S = 20.0
 PASSWORDS = {"olivia": "olivia-pass", "victor": "victor-pass"}
-SETPOINT = ("Setpoints", "BottomHolePressureSetpoint")
+SETPOINT = ("Setpoints", "DownholePressureSetpoint")
 IN_FORCE_PA = 6.85e7
 
 

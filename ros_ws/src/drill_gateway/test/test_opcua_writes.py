@@ -48,7 +48,7 @@ def test_values_the_console_would_refuse_are_refused_naming_the_field(field, val
 
 def test_the_supervisors_refusal_is_the_status_with_its_reason():
     service = Service()
-    bhp = BY_NAME["BottomHolePressureSetpoint"]
+    bhp = BY_NAME["DownholePressureSetpoint"]
     refused = w.write_setpoint(bhp, 7.2e7, ACTIVE, service)
     assert (refused.status, refused.reason) == (w.BAD_NOT_ALLOWED, "BHP setpoint above the fracture pressure")
     accepted = w.write_setpoint(bhp, 6.88e7, ACTIVE, service)
@@ -58,7 +58,7 @@ def test_the_supervisors_refusal_is_the_status_with_its_reason():
 
 def test_a_write_refused_here_never_reaches_the_service():
     service = Service()
-    band = BY_NAME["BottomHolePressureBand"]
+    band = BY_NAME["DownholePressureBand"]
     assert w.write_setpoint(band, -5.0, ACTIVE, service).status == w.BAD_OUT_OF_RANGE
     assert w.write_setpoint(band, "wide", ACTIVE, service).status == w.BAD_TYPE_MISMATCH
     assert w.write_setpoint(band, 3e5, None, service).status == w.BAD_NOT_ALLOWED  # none in force
