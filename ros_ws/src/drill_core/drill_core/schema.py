@@ -4,6 +4,9 @@ A configuration class is a frozen dataclass whose fields are declared with
 :func:`param`, giving each value its unit and allowed range. :func:`build`
 turns a mapping into such an object and refuses bad input with a
 :class:`ConfigError` that names the file, the key, the value and what is allowed.
+A number with a unit may be written as text (``685 bar``, ``10.5 ppg``), also under the
+key without its unit suffix (``bhp_ref: 685 bar`` for ``bhp_ref_pa``): converted to the
+field's SI unit at load (drill_core.quantities).
 """
 from __future__ import annotations
 
@@ -12,6 +15,8 @@ import math
 import types
 import typing
 from typing import Any, Mapping
+
+from drill_core.quantities import to_si
 
 
 class ConfigError(ValueError):
@@ -98,6 +103,14 @@ class _Where:
 
 
 def _check_number(value: Any, meta: Mapping[str, Any], where: _Where, integer: bool) -> float | int:
+    written = value
+    if isinstance(value, str) and not integer and meta.get("unit"):
+        try:                                 # "685 bar": to the field's SI unit
+            value = to_si(value, meta["unit"])
+        except ValueError as err:
+            raise where.fail(f"value {value!r} must be a number in {range_text(meta)} or a "
+                             f"quantity of that unit: {err}") from None
+        written = f"{written!r} ({value:g} {meta['unit']})"
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         kind = "an integer" if integer else "a number"
         raise where.fail(f"value {value!r} must be {kind} in {range_text(meta)}")
@@ -109,7 +122,8 @@ def _check_number(value: Any, meta: Mapping[str, Any], where: _Where, integer: b
            or (lo is not None and (number <= lo if meta.get("lo_open") else number < lo))
            or (hi is not None and number > hi))
     if bad:
-        raise where.fail(f"value {value!r} is outside the allowed range {range_text(meta)}")
+        shown = written if isinstance(written, str) else repr(value)
+        raise where.fail(f"value {shown} is outside the allowed range {range_text(meta)}")
     return number
 
 
@@ -143,6 +157,23 @@ def _convert(value: Any, hint: Any, meta: Mapping[str, Any], where: _Where) -> A
     raise TypeError(f"unsupported configuration type {hint!r}")
 
 
+def _unit_keys(data: Mapping, fields: Mapping[str, dataclasses.Field], where: _Where) -> Mapping:
+    """``data`` with a key written without its field's unit suffix (``bhp_ref: 685 bar``
+    for ``bhp_ref_pa``) under the field's name; such a key takes a value with a unit."""
+    out = dict(data)
+    for key in [k for k in data if isinstance(k, str) and k not in fields]:
+        named = [f for f in fields if f.startswith(key + "_") and fields[f].metadata.get("unit")
+                 and f[len(key) + 1:].isalnum() and f[len(key) + 1:].islower()]
+        if len(named) != 1 or named[0] in data:
+            continue
+        if not isinstance(data[key], str):
+            raise where.child(key).fail(
+                f"value {data[key]!r} needs its unit (e.g. '{data[key]} {fields[named[0]].metadata['unit']}'), "
+                f"or write the key as {named[0]} in {fields[named[0]].metadata['unit']}")
+        out[named[0]] = out.pop(key)
+    return out
+
+
 def build(cls: type, data: Any, source: str = "<memory>", path: str = "") -> Any:
     """Build the frozen dataclass ``cls`` from ``data``, checking keys, types and ranges."""
     where = _Where(source, path)
@@ -150,6 +181,7 @@ def build(cls: type, data: Any, source: str = "<memory>", path: str = "") -> Any
         raise where.fail(f"expected a mapping of keys for {cls.__name__}, got {data!r}")
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    data = _unit_keys(data, fields, where)
     unknown = sorted(set(data) - set(fields))
     if unknown:
         raise where.fail(f"unknown key(s) {', '.join(map(str, unknown))}; allowed: {', '.join(fields)}")
