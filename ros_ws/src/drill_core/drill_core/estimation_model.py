@@ -40,9 +40,8 @@ from drill_core.config import RigConfig
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.integrators import euler_step, rk4_step
 from drill_core.rheology import wall_stress_magnitude
-from drill_core.state_layout import POSITION, VELOCITY, WellboreLayout, hydraulic_state_names
-
-MEASUREMENT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa", "string_flow_m3s")
+from drill_core.state_layout import (MEASUREMENT_NAMES, POSITION, VELOCITY, WellboreLayout,  # noqa: F401 (MEASUREMENT_NAMES re-exported)
+                                     hydraulic_state_names)
 BLOCK_INTEGRAL = "block_integral_m_s"
 BOTTOM_INFLUX = "bottom_influx_m3s"
 DENSITY_OFFSET = "density_offset_kgm3"    # the mud's true density less the report's
@@ -324,10 +323,9 @@ def drift(xp, em: EstimationModel, x, u, string_friction_law=None):
 
 
 def measurement_map(em: EstimationModel) -> tuple[np.ndarray, np.ndarray]:
-    """h(x) = x[index] - offset (eq. 48): each MEASUREMENT_NAMES channel's state index and
-    offset (the choke dp is p_1 less the pressure downstream of the choke)."""
-    return (np.array([0, em.pressure(1), em.pressure(em.n), em.string_flow]),
-            np.array([0.0, em.wm.well.choke_downstream_pressure_pa, 0.0, 0.0]))
+    """h(x) = x[index] - offset (eq. 48) on the estimation model's state
+    (WellboreLayout.sensor_map, the plant's sensors' own)."""
+    return em.sensor_map(em.wm.well.choke_downstream_pressure_pa)
 
 
 def measurement(em: EstimationModel, x, circulating: bool):

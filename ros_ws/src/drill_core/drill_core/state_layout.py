@@ -12,6 +12,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+MEASUREMENT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa", "string_flow_m3s")  # eq. 48
 POSITION = "string_position_m"
 VELOCITY = "string_velocity_mps"
 STRING_FLOW = "string_flow_m3s"
@@ -72,8 +73,9 @@ class StateLayout:
 
 
 class WellboreLayout(StateLayout):
-    """A layout holding the string motion and the wellbore hydraulics, the states the
-    shared equations (drill_core.hydraulics) read."""
+    """A layout holding the string motion and the wellbore hydraulics of ``n`` annulus
+    segments (a subclass gives ``n``), the states the shared equations
+    (drill_core.hydraulics) read."""
 
     @property
     def position(self) -> int:
@@ -98,3 +100,18 @@ class WellboreLayout(StateLayout):
     @property
     def string_pressure(self) -> int:
         return self.index(STRING_PRESSURE)
+
+    def sensor_map(self, downstream_pa: float) -> tuple[np.ndarray, np.ndarray]:
+        """The rig's sensors as h(x) = x[index] - offset (paper eq. 48), one row per channel
+        of MEASUREMENT_NAMES: the block's position, the choke dp (p_1 less the pressure
+        downstream of the choke), the BHP p_n and the string flow. One definition, read by
+        the plant's sensors, the UKF and the NMPC."""
+        return (np.array([self.position, self.pressure(1), self.pressure(self.n),
+                          self.string_flow]),
+                np.array([0.0, downstream_pa, 0.0, 0.0]))
+
+    def sensed_states(self, y, downstream_pa: float) -> dict[int, float]:
+        """The inverse of ``sensor_map``: state index -> its value for each channel of the
+        reading ``y`` (as many channels as it has: three while the pump is off)."""
+        index, offset = self.sensor_map(downstream_pa)
+        return {int(i): float(v) + float(o) for i, v, o in zip(index, y, offset)}

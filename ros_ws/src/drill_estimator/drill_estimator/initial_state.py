@@ -29,7 +29,8 @@ def initial_state(em: EstimationModel, theta_initial: float, y, circulating: boo
     g, w = em.wm.geometry, em.wm.well
     y = np.asarray(y, dtype=float)
     x = np.zeros(em.size)
-    x[em.position] = y[0]
+    sensed = em.sensed_states(y, w.choke_downstream_pressure_pa)     # the inverse of h(x)
+    x[em.position] = sensed[em.position]
     flow = float(y[3]) if circulating and len(y) > 3 and np.isfinite(y[3]) else 0.0
     flow = max(flow, 0.0)
     for i in range(2, em.n + 1):
@@ -48,7 +49,7 @@ def initial_state(em: EstimationModel, theta_initial: float, y, circulating: boo
         sensitivity.append(w.gravity_mps2 * (g.node_depth_m[-1] - g.node_depth_m[0]))
     a = np.asarray(sensitivity)
     prior = np.asarray(prior_covariance, dtype=float)[np.ix_(carriers, carriers)]
-    p1 = w.choke_downstream_pressure_pa + y[1]
+    p1 = sensed[em.pressure(1)]
     departure = y[2] - _steady_profile(em, x, p1)[-1]
     x[carriers] += prior @ a * departure / (a @ prior @ a + bhp_variance_pa2)
     for i, p in enumerate(_steady_profile(em, x, p1), start=1):

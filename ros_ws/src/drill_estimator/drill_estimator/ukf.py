@@ -19,7 +19,7 @@ from drill_core.compiled import compiled
 from drill_core.config import Estimator, RigConfig
 from drill_core.estimation_model import (MEASUREMENT_NAMES, EstimationModel, build_discrete_model,
                                          build_estimation_model, friction_estimate,
-                                         measurement_map)
+                                         measurement, measurement_map)
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_estimator.initial_state import initial_state
 from drill_estimator.model_inputs import BLOCK_INPUTS
@@ -94,7 +94,6 @@ class RigUkf:
         self.model_steps_per_frame = est.model_steps_per_frame
         self.model_step_s = config.plant.sensor_period_s / est.model_steps_per_frame   # RK4 step
         self.scale = em.state_scale()
-        self.p0 = em.wm.well.choke_downstream_pressure_pa
 
         # discrete model on scaled states: one RK4 model step, chained per interval
         self._n_sigma = 2 * self.n_x + 1
@@ -289,11 +288,11 @@ class RigUkf:
 
     @property
     def bhp_pa(self) -> float:
-        return float(self.mean[self.em.pressure(self.em.n)])
+        return float(measurement(self.em, self.mean, False)[2])
 
     @property
     def choke_dp_pa(self) -> float:
-        return float(self.mean[self.em.pressure(1)] - self.p0)
+        return float(measurement(self.em, self.mean, False)[1])
 
     @property
     def string_velocity_mps(self) -> float:

@@ -182,7 +182,7 @@ class PredictionModel:
         em = self.em
         g, w = em.wm.geometry, em.wm.well
         bpp = x[self.bpp] if self.bpp is not None else u[U_BPP_FLOW]
-        dp = x[em.pressure(1)] - w.choke_downstream_pressure_pa
+        dp = measurement(em, x, False)[1]
         return (x[em.flow(2)] - g.displacement_area_m2[0] * x[em.velocity] + bpp
                 + (dp - u[U_CHOKE]) * g.annulus_volume_m3[0]
                 / (w.mud.bulk_modulus_pa * bulk_modulus_factor * self.choke_time_constant_s))

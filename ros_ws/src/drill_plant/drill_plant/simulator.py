@@ -59,6 +59,7 @@ class PlantSimulator:
         self.wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                                       config.plant.choke_regularisation_pa)
         self.layout = PlantLayout(self.wm.n)
+        self._sensors = self.layout.sensor_map(self.config.well.choke_downstream_pressure_pa)
         self._frame = build_frame_function(self.wm, config)
         self._outputs = build_outputs_function(self.wm)
         if config.plant.jit:
@@ -110,15 +111,15 @@ class PlantSimulator:
         lay, noise, x = self.layout, self.config.plant.measurement_noise, self.state
         bias = self.config.plant.sensor_bias
         draw = self._sensor_rng.normal(size=4)
-        p0 = self.config.well.choke_downstream_pressure_pa
-        flow = x[lay.string_flow] + noise.string_flow_m3s * draw[3] + bias.string_flow_m3s
+        index, offset = self._sensors
+        y = [x[i] - o for i, o in zip(index, offset)]          # h(x), eq. 48
+        flow = y[3] + noise.string_flow_m3s * draw[3] + bias.string_flow_m3s
         surface, surface_noise = self._surface_rng.normal(size=3), self.config.plant.surface_sensor_noise
         returns = self._algebraic()[0] + bias.return_flow_m3s
         return Measurement(
-            block_position_m=float(x[lay.position] + noise.block_position_m * draw[0]),
-            choke_dp_pa=float(x[lay.pressure(1)] - p0 + noise.choke_dp_pa * draw[1]
-                              + bias.choke_dp_pa),
-            bhp_pa=float(x[lay.pressure(self.wm.n)] + noise.bhp_pa * draw[2] + bias.bhp_pa),
+            block_position_m=float(y[0] + noise.block_position_m * draw[0]),
+            choke_dp_pa=float(y[1] + noise.choke_dp_pa * draw[1] + bias.choke_dp_pa),
+            bhp_pa=float(y[2] + noise.bhp_pa * draw[2] + bias.bhp_pa),
             string_flow_m3s=float(flow) if circulating else float("nan"),
             string_flow_valid=circulating,
             return_flow_m3s=float(returns) + surface_noise.return_flow_m3s * float(surface[0]),
