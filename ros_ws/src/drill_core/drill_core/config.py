@@ -440,6 +440,10 @@ class Nmpc:
                                  doc="offset-free BHP: share of the last one-step prediction "
                                      "error added to the model's BHP bias each sample (0: off)")
     bhp_bias_limit_pa: float = param("Pa", 0.0, 1.0e7, default=1.0e6, doc="largest |BHP bias|")
+    bhp_bias_error_clip_pa: float = param("Pa", 0.0, 1.0e7, default=0.0,
+                                          doc="largest |one-step prediction error| the bias "
+                                              "takes in a sample: a persistent offset is "
+                                              "small, a transient's error large (0: no clip)")
     block_reference: str = param(choices=("exponential", "profile"), default="exponential",
                                  doc="block-position reference over the horizon: eq. 59's "
                                      "exponential approach or the trip's motion profile")

@@ -322,6 +322,9 @@ class Supervisor:
         if self._predicted_bhp is not None:
             # offset-free: integrate the error of the last one-step BHP prediction
             error = y_now[2] - self._predicted_bhp
+            clip = self.cfg.bhp_bias_error_clip_pa
+            if clip > 0.0:
+                error = min(max(error, -clip), clip)
             limit = self.cfg.bhp_bias_limit_pa
             self.bhp_bias = float(np.clip(self.bhp_bias + self.cfg.bhp_bias_gain * error,
                                           -limit, limit))
