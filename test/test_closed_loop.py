@@ -17,7 +17,8 @@ from rig_testing import assert_same_recorded_data
 
 from drill_bag import mcap_io
 
-from drill_bringup import cli, launcher, report
+from drill_analysis import report
+from drill_bringup import cli, launcher
 from drill_core.config import load_rig
 from drill_ros import topics
 

@@ -21,7 +21,8 @@ with the figures of docs/emergency-stop.md (drill_bringup.estop_study):
 import pytest
 import numpy as np
 
-from drill_bringup import cli, report
+from drill_analysis import report
+from drill_bringup import cli
 from drill_bringup.estop_study import machine_commands, presses, stop_figures
 from drill_core.config import load_rig
 

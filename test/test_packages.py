@@ -114,6 +114,16 @@ def test_core_imports_no_ros():
     assert "rclpy" not in declared_dependencies("drill_core")
 
 
+def test_the_analysis_reads_recordings_without_ros():
+    import subprocess
+    import sys
+    ros = {m: f for m, f in imported_top_modules("drill_analysis").items() if m in ROS_RUNTIME}
+    assert not ros, f"drill_analysis is plain Python over recordings, yet imports {ros}"
+    code = "import sys, drill_analysis.report; print('rclpy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False", "importing the report pulls in rclpy"
+
+
 def test_an_undeclared_import_is_found(tmp_path, monkeypatch):
     """The check reads imports inside functions too (a late import is still a dependency)."""
     pkg = tmp_path / "drill_a" / "drill_a"

@@ -13,6 +13,6 @@ setup(
     ],
     install_requires=["setuptools"],
     zip_safe=True,
-    description="Launcher, split runs, the rig CLI, reports, comparisons, sweeps and the in-process benches.",
+    description="Launcher, split runs, the rig CLI, comparisons, sweeps and the in-process benches.",
     license="Apache-2.0",
 )

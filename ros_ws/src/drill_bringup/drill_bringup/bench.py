@@ -21,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from drill_bringup import launcher, report, runs
+from drill_analysis import report
+from drill_bringup import launcher, runs
 from drill_ros import budget
 from drill_ros.executors import DEFAULT_EXECUTOR, EXECUTOR_ENV
 from drill_ros import graph as graph_decl

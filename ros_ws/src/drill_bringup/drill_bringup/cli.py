@@ -63,7 +63,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from drill_bringup import launcher, report
+from drill_analysis import report
+from drill_bringup import launcher
 from drill_bringup.runs import ROOT, run_scenario, scenario_path
 from drill_bringup.split_run import split_options
 from drill_core.access import require_security_beyond_loopback

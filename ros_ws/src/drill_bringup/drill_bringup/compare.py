@@ -23,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from drill_bringup import batch, report, runs
+from drill_analysis import report
+from drill_bringup import batch, runs
 from drill_core.mismatch import load_suite, resolve
 from drill_core.scenario import load_scenario
 from drill_core.units import L_PER_M3, PA_PER_BAR

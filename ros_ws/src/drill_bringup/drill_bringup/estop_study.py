@@ -24,7 +24,8 @@ import numpy as np
 
 from drill_bag import mcap_io
 
-from drill_bringup import report, runs
+from drill_analysis import report
+from drill_bringup import runs
 from drill_core.config import RigConfig, load_rig
 from drill_ros import topics
 from drill_core.units import PA_PER_BAR

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from drill_bringup import loop_bench, runs
-from drill_bringup.report import ARRIVAL_TOLERANCE_M, format_legs, tracking_metrics
+from drill_analysis.report import ARRIVAL_TOLERANCE_M, format_legs, tracking_metrics
 from drill_core.config import RigConfig
 from drill_core.scenario import load_scenario_config
 from drill_core.units import PA_PER_BAR

@@ -25,7 +25,7 @@ import sys
 import numpy as np
 
 from drill_bringup.runs import ROOT, scenario_path
-from drill_bringup.report import format_legs, tracking_metrics
+from drill_analysis.report import format_legs, tracking_metrics
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, parse_settings
 from drill_core.backend import NUMPY

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import yaml
 
-from drill_bringup import launcher, report
+from drill_analysis import report
+from drill_bringup import launcher
 from drill_bringup.progress_display import ProgressDisplay
 from drill_core.config import ConfigError
 from drill_core.mismatch import resolve, truth_config, write_truth_file

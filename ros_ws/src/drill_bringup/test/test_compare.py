@@ -4,7 +4,8 @@ import subprocess
 
 import numpy as np
 
-from drill_bringup import compare, report, runs
+from drill_analysis import report
+from drill_bringup import compare, runs
 
 
 def _summary(bhp_rmse_bar, outside_s, legs=(56.0, 57.0), solves=0, fallbacks=0):

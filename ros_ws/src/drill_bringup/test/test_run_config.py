@@ -4,7 +4,8 @@ run's figures."""
 import pytest
 import yaml
 
-from drill_bringup import report, runs
+from drill_analysis import report
+from drill_bringup import runs
 from drill_core.config import ConfigError, load_rig
 
 

@@ -1,7 +1,7 @@
 """The report's well-control figures from a synthetic recording's series."""
 
-from drill_bringup import well_control_report as wc
-from drill_bringup.report import RecordedEvent, Series
+from drill_analysis import well_control_report as wc
+from drill_analysis.report import RecordedEvent, Series
 from drill_core.config import KickDetection
 
 DETECTOR = KickDetection(window_s=20.0, pressure_average_s=1.0, flow_threshold_m3s=3.3e-4,

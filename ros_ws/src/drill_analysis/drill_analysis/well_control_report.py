@@ -3,7 +3,7 @@ losses, pit gain), time spent under the pore or over the fracture pressure in fo
 kick and loss detector's alarms and the estimator's influx estimate (NMPC2's bottom-influx
 state, where the run estimates it) against the truth (delay, volume in at detection, false
 alarms), and the event timeline (scenario events from /rig/events, protection alarms).
-Plain Python over the report's Series (drill_bringup.report); SI in the summary, bar and
+Plain Python over the report's Series (drill_analysis.report); SI in the summary, bar and
 L at the display edge."""
 from __future__ import annotations
 

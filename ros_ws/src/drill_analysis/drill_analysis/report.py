@@ -3,7 +3,7 @@ peak surge/swab, estimator errors against the truth (the estimation study's resu
 paper sec. 4.3), solve-time statistics and PNG plots (bar and L/min on the plots and in
 the printed table only; summary.json stays SI). An open-loop run (the sequencer's
 commands, no setpoints) has no tracking figures: they are reported as n/a. A drilling
-run's recording gets the drilling summary instead (drill_bringup.drilling_report)."""
+run's recording gets the drilling summary instead (drill_analysis.drilling_report)."""
 from __future__ import annotations
 
 import json
@@ -16,8 +16,8 @@ import numpy as np
 
 from drill_bag import mcap_io
 
-from drill_bringup import drilling_report
-from drill_bringup import well_control_report as well_control
+from drill_analysis import drilling_report
+from drill_analysis import well_control_report as well_control
 from drill_core.config import load_rig
 from drill_core.rig_root import rig_root
 from drill_ros import topic_names as topics
