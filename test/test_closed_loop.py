@@ -18,7 +18,8 @@ from rig_testing import assert_same_recorded_data
 from drill_bag import mcap_io
 
 from drill_analysis import report
-from drill_bringup import cli, launcher
+from drill_bringup import launcher
+from drill_rig import cli
 from drill_core.config import load_rig
 from drill_ros import topics
 
@@ -102,10 +103,10 @@ def test_automated_mpd_runs_the_choke_pressure_loop_over_dds(other_controllers):
 
 @pytest.mark.parametrize("controller", ["nmpc", "baseline", "automated_mpd"])
 def test_in_process_loop_bench_equals_the_graph(controller, two_runs, other_controllers):
-    """The loop bench (drill_bringup.loop_bench: the same plant, actuator, estimator,
+    """The loop bench (drill_studies.loop_bench: the same plant, actuator, estimator,
     advisor and protection classes stepped in one process) reproduces the graph's run:
     truth, estimate and machine command sample by sample (to float rounding)."""
-    from drill_bringup import loop_bench
+    from drill_studies import loop_bench
     run_dir = two_runs[0] if controller == "nmpc" else other_controllers[controller]
     path = _mcap(run_dir)
     trace = loop_bench.run("short_trip", controller=controller, protection=True)["trace"]
@@ -189,7 +190,7 @@ def test_reestimate_replays_recording_into_a_retuned_estimator(two_runs, tmp_pat
 
     import yaml
 
-    from drill_bringup.reestimate import reestimate
+    from drill_studies.reestimate import reestimate
 
     same = reestimate(two_runs[0], cli.ROOT / "config", rate=5.0, domain_id=90)
     assert same["estimates"] == same["measurements"] == 901

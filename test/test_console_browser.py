@@ -36,7 +36,8 @@ import pytest
 
 from drill_bag import mcap_io
 
-from drill_bringup import cli, launcher
+from drill_bringup import launcher
+from drill_rig import cli
 from drill_ros import topics
 
 pytestmark = [pytest.mark.dds,

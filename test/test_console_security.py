@@ -17,7 +17,7 @@ from rclpy.parameter import Parameter
 from rig_testing import spinning_node, wait_for
 from std_msgs.msg import String
 
-from drill_bringup import cli
+from drill_rig import cli
 from drill_hmi.console import ConsoleNode
 from drill_core import access
 from drill_ros import topics

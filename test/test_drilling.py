@@ -15,7 +15,7 @@ import pytest
 from drill_bag import mcap_io
 
 from drill_analysis import drilling_report
-from drill_bringup import cli
+from drill_rig import cli
 from drill_ros import topics
 from drill_string import simulate
 from drill_string.plant import plant_step_s

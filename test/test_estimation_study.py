@@ -17,7 +17,7 @@ import pytest
 from drill_bag import mcap_io
 
 from drill_analysis import report
-from drill_bringup import cli
+from drill_rig import cli
 from drill_ros import topics
 from drill_core.scenario import load_scenario_config
 

@@ -2,7 +2,7 @@
 actions (drill_core.operator_actions) at rest, while pulling out at the trip's speed and
 while running in (config/scenarios/estop_trip.yaml), during a mud-pump trip
 (estop_pump_trip.yaml) and during a kick answer (estop_kick.yaml), each kept 60 s, judged
-with the figures of docs/emergency-stop.md (drill_bringup.estop_study):
+with the figures of docs/emergency-stop.md (drill_studies.estop_study):
 
 * /rig/command says so from the stamp of the press for as long as it is kept, with one
   BHP target (else the figures refuse);
@@ -22,8 +22,8 @@ import pytest
 import numpy as np
 
 from drill_analysis import report
-from drill_bringup import cli
-from drill_bringup.estop_study import machine_commands, presses, stop_figures
+from drill_rig import cli
+from drill_studies.estop_study import machine_commands, presses, stop_figures
 from drill_core.config import load_rig
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]

@@ -37,7 +37,8 @@ from rclpy.serialization import deserialize_message
 from rig_testing import spinning_node, wait_for
 from wits0_client import parse_frames
 
-from drill_bringup import cli, launcher
+from drill_bringup import launcher
+from drill_rig import cli
 from drill_core import access
 from drill_ros import topics
 from drill_gateway import certificates

@@ -13,7 +13,7 @@ from rig_testing import spinning_node
 
 from drill_bag import mcap_io
 
-from drill_bringup import cli
+from drill_rig import cli
 from drill_core.mismatch import read_truth_file, resolve
 from drill_ros import graph as graph_decl
 from drill_ros import topics

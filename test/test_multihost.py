@@ -15,7 +15,7 @@ from rig_testing import assert_same_recorded_data, wait_for
 
 from drill_bag import mcap_io
 
-from drill_bringup import cli
+from drill_rig import cli
 from drill_ros import topics
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow,
@@ -39,7 +39,7 @@ def hosts():
 
 def _rig_run(hosts: HostPair, index: int, runs_dir, log, *flags: str) -> subprocess.Popen:
     """``rig run`` of the scenario in namespace ``index``."""
-    argv = [sys.executable, "-m", "drill_bringup.cli", "run", str(SCENARIO),
+    argv = [sys.executable, "-m", "drill_rig.cli", "run", str(SCENARIO),
             "--controller", CONTROLLER, "--seed", str(SEED), "--runs-dir", str(runs_dir), *flags]
     return subprocess.Popen(hosts.command(index, argv), cwd=cli.ROOT, stdout=log,
                             stderr=subprocess.STDOUT, env=dict(os.environ, RIG_ROOT=str(cli.ROOT)))

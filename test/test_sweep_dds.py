@@ -9,7 +9,7 @@ import pytest
 
 from drill_bag import export
 
-from drill_bringup import sweep
+from drill_studies import sweep
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]
 SCENARIO = str(Path(__file__).resolve().parent / "scenarios" / "sweep_short.yaml")

@@ -13,6 +13,6 @@ setup(
     ],
     install_requires=["setuptools"],
     zip_safe=True,
-    description="Launcher, split runs, the rig CLI, comparisons, sweeps and the in-process benches.",
+    description="The launcher of a run's graph: process layouts, split runs, the run directory, the launch file.",
     license="Apache-2.0",
 )

@@ -12,6 +12,6 @@ setup(
     ],
     install_requires=["setuptools"],
     zip_safe=True,
-    description="The rig from Python: a closed loop in process as a DataFrame, a recorded run loaded as one.",
+    description="The rig's front: the rig command line and the Python API.",
     license="Apache-2.0",
 )

@@ -14,7 +14,7 @@ from std_msgs.msg import String
 
 from drill_bag import export, mcap_io
 
-from drill_bringup import cli
+from drill_rig import cli
 from drill_bag.msg_columns import comment_unit, names_unit, unit_token
 
 NS = 1_000_000_000

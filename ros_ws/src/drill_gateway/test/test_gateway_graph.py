@@ -47,7 +47,8 @@ def test_no_gateway_feeds_a_controller():
 
 
 def test_in_a_split_run_a_gateway_runs_on_the_host_that_asks_for_it(monkeypatch, tmp_path):
-    from drill_bringup import cli, runs
+    from drill_bringup import runs
+    from drill_rig import cli
     started = {}
 
     class Started(Exception):
@@ -73,7 +74,7 @@ def test_in_a_split_run_a_gateway_runs_on_the_host_that_asks_for_it(monkeypatch,
      {"opcua_gateway": {"endpoint": "opc.tcp://0.0.0.0:4840/drill-rig"}}),
 ])
 def test_rig_run_adds_the_gateways_asked_for(monkeypatch, argv, extras):
-    from drill_bringup import cli
+    from drill_rig import cli
     asked = {}
     monkeypatch.setattr(cli, "run_scenario", lambda *a, **kw: asked.update(kw) or (0, None))
     assert cli.main(["run", "short_trip", *argv]) == 0

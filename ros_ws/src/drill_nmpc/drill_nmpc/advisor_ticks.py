@@ -2,7 +2,7 @@
 ``automated_mpd`` and ``baseline`` nodes command for one sample from the inputs the node
 collected for it (the setpoints to plan with come from drill_nmpc.setpoint_book, which
 the caller keeps). The nodes move messages in and out of these; the in-process loop
-bench (drill_bringup.loop_bench) steps the same classes."""
+bench (drill_studies.loop_bench) steps the same classes."""
 from __future__ import annotations
 
 import math

@@ -2,7 +2,7 @@
 the command watchdog and its safe state, the emergency stop's brake and BHP loop, the
 choke's manual, pressure and flow modes, and the scenario's actuator faults (``stuck``
 freezes the output, ``trip`` stops a pump whatever it is commanded). The actuator node
-moves messages in and out; the in-process loop bench (drill_bringup.loop_bench) steps
+moves messages in and out; the in-process loop bench (drill_studies.loop_bench) steps
 the same class.
 
 A command is anything with drill_msgs/RigCommand's fields (SI); a measurement anything

@@ -4,7 +4,7 @@ formation and choke-plugging events change its parameters when they start, senso
 change the published samples, every event is announced when it starts and when it ends -
 advanced frame by frame on the actuators' outputs, a bad frame held at the last input.
 The plant node moves messages in and out; the in-process loop bench
-(drill_bringup.loop_bench) steps the same class.
+(drill_studies.loop_bench) steps the same class.
 """
 from __future__ import annotations
 

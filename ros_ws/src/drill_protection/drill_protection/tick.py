@@ -4,7 +4,7 @@ measurement watch (drill_protection.watch) fed every measurement, the operator's
 (drill_core.operator_actions) pressing them, the limiter (drill_protection.protection)
 between an advisor's command and the machines with the machine command it sends, and the
 pore/fracture window's exits and returns. The node moves messages in and out; the
-in-process loop bench (drill_bringup.loop_bench) steps the same class."""
+in-process loop bench (drill_studies.loop_bench) steps the same class."""
 from __future__ import annotations
 
 import math

@@ -1,6 +1,6 @@
 """``simulate`` and ``load_run``: the rig's closed loop and its recordings as DataFrames.
 
-``simulate`` steps the nodes' own tick classes in this process (drill_bringup.loop_bench:
+``simulate`` steps the nodes' own tick classes in this process (drill_studies.loop_bench:
 the truth plant, the actuators, the UKF, the scenario's controller and the process
 protection, in the graph's lockstep order, without DDS), so a notebook gets the run the
 graph would record, sample by sample, in a fraction of its time. ``load_run`` reads a run
@@ -15,7 +15,7 @@ from pathlib import Path
 import pandas as pd
 
 from drill_bag import export
-from drill_bringup import loop_bench
+from drill_studies import loop_bench
 from drill_bringup.runs import scenario_path
 from drill_core.config import ConfigError, parse_settings
 from drill_core.mismatch import resolve
@@ -38,7 +38,7 @@ def simulate(scenario: str = "case2", controller: str | None = None, seed: int |
              mismatch: str | None = None, settings: list[str] | tuple[str, ...] = ()
              ) -> pd.DataFrame:
     """A scenario's closed loop in process: one row per sensor sample (10 Hz), indexed by
-    simulated time ``time_s``, columns as drill_bringup.loop_bench.TRACE lists them (the
+    simulated time ``time_s``, columns as drill_studies.loop_bench.TRACE lists them (the
     truth, the estimate, the setpoints, the machine command and the actuators' outputs,
     SI). ``controller``: nmpc, automated_mpd or baseline (default: the scenario's own);
     ``seed``: the noise seed (default: the scenario's); ``mismatch``: the plant differs

@@ -11,7 +11,7 @@ from rclpy.serialization import serialize_message
 
 import drill_rig
 from drill_bag import mcap_io
-from drill_bringup.loop_bench import TRACE
+from drill_studies.loop_bench import TRACE
 
 NS = 1_000_000_000
 

@@ -8,8 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from drill_bringup import batch, compare, launcher, runs, sweep
-from drill_bringup.batch import RunSpec
+from drill_bringup import launcher, runs
+from drill_studies import batch, compare, sweep
+from drill_studies.batch import RunSpec
 from drill_core.config import ConfigError, parse_settings
 from drill_core.scenario import load_scenario_config
 

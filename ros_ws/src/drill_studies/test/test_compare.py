@@ -5,7 +5,8 @@ import subprocess
 import numpy as np
 
 from drill_analysis import report
-from drill_bringup import compare, runs
+from drill_bringup import runs
+from drill_studies import compare
 
 
 def _summary(bhp_rmse_bar, outside_s, legs=(56.0, 57.0), solves=0, fallbacks=0):

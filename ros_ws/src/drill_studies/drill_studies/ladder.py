@@ -2,7 +2,7 @@
 add one source of error each (docs/nmpc.md), and the design steps from the paper's NMPC
 formulation to the shipped one, one at a time.
 
-Rungs, all in-process (drill_bringup.loop_bench) except the last:
+Rungs, all in-process (drill_studies.loop_bench) except the last:
   model plant   the prediction model itself as the plant, its state known exactly
                 (drill_nmpc.bench: the upper bound of this formulation and actuation);
   truth state   the truth plant (Herschel-Bulkley friction, noise), the controller fed
@@ -10,7 +10,7 @@ Rungs, all in-process (drill_bringup.loop_bench) except the last:
   UKF state     the truth plant, the controller fed the UKF's estimates;
   full graph    the process graph over DDS (docs/results.json of ``rig compare``).
 
-    python -m drill_bringup.ladder [--seeds N] [--case case2] > ladder.md
+    python -m drill_studies.ladder [--seeds N] [--case case2] > ladder.md
 """
 from __future__ import annotations
 
@@ -22,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from drill_bringup import loop_bench, runs
+from drill_bringup import runs
+from drill_studies import loop_bench
 from drill_analysis.report import ARRIVAL_TOLERANCE_M, format_legs, tracking_metrics
 from drill_core.config import RigConfig
 from drill_core.scenario import load_scenario_config

@@ -7,7 +7,7 @@ off). The NMPC's first rung feeds it the true state (an oracle: friction factors
 to the truth, the true density offset), so the row shows what the model's error alone
 costs. The page is rendered from the runs' figures, which go to a JSON file beside it.
 
-    python -m drill_bringup.mismatch_ladder [--seeds N] [--workers W] [--output FILE]
+    python -m drill_studies.mismatch_ladder [--seeds N] [--workers W] [--output FILE]
 """
 from __future__ import annotations
 
@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from drill_bringup import loop_bench, runs
+from drill_bringup import runs
+from drill_studies import loop_bench
 from drill_core.mismatch import load_suite
 from drill_core.units import PA_PER_BAR
 
@@ -71,7 +72,7 @@ def _cell(rows: list[dict]) -> str:
 def markdown(rows: list[dict], members: list[str], described: dict[str, str]) -> str:
     seeds = sorted({r["seed"] for r in rows})
     lines = ["# The ladder for a plant that is not the model", "",
-             "Made by `python -m drill_bringup.mismatch_ladder` on "
+             "Made by `python -m drill_studies.mismatch_ladder` on "
              f"{datetime.now():%Y-%m-%d %H:%M} from its runs (figures in "
              "`mismatch-ladder.json`): Case 2 in process "
              "with the process protection in the loop, seeds "

@@ -1,11 +1,11 @@
-"""The in-process closed loop (drill_bringup.loop_bench) that the ladder of docs/nmpc.md
+"""The in-process closed loop (drill_studies.loop_bench) that the ladder of docs/nmpc.md
 stands on: the truth plant, the actuator models, a state source and a controller (and the
 scenario's events and the process protection)."""
 
 import numpy as np
 import pytest
 
-from drill_bringup import loop_bench
+from drill_studies import loop_bench
 from drill_core.rig_root import rig_root
 
 

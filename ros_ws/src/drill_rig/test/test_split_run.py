@@ -112,7 +112,7 @@ def test_the_watch_refuses_a_relative_topic(capsys):
     (["--nodes", "plant", "--domain", "77", "--peers", "a b"], "'a b' is not an IP address"),
 ])
 def test_rig_run_refuses_a_bad_share_before_anything_is_made(flags, error, runs_dir, capsys):
-    from drill_bringup import cli
+    from drill_rig import cli
     assert cli.main(["run", "short_trip", "--runs-dir", str(runs_dir), *flags]) == 2
     assert error in capsys.readouterr().err
     assert not runs_dir.exists()

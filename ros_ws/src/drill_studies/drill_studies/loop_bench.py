@@ -13,8 +13,8 @@ actions (the emergency stop, the automation level). Without ``--protection`` the
 controllers' commands go to the actuators as they are (they respect its limits on the
 normal cases).
 
-    python -m drill_bringup.loop_bench case2 --controller automated_mpd --state ukf --seeds 1 2 3
-    python -m drill_bringup.loop_bench pump_trip --controller baseline --protection
+    python -m drill_studies.loop_bench case2 --controller automated_mpd --state ukf --seeds 1 2 3
+    python -m drill_studies.loop_bench pump_trip --controller baseline --protection
 """
 from __future__ import annotations
 

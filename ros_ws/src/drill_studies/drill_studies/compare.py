@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from drill_analysis import report
-from drill_bringup import batch, runs
+from drill_bringup import runs
+from drill_studies import batch
 from drill_core.mismatch import load_suite, resolve
 from drill_core.scenario import load_scenario
 from drill_core.units import L_PER_M3, PA_PER_BAR
@@ -76,7 +77,7 @@ def plan_mismatch(cases, controllers, seeds: int, members) -> list[tuple]:
 
 
 def run_all(items, runs_dir: Path | None = None, run=batch.run_one) -> list[dict]:
-    """Run each (case, controller, seed[, mismatch]), one after another (drill_bringup.batch);
+    """Run each (case, controller, seed[, mismatch]), one after another (drill_studies.batch);
     a row per run with its summary. A failed run stops the comparison, naming it."""
     specs = [batch.RunSpec(case, str(runs.scenario_path(case)), controller, seed,
                            None if runs_dir is None else str(runs_dir),

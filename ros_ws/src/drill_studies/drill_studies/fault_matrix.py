@@ -18,8 +18,9 @@ from pathlib import Path
 
 import yaml
 
-from drill_bringup import batch, runs
-from drill_bringup.compare import CONTROLLERS, false_alarms
+from drill_bringup import runs
+from drill_studies import batch
+from drill_studies.compare import CONTROLLERS, false_alarms
 from drill_core.config import load_rig
 from drill_core.events import EVENT_KINDS
 from drill_core.units import L_PER_M3, PA_PER_BAR

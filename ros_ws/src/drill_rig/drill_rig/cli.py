@@ -177,7 +177,7 @@ def main(argv=None) -> int:
     stab.add_argument("--output", type=Path, help="write the Fig. 3, 4 and 7 like plots here")
     from drill_bag import export
     export.add_arguments(sub.add_parser("export", help="a run's recording as CSV or Parquet tables, or a LAS or WITSML well log"))
-    from drill_bringup import sweep
+    from drill_studies import sweep
     sweep.add_arguments(sub.add_parser("sweep", help="a scenario on many seeds, aggregated"))
     comp = sub.add_parser("compare", help="run Cases 1-4 under every controller; tabulate")
     comp.add_argument("scenarios", nargs="*", help="default: case1..case4 and the fault "
@@ -192,7 +192,7 @@ def main(argv=None) -> int:
                            "member of config/mismatch.yaml) or a comma list of members")
     comp.add_argument("--resume", action="store_true",
                       help="do not run again a planned run whose row the table already holds")
-    from drill_bringup.fault_matrix import CONTROLLERS as MATRIX_CONTROLLERS, PAIRS
+    from drill_studies.fault_matrix import CONTROLLERS as MATRIX_CONTROLLERS, PAIRS
     comp.add_argument("--fault-matrix", nargs="?", const="actuators", choices=PAIRS,
                       help="each actuator and sensor fault alone in the pull-out, at rest "
                            "and in the run-in, and pairs in the pull-out (actuators, the "
@@ -235,13 +235,13 @@ def main(argv=None) -> int:
             return _stability(args)
         if args.command == "compare":
             if args.fault_matrix is not None:
-                from drill_bringup import fault_matrix
+                from drill_studies import fault_matrix
                 output = args.output or ROOT / "docs" / "fault-matrix.md"
                 if args.render:
                     return fault_matrix.render(output)
                 return fault_matrix.main(output, args.fault_matrix, args.with_fault,
                                          args.controller or fault_matrix.CONTROLLERS)
-            from drill_bringup import compare
+            from drill_studies import compare
             output = args.output or ROOT / "docs" / "results.md"
             if args.render:
                 return compare.render(output)
@@ -249,7 +249,7 @@ def main(argv=None) -> int:
                                 tuple(args.controller or compare.CONTROLLERS),
                                 mismatch=args.mismatch, resume=args.resume)
         if args.command == "reestimate":
-            from drill_bringup.reestimate import reestimate
+            from drill_studies.reestimate import reestimate
             result = reestimate(args.run_dir, args.config_dir, args.rate, launcher.default_domain_id())
             recorded = result["recorded_bhp_estimate_rmse_pa"] / PA_PER_BAR
             print(f"[rig] BHP estimate RMSE: recorded {recorded:.3f} bar, "

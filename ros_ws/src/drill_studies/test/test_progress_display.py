@@ -1,5 +1,5 @@
 """Progress: rig run's from the plant's marker lines (drill_ros.progress), rig compare's and
-rig sweep's runs done (drill_bringup.batch.Progress). The marker a
+rig sweep's runs done (drill_studies.batch.Progress). The marker a
 plant prints every 10 s simulated is found at the end of a log with other lines after
 it; on a terminal one line rewritten in place, in a log a plain line every 100 s
 simulated; nothing before the first marker."""
@@ -59,7 +59,7 @@ def test_a_log_gets_a_plain_line_every_hundred_simulated_seconds(tmp_path):
 
 
 def test_a_batch_in_a_log_prints_runs_done_and_the_time_left():
-    from drill_bringup.batch import Progress
+    from drill_studies.batch import Progress
     out, clock = io.StringIO(), Clock()
     progress = Progress(4, stream=out, clock=clock)
     for _ in range(2):

@@ -4,7 +4,7 @@ import re
 
 import pytest
 
-from drill_bringup import cli
+from drill_rig import cli
 from drill_string.stability import axial_stability
 from drill_string.stability_command import write_figures
 

@@ -1,6 +1,6 @@
 """``rig sweep``: one scenario through the whole graph on many seeds (under one or more
 controllers, with configuration overrides), the runs spread over a local process pool or
-a Dask cluster (drill_bringup.batch), their report figures aggregated over the seeds
+a Dask cluster (drill_studies.batch), their report figures aggregated over the seeds
 (mean, standard deviation, worst) into a Markdown table and a plot.
 
 The output directory holds ``scenario.yaml`` (the scenario run: the file asked for with the
@@ -25,8 +25,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from drill_bringup import batch, compare, runs
-from drill_bringup.batch import RunSpec
+from drill_bringup import runs
+from drill_studies import batch, compare
+from drill_studies.batch import RunSpec
 from drill_core.config import ConfigError, parse_settings
 from drill_ros.graph import CONTROLLERS
 from drill_core.scenario import load_scenario_config, scenario_kind

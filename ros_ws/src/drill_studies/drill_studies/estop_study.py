@@ -8,7 +8,7 @@ command's ``emergency_bhp_pa``) and the pore/fracture window. The same figures a
 (test/test_estop.py). The page is rendered from the runs, the figures go to a JSON file
 beside it.
 
-    python -m drill_bringup.estop_study [--output FILE]
+    python -m drill_studies.estop_study [--output FILE]
 """
 from __future__ import annotations
 
@@ -139,7 +139,7 @@ def render(figures: list[StopFigures], config: RigConfig) -> str:
     lines = [
         "# The emergency stop, measured",
         "",
-        f"Made by `python -m drill_bringup.estop_study` on {datetime.now():%Y-%m-%d %H:%M} "
+        f"Made by `python -m drill_studies.estop_study` on {datetime.now():%Y-%m-%d %H:%M} "
         "(the graph in fast mode, the scenarios' seeds). What the stop does: "
         "`docs/faults.md`, *The emergency stop*. Each press is judged over the "
         f"{HOLD_S:g} s it is kept; targets: the block at rest within its brake time "

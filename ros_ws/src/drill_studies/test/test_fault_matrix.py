@@ -9,7 +9,7 @@ from datetime import datetime
 import pytest
 import yaml
 
-from drill_bringup import fault_matrix as fm
+from drill_studies import fault_matrix as fm
 from drill_bringup import runs
 from drill_core.scenario import load_scenario
 
