@@ -1,7 +1,8 @@
 """Run report from a recording: the paper's Table 7 figures, BHP-window violations,
 peak surge/swab, estimator errors against the truth (the estimation study's result,
-paper sec. 4.3), solve-time statistics and PNG plots (bar and L/min on the plots and in
-the printed table only; summary.json stays SI). An open-loop run (the sequencer's
+paper sec. 4.3), solve-time statistics and PNG plots (pressures, flows and volumes in the
+display units chosen, drill_core.units.Display: bar, L/min, L or psi, gpm, bbl, on the
+plots and in the printed table only; summary.json stays SI). An open-loop run (the sequencer's
 commands, no setpoints) has no tracking figures: they are reported as n/a. A drilling
 run's recording gets the drilling summary instead (drill_analysis.drilling_report)."""
 from __future__ import annotations
@@ -21,10 +22,11 @@ from drill_analysis import well_control_report as well_control
 from drill_core.config import load_rig
 from drill_core.rig_root import rig_root
 from drill_ros import topic_names as topics
-from drill_core.units import LPM_PER_M3S, PA_PER_BAR
+from drill_core.units import Display
 
 ARRIVAL_TOLERANCE_M = 0.5     # a trip leg ends when the string is this close to its target
 FINAL_WINDOW_S = 30.0           # the estimator's final bias: mean error over the run's last 30 s
+METRIC = Display("metric")
 SETTLE_S = 30.0                 # band time "settled": after the first 30 s of a run (issue targets)
 OPEN_LOOP_ADVISOR = "sequencer"
 EVENT_SOURCES = {topics.RIG_EVENTS: "rig", topics.PROTECTION_EVENTS: "protection"}
@@ -298,8 +300,10 @@ def plant_text(mismatch: dict | None) -> str:
     return f"not the model: {mismatch['name']} ({changes or 'no change'})"
 
 
-def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
-    """Human-readable summary in drilling units."""
+def format_table(name: str, summary: dict, baseline: dict | None = None,
+                 units: Display = METRIC) -> str:
+    """Human-readable summary in drilling units (``units``: metric or field)."""
+    p, bar = units.factor("pressure"), units.symbol("pressure")
     rows = [
         f"Run: {name}",
         f"  duration                      {summary['duration_s']:.0f} s",
@@ -312,11 +316,11 @@ def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
             "  Table 7 form                  mean error      RMSE",
             f"    block position [m]         {summary['block_position_mean_error_m']:10.3f}  "
             f"{summary['block_position_rmse_m']:9.3f}",
-            f"    BHP [bar]                  {summary['bhp_mean_error_pa'] / PA_PER_BAR:10.3f}  "
-            f"{summary['bhp_rmse_pa'] / PA_PER_BAR:9.3f}  (after the first {SETTLE_S:.0f} s: "
-            f"{summary['bhp_rmse_settled_pa'] / PA_PER_BAR:.3f})",
+            f"    BHP [{bar}]                  {summary['bhp_mean_error_pa'] * p:10.3f}  "
+            f"{summary['bhp_rmse_pa'] * p:9.3f}  (after the first {SETTLE_S:.0f} s: "
+            f"{summary['bhp_rmse_settled_pa'] * p:.3f})",
             f"  BHP window violations         {summary['bhp_window_violations']} "
-            f"(worst {summary['bhp_worst_excursion_pa'] / PA_PER_BAR:.2f} bar outside, "
+            f"(worst {summary['bhp_worst_excursion_pa'] * p:.2f} {bar} outside, "
             f"{summary['bhp_time_outside_s']:.1f} s outside, "
             f"{summary['bhp_time_outside_settled_s']:.1f} s after the first {SETTLE_S:.0f} s)",
             f"  trip legs                     {format_legs(summary['trip_legs'])} "
@@ -324,21 +328,21 @@ def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
         ]
     else:
         rows.append("  Table 7 form, BHP window      n/a (open loop: no setpoints to track)")
-    rows.append(f"  peak surge / swab             {summary['peak_surge_pa'] / PA_PER_BAR:+.2f} / "
-                f"{summary['peak_swab_pa'] / PA_PER_BAR:+.2f} bar")
-    rows += well_control.format_rows(summary)
+    rows.append(f"  peak surge / swab             {summary['peak_surge_pa'] * p:+.2f} / "
+                f"{summary['peak_swab_pa'] * p:+.2f} {bar}")
+    rows += well_control.format_rows(summary, units)
     if "bhp_estimate_rmse_pa" in summary:
         rows += [
             f"  estimate - truth              mean error      RMSE  final bias (last {FINAL_WINDOW_S:.0f} s)",
-            f"    BHP [bar]                  {summary['bhp_estimate_mean_error_pa'] / PA_PER_BAR:10.3f}  "
-            f"{summary['bhp_estimate_rmse_pa'] / PA_PER_BAR:9.3f}  "
-            f"{summary['bhp_estimate_final_bias_pa'] / PA_PER_BAR:10.3f}",
+            f"    BHP [{bar}]                  {summary['bhp_estimate_mean_error_pa'] * p:10.3f}  "
+            f"{summary['bhp_estimate_rmse_pa'] * p:9.3f}  "
+            f"{summary['bhp_estimate_final_bias_pa'] * p:10.3f}",
         ]
         for i, (mean, rmse, bias) in enumerate(zip(summary.get("friction_estimate_mean_error_pa", []),
                                                     summary.get("friction_estimate_rmse_pa", []),
                                                     summary.get("friction_estimate_final_bias_pa", []))):
-            rows.append(f"    friction path {i + 2} [bar]     {mean / PA_PER_BAR:10.3f}  "
-                        f"{rmse / PA_PER_BAR:9.3f}  {bias / PA_PER_BAR:10.3f}")
+            rows.append(f"    friction path {i + 2} [{bar}]     {mean * p:10.3f}  "
+                        f"{rmse * p:9.3f}  {bias * p:10.3f}")
         if summary["string_flow_unobservable_s"] > 0.0:
             rows.append(f"  string flow unobservable      {summary['string_flow_unobservable_s']:.1f} s "
                         "(circulation off)")
@@ -352,14 +356,17 @@ def format_table(name: str, summary: dict, baseline: dict | None = None) -> str:
                     f"max {summary['solve_time_max_s'] * 1e3:.1f} ms "
                     f"({summary['solves']} solves, {summary['fallbacks']} fallbacks; paper: 16.4 s)")
     if baseline:
-        rows.append(f"  baseline peak surge / swab    {baseline['peak_surge_pa'] / PA_PER_BAR:+.2f} / "
-                    f"{baseline['peak_swab_pa'] / PA_PER_BAR:+.2f} bar, BHP RMSE "
-                    f"{baseline['bhp_rmse_pa'] / PA_PER_BAR:.3f} bar")
+        rows.append(f"  baseline peak surge / swab    {baseline['peak_surge_pa'] * p:+.2f} / "
+                    f"{baseline['peak_swab_pa'] * p:+.2f} {bar}, BHP RMSE "
+                    f"{baseline['bhp_rmse_pa'] * p:.3f} {bar}")
     return "\n".join(rows)
 
 
-def plot(s: Series, out_dir: Path) -> list[Path]:
-    """PNG plots a drilling engineer expects; returns their paths."""
+def plot(s: Series, out_dir: Path, units: Display = METRIC) -> list[Path]:
+    """PNG plots a drilling engineer expects (``units``: metric or field); returns their
+    paths."""
+    p, bar = units.factor("pressure"), units.symbol("pressure")
+    q, lpm = units.factor("flow"), units.symbol("flow")
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -379,23 +386,23 @@ def plot(s: Series, out_dir: Path) -> list[Path]:
 
     fig, ax = plt.subplots(figsize=(10, 4.5))
     tm, meas = s.get("bhp_meas")
-    ax.plot(tm, meas / PA_PER_BAR, ".", ms=1, color="0.7", label="measured")
-    ax.plot(t, bhp / PA_PER_BAR, lw=1.2, label="true")
+    ax.plot(tm, meas * p, ".", ms=1, color="0.7", label="measured")
+    ax.plot(t, bhp * p, lw=1.2, label="true")
     te, est = s.get("bhp_est")
     if len(te):
-        ax.plot(te, est / PA_PER_BAR, lw=1, label="estimated")
+        ax.plot(te, est * p, lw=1, label="estimated")
     if tracking:
-        ax.plot(t, ref / PA_PER_BAR, "k--", lw=1, label="reference")
-        ax.fill_between(t, (ref - band) / PA_PER_BAR, (ref + band) / PA_PER_BAR, color="tab:green",
+        ax.plot(t, ref * p, "k--", lw=1, label="reference")
+        ax.fill_between(t, (ref - band) * p, (ref + band) * p, color="tab:green",
                         alpha=0.15, label="window")
-    ax.set(xlabel="time [s]", ylabel="BHP [bar]", title="Bottom-hole pressure")
+    ax.set(xlabel="time [s]", ylabel=f"BHP [{bar}]", title="Bottom-hole pressure")
     ax.legend(loc="best", fontsize=8)
     save(fig, "bhp.png")
 
     fig, ax = plt.subplots(figsize=(10, 3.5))
     _, dp = s.get("choke_dp")
-    ax.plot(t, dp / PA_PER_BAR)
-    ax.set(xlabel="time [s]", ylabel="choke dp [bar]", title="Choke differential pressure")
+    ax.plot(t, dp * p)
+    ax.set(xlabel="time [s]", ylabel=f"choke dp [{bar}]", title="Choke differential pressure")
     save(fig, "choke_dp.png")
 
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True)
@@ -422,19 +429,19 @@ def plot(s: Series, out_dir: Path) -> list[Path]:
     _, bpp = s.get("bpp")
     _, spp = s.get("spp")
     commands = ((0, "cmd_block_ref", 1.0, "u_r command"),
-                (1, "cmd_choke_flow", LPM_PER_M3S, "PI flow reference"),
+                (1, "cmd_choke_flow", q, "PI flow reference"),
                 (2, "cmd_choke_opening", 1.0, "manual opening command"),
-                (3, "cmd_bpp", LPM_PER_M3S, "command"), (4, "cmd_spp", 1.0 / PA_PER_BAR, "command"))
+                (3, "cmd_bpp", q, "command"), (4, "cmd_spp", p, "command"))
     axes[0].plot(t, pos, label="string position")
-    axes[1].plot(t, qc * LPM_PER_M3S, label="choke flow")
+    axes[1].plot(t, qc * q, label="choke flow")
     axes[2].plot(t, opening, label="choke opening")
-    axes[3].plot(t, bpp * LPM_PER_M3S, label="back-pressure pump")
-    axes[4].plot(t, spp / PA_PER_BAR, label="stand-pipe pressure")
+    axes[3].plot(t, bpp * q, label="back-pressure pump")
+    axes[4].plot(t, spp * p, label="stand-pipe pressure")
     for row, key, factor, label in commands:
         tc, cmd = s.get(key)
         if len(cmd):
             axes[row].step(tc, cmd * factor, where="post", label=label)
-    for ax, unit in zip(axes, ["m", "L/min", "1", "L/min", "bar"]):
+    for ax, unit in zip(axes, ["m", lpm, "1", lpm, bar]):
         ax.set_ylabel(unit)
         ax.legend(fontsize=7, loc="best")
     axes[-1].set_xlabel("time [s]")
@@ -446,23 +453,24 @@ def plot(s: Series, out_dir: Path) -> list[Path]:
     _, fr = s.get("friction")
     tf, fe = s.get("friction_est")
     for i in range(fr.shape[1] if fr.ndim == 2 else 0):
-        line, = ax.plot(t, fr[:, i] / PA_PER_BAR, lw=1, label=f"true path {i + 2}")
+        line, = ax.plot(t, fr[:, i] * p, lw=1, label=f"true path {i + 2}")
         if fe.ndim == 2 and len(fe):
-            ax.plot(tf, fe[:, i] / PA_PER_BAR, "--", lw=1, color=line.get_color(),
+            ax.plot(tf, fe[:, i] * p, "--", lw=1, color=line.get_color(),
                     label=f"estimated path {i + 2}")
-    ax.set(xlabel="time [s]", ylabel="friction [bar]", title="Annular friction: estimated vs true")
+    ax.set(xlabel="time [s]", ylabel=f"friction [{bar}]", title="Annular friction: estimated vs true")
     ax.legend(fontsize=7, ncol=2)
     save(fig, "friction.png")
 
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
-    if well_control.plot(s, a1, a2):
+    if well_control.plot(s, a1, a2, units):
         save(fig, "well_control.png")
     else:
         plt.close(fig)
     return paths
 
 
-def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | None = None):
+def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | None = None,
+                 units: Display = METRIC):
     """Summary JSON, plots and the printed table for one recording: a tripping run's, or a
     drilling run's when the recording holds the drilling truth."""
     if drilling_report.holds_drilling(mcap_path):
@@ -472,8 +480,8 @@ def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | Non
         summary = summarise(series, run_config_dir(out_dir))
         recorded = mcap_io.read_metadata(mcap_path, mcap_io.TRUTH_METADATA)
         summary["plant_mismatch"] = json.loads(recorded["truth"]) if recorded else None
-        plots = plot(series, out_dir / "plots")
-        table = format_table(name, summary, baseline)
+        plots = plot(series, out_dir / "plots", units)
+        table = format_table(name, summary, baseline, units)
     (out_dir / "summary.json").write_text(json.dumps(
         {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
          for k, v in summary.items()}, indent=2))

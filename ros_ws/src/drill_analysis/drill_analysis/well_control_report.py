@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from drill_core.units import L_PER_M3, PA_PER_BAR
+from drill_core.units import Display
 
 TIMELINE_KINDS = {("rig", "fault"), ("rig", "formation"), ("protection", "alarm")}
 # The protection's detector alarms (drill_protection.kick_detection), the truth volume they
@@ -91,24 +91,29 @@ def summarise(s, t, bhp, detection_config) -> dict:
     }
 
 
-def format_rows(summary: dict) -> list[str]:
-    """Table rows for the printed report (none without formation figures)."""
+def format_rows(summary: dict, units: Display = Display()) -> list[str]:
+    """Table rows for the printed report (none without formation figures; ``units``:
+    metric or field)."""
     if "influx_volume_m3" not in summary:
         return []
+    p, bar = units.factor("pressure"), units.symbol("pressure")
+    v, litre = units.factor("gain"), units.symbol("gain")
+    digits = 0 if litre == "L" else 1          # whole litres, tenths of a barrel
     rows = [
-        f"  formation                     influx {summary['influx_volume_m3'] * L_PER_M3:.0f} L, "
-        f"losses {summary['loss_volume_m3'] * L_PER_M3:.0f} L, pit gain max "
-        f"{summary['pit_gain_max_m3'] * L_PER_M3:+.0f} L (final "
-        f"{summary['pit_gain_final_m3'] * L_PER_M3:+.0f} L)",
+        f"  formation                     influx {summary['influx_volume_m3'] * v:.{digits}f} {litre}, "
+        f"losses {summary['loss_volume_m3'] * v:.{digits}f} {litre}, pit gain max "
+        f"{summary['pit_gain_max_m3'] * v:+.{digits}f} {litre} (final "
+        f"{summary['pit_gain_final_m3'] * v:+.{digits}f} {litre})",
         f"  BHP under pore pressure       {summary['bhp_under_pore_s']:.1f} s (worst "
-        f"{summary['worst_underbalance_pa'] / PA_PER_BAR:.2f} bar under), over fracture "
+        f"{summary['worst_underbalance_pa'] * p:.2f} {bar} under), over fracture "
         f"{summary['bhp_over_fracture_s']:.1f} s",
     ]
     for kind, d in summary["detection"].items():
         if d["onset_s"] is None and not d["false_alarms"]:
             continue
         found = "not detected" if d["delay_s"] is None else \
-            f"detected {d['delay_s']:.1f} s after its onset, {d['volume_at_detection_m3'] * L_PER_M3:.0f} L by then"
+            f"detected {d['delay_s']:.1f} s after its onset, " \
+            f"{d['volume_at_detection_m3'] * v:.{digits}f} {litre} by then"
         rows.append(f"  {kind + ' detection':<30}{found}; {d['false_alarms']} false alarms")
     events = summary["events"]
     if events:
@@ -118,7 +123,7 @@ def format_rows(summary: dict) -> list[str]:
     return rows
 
 
-def plot(s, ax_pressure, ax_volume) -> bool:
+def plot(s, ax_pressure, ax_volume, units: Display = Display()) -> bool:
     """BHP against the window in force, and pit gain (true, measured) with the influx and
     loss volumes; False (nothing drawn) for a recording without them."""
     t, bhp = s.get("bhp")
@@ -126,22 +131,24 @@ def plot(s, ax_pressure, ax_volume) -> bool:
     if len(pore) != len(t) or not len(t) or not np.all(np.isfinite(pore)):
         return False
     _, fracture = s.get("fracture")
-    ax_pressure.plot(t, bhp / PA_PER_BAR, lw=1.2, label="BHP (true)")
-    ax_pressure.plot(t, pore / PA_PER_BAR, "r-", lw=0.9, label="pore pressure")
-    ax_pressure.plot(t, fracture / PA_PER_BAR, "m-", lw=0.9, label="fracture pressure")
-    ax_pressure.set(ylabel="pressure [bar]", title="Bottom-hole pressure in the formation window")
+    p, bar = units.factor("pressure"), units.symbol("pressure")
+    v, litre = units.factor("gain"), units.symbol("gain")
+    ax_pressure.plot(t, bhp * p, lw=1.2, label="BHP (true)")
+    ax_pressure.plot(t, pore * p, "r-", lw=0.9, label="pore pressure")
+    ax_pressure.plot(t, fracture * p, "m-", lw=0.9, label="fracture pressure")
+    ax_pressure.set(ylabel=f"pressure [{bar}]", title="Bottom-hole pressure in the formation window")
     for e in s.events:
         if (e.source, e.kind) in TIMELINE_KINDS:
             ax_pressure.axvline(e.t_s, color="0.5", ls=":", lw=0.8)
     ax_pressure.legend(fontsize=7, loc="best")
     tm, pit = s.get("pit_meas")
     if len(pit):
-        ax_volume.plot(tm, (pit - pit[0]) * L_PER_M3, ".", ms=1, color="0.7",
+        ax_volume.plot(tm, (pit - pit[0]) * v, ".", ms=1, color="0.7",
                        label="pit volume change (measured)")
     for key, label in (("pit_gain", "pit gain (true)"), ("influx_volume", "influx"),
                        ("loss_volume", "losses")):
         _, volume = s.get(key)
-        ax_volume.plot(t, volume * L_PER_M3, lw=1, label=label)
-    ax_volume.set(xlabel="time [s]", ylabel="volume [L]")
+        ax_volume.plot(t, volume * v, lw=1, label=label)
+    ax_volume.set(xlabel="time [s]", ylabel=f"volume [{litre}]")
     ax_volume.legend(fontsize=7, loc="best")
     return True

@@ -23,7 +23,9 @@
                                    client's certificates, the console's token
   rig user DIR NAME --role viewer|operator [--password-stdin]
                                    add a user of the OPC-UA gateway (password hashed)
-  rig report RUN_DIR               re-make the summary and plots of a run
+  rig report RUN_DIR [--units metric|field]
+                                   re-make the summary and plots of a run (field: psi,
+                                   gpm, bbl)
   rig replay FILE [options]        republish a recording (see rig replay --help)
   rig reestimate RUN_DIR [--config-dir DIR] [--rate R]
                                    re-run the estimator with other tuning on a recorded run
@@ -70,7 +72,7 @@ from drill_bringup.split_run import split_options
 from drill_core.access import require_security_beyond_loopback
 from drill_core.config import ConfigError
 from drill_ros.graph import CONTROLLERS, HOST_GROUPS, LAYOUTS, SelectionError
-from drill_core.units import PA_PER_BAR
+from drill_core.units import DISPLAY_UNITS, PA_PER_BAR, Display
 
 
 # --foxglove / --opcua / --wits0 without a value: the gateway's own default (not a str: argparse would
@@ -162,6 +164,9 @@ def main(argv=None) -> int:
     sub.add_parser("user", help="add a user to a security directory", add_help=False)
     rep = sub.add_parser("report", help="summary and plots of a run directory")
     rep.add_argument("run_dir", type=Path)
+    rep.add_argument("--units", choices=tuple(DISPLAY_UNITS), default="metric",
+                     help="display units of the printed table and the plots: metric (bar, "
+                          "L/min, L) or field (psi, gpm, bbl); summary.json stays SI")
     sub.add_parser("replay", help="republish a recording", add_help=False)
     rest_ = sub.add_parser("reestimate", help="re-run the estimator on a recorded run")
     rest_.add_argument("run_dir", type=Path)
@@ -224,7 +229,8 @@ def main(argv=None) -> int:
                                     args.command, *rest])
         if args.command == "report":
             mcap = next(args.run_dir.glob("*.mcap"))
-            _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name)
+            _, plots, table = report.write_report(mcap, args.run_dir, args.run_dir.name,
+                                                  units=Display(args.units))
             print(table)
             return 0
         if args.command == "export":
