@@ -22,11 +22,10 @@ from drill_analysis import well_control_report as well_control
 from drill_core.config import load_rig
 from drill_core.rig_root import rig_root
 from drill_ros import topic_names as topics
-from drill_core.units import Display
+from drill_core.units import METRIC_DISPLAY, Display
 
 ARRIVAL_TOLERANCE_M = 0.5     # a trip leg ends when the string is this close to its target
 FINAL_WINDOW_S = 30.0           # the estimator's final bias: mean error over the run's last 30 s
-METRIC = Display("metric")
 SETTLE_S = 30.0                 # band time "settled": after the first 30 s of a run (issue targets)
 OPEN_LOOP_ADVISOR = "sequencer"
 EVENT_SOURCES = {topics.RIG_EVENTS: "rig", topics.PROTECTION_EVENTS: "protection"}
@@ -301,7 +300,7 @@ def plant_text(mismatch: dict | None) -> str:
 
 
 def format_table(name: str, summary: dict, baseline: dict | None = None,
-                 units: Display = METRIC) -> str:
+                 units: Display = METRIC_DISPLAY) -> str:
     """Human-readable summary in drilling units (``units``: metric or field)."""
     p, bar = units.factor("pressure"), units.symbol("pressure")
     rows = [
@@ -362,7 +361,7 @@ def format_table(name: str, summary: dict, baseline: dict | None = None,
     return "\n".join(rows)
 
 
-def plot(s: Series, out_dir: Path, units: Display = METRIC) -> list[Path]:
+def plot(s: Series, out_dir: Path, units: Display = METRIC_DISPLAY) -> list[Path]:
     """PNG plots a drilling engineer expects (``units``: metric or field); returns their
     paths."""
     p, bar = units.factor("pressure"), units.symbol("pressure")
@@ -470,7 +469,7 @@ def plot(s: Series, out_dir: Path, units: Display = METRIC) -> list[Path]:
 
 
 def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | None = None,
-                 units: Display = METRIC):
+                 units: Display = METRIC_DISPLAY):
     """Summary JSON, plots and the printed table for one recording: a tripping run's, or a
     drilling run's when the recording holds the drilling truth."""
     if drilling_report.holds_drilling(mcap_path):

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from drill_core.units import Display
+from drill_core.units import METRIC_DISPLAY, Display
 
 TIMELINE_KINDS = {("rig", "fault"), ("rig", "formation"), ("protection", "alarm")}
 # The protection's detector alarms (drill_protection.kick_detection), the truth volume they
@@ -91,7 +91,7 @@ def summarise(s, t, bhp, detection_config) -> dict:
     }
 
 
-def format_rows(summary: dict, units: Display = Display()) -> list[str]:
+def format_rows(summary: dict, units: Display = METRIC_DISPLAY) -> list[str]:
     """Table rows for the printed report (none without formation figures; ``units``:
     metric or field)."""
     if "influx_volume_m3" not in summary:
@@ -123,7 +123,7 @@ def format_rows(summary: dict, units: Display = Display()) -> list[str]:
     return rows
 
 
-def plot(s, ax_pressure, ax_volume, units: Display = Display()) -> bool:
+def plot(s, ax_pressure, ax_volume, units: Display = METRIC_DISPLAY) -> bool:
     """BHP against the window in force, and pit gain (true, measured) with the influx and
     loss volumes; False (nothing drawn) for a recording without them."""
     t, bhp = s.get("bhp")

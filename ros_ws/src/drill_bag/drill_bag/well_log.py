@@ -103,6 +103,34 @@ BY_MNEMONIC = {c.mnemonic: c for c in CHANNELS}
 LOG_TOPICS = (topic_names.MEASUREMENT, *(topic_names.actuator_frame(a) for a in FRAME_ACTUATORS))
 
 
+class LiveRig:
+    """A live run's newest sensor sample and the actuator frames in force, as a snapshot
+    (what the gateways serve from: the WITS0 stream, the OPC-UA server). The first pit
+    reading is the start of the pit change."""
+
+    def __init__(self, well: Well):
+        self.bit_depth_start_m = build_geometry(well).bit_depth_m
+        self.measurement = None                 # drill_msgs/RigMeasurement, the newest
+        self.frames: dict[str, object] = {}     # actuator -> its newest ActuatorFrame
+        self.pit_volume_start_m3 = math.nan
+
+    def on_measurement(self, m) -> None:
+        if self.measurement is None:
+            self.pit_volume_start_m3 = m.pit_volume_m3
+        self.measurement = m
+
+    def on_frame(self, actuator: str, frame) -> None:
+        self.frames[actuator] = frame
+
+    def snapshot(self) -> RigSnapshot | None:
+        """The newest sample with the frames in force; None before the first."""
+        m = self.measurement
+        if m is None:
+            return None
+        return RigSnapshot(m, dict(self.frames), stamp_ns(m), self.bit_depth_start_m,
+                           self.pit_volume_start_m3)
+
+
 @dataclass(frozen=True)
 class RunContext:
     """What a log says about its run (the run directory's launch.json and well.yaml)."""

@@ -43,9 +43,9 @@ def _uuid(*parts: str) -> str:
     return str(uuid.uuid5(UUID_NAMESPACE, "/".join(parts)))
 
 
-def _citation(title: str, created: datetime) -> eml.Citation:
+def _citation(title: str, created: datetime, description: str | None = None) -> eml.Citation:
     return eml.Citation(title=title, originator=ORIGINATOR, format=ORIGINATOR,
-                        creation=XmlDateTime.from_datetime(created))
+                        creation=XmlDateTime.from_datetime(created), description=description)
 
 
 def _reference(obj, qualified_type: str) -> eml.DataObjectReference:
@@ -101,9 +101,7 @@ def objects(log: RunLog, created: datetime | None = None):
         data=witsml.ChannelData(data=json.dumps(rows, separators=(",", ":"))),
         primary_index_interval=interval, wellbore=wellbore_ref)
     log_object = witsml.Log(
-        citation=eml.Citation(title=f"{c.name} time log", originator=ORIGINATOR,
-                              format=ORIGINATOR, creation=XmlDateTime.from_datetime(created),
-                              description=description),
+        citation=_citation(f"{c.name} time log", created, description),
         uuid=_uuid(c.name, "log"), schema_version=SCHEMA_VERSION, active_status=active,
         run_number=c.name, primary_index_interval=interval,
         nominal_hole_size=eml.LengthMeasureExt(value=c.hole_diameter_m, uom="m"),

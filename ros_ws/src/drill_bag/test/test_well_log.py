@@ -18,6 +18,8 @@ from rclpy.serialization import serialize_message
 from xsdata.exceptions import ParserError
 
 from drill_bag import export, mcap_io, witsml_export
+from drill_bag.well_log import BY_MNEMONIC, LiveRig
+from drill_core.config import Well, load_section
 from drill_core.rig_root import rig_root
 
 NS = 1_000_000_000
@@ -155,3 +157,17 @@ def test_a_well_log_takes_no_topic_choice_and_needs_the_run_config(run):
     with pytest.raises(export.ExportError, match="well.yaml"):
         export.export(run, "witsml")
     assert not (run / "export").exists()          # refused before anything is written
+
+
+def test_a_live_run_gives_the_newest_sample_with_its_frames_and_the_first_pit():
+    live = LiveRig(load_section(Well, rig_root() / "config" / "well.yaml"))
+    assert live.snapshot() is None                      # nothing before the first sample
+    live.on_measurement(measurement(0))
+    live.on_frame("mud_pump", frame("mud_pump", "Pa", 0, 1.0e7))
+    live.on_measurement(measurement(2))
+    snapshot = live.snapshot()
+    assert snapshot.stamp_ns == 2 * NS // 10 and snapshot.measurement.block_position_m == 1.0
+    for mnemonic in ("DBTM", "TVCA"):
+        assert close(BY_MNEMONIC[mnemonic].value(snapshot), expected(2)[mnemonic]), mnemonic
+    # frame 0 in force 0.2 s on: its output clipped at the last of its ten samples
+    assert close(BY_MNEMONIC["SPPA"].value(snapshot), (1.0e7 + 0.9) / 1000.0)

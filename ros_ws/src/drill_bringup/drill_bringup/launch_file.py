@@ -24,7 +24,7 @@ ARGUMENTS = (   # launch argument, default, description; the common node paramet
     ("config_dir", "", "the rig's config directory (a path)"),
     ("output", "rig.mcap", "the recording the recorder writes (a path)"),
 )
-COMMON = {"scenario": "scenario", "config_dir": "config_dir", "output": "output"}
+COMMON = ("scenario", "config_dir")   # the node parameters the launch arguments give
 PLACEHOLDER = "\0{}\0"      # a parameter value that becomes LaunchConfiguration(name)
 
 HEADER = '''"""The rig's graph in realtime for a system ROS 2 Jazzy: ``ros2 launch drill_bringup
@@ -66,16 +66,13 @@ def _node(spec, controller: str | None) -> str:
 
 def text() -> str:
     """The launch file."""
-    common = {key: PLACEHOLDER.format(argument) for key, argument in COMMON.items()
-              if key != "output"}
-    common["mode"] = "realtime"
+    common = {key: PLACEHOLDER.format(key) for key in COMMON} | {"mode": "realtime"}
     output = Path(PLACEHOLDER.format("output"))
     per_controller = {c: launcher.graph(c, common, output, fast=False)
                       for c in graph.CONTROLLERS}
-    specs = [(spec.name, repr(spec.params), spec) for specs in per_controller.values()
-             for spec in specs]
-    shared = {name for name, params, _ in specs
-              if sum(1 for n, p, _ in specs if (n, p) == (name, params)) == len(per_controller)}
+    # a node with the same parameters under every controller runs unconditionally
+    shared = {name for name, _ in set.intersection(
+        *({(spec.name, repr(spec.params)) for spec in nodes} for nodes in per_controller.values()))}
     lines = [HEADER]
     lines += [f"        DeclareLaunchArgument({name!r}, default_value={default!r},\n"
               f"                              description={description!r}),\n"

@@ -35,3 +35,6 @@ class Display:
 
     def symbol(self, quantity: str) -> str:
         return DISPLAY_UNITS[self.system][quantity][0]
+
+
+METRIC_DISPLAY = Display("metric")   # the reports' default

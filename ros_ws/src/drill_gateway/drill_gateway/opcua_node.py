@@ -20,10 +20,10 @@ import sys
 import threading
 from pathlib import Path
 
-from drill_msgs.msg import ActuatorFrame, RigMeasurement, Setpoints, StateEstimate
+from drill_msgs.msg import Setpoints, StateEstimate
 from std_msgs.msg import String
 
-from drill_bag.well_log import BY_MNEMONIC, FRAME_ACTUATORS, RigSnapshot, stamp_ns
+from drill_bag.well_log import BY_MNEMONIC, LiveRig, stamp_ns
 from drill_hmi import console
 from drill_core.access import SecurityDir
 from drill_core.config import Well, load_section
@@ -34,6 +34,7 @@ from drill_ros.node import RigNode
 from drill_ros.runner import run
 from drill_ros.status import StatusReporter
 from drill_gateway import opcua_writes
+from drill_gateway.live_rig import follow
 from drill_gateway.opcua_gateway import DEFAULT_ENDPOINT, Gateway
 from drill_gateway.opcua_names import by_source
 
@@ -56,13 +57,14 @@ class MeasuredView:
     travel (drill_bag.well_log's channels), the ECD from the measured BHP."""
 
     def __init__(self, well: Well):
-        geometry = build_geometry(well)
-        self.bit_depth_m, self.sensor_depth_m = geometry.bit_depth_m, geometry.node_depth_m[-1]
+        self.live = LiveRig(well)
+        self.sensor_depth_m = build_geometry(well).node_depth_m[-1]
         self.gravity_mps2 = well.gravity_mps2
-        self.frames: dict[str, ActuatorFrame] = {}
 
-    def fields(self, m: RigMeasurement) -> dict:
-        snapshot = RigSnapshot(m, dict(self.frames), stamp_ns(m), self.bit_depth_m)
+    def fields(self) -> dict:
+        """The variables of the newest sensor sample (``live``'s)."""
+        snapshot = self.live.snapshot()
+        m = snapshot.measurement
         return {**fields(m, "measurement"),
                 "spp_pa": BY_MNEMONIC["SPPA"].value_si(snapshot),
                 "bit_depth_m": BY_MNEMONIC["DBTM"].value_si(snapshot),
@@ -89,12 +91,8 @@ class OpcuaGatewayNode(RigNode):
 
         where = source_topics()
         sub = self.create_subscription
-        sub(RigMeasurement, where["measurement"],
-            lambda m: self.gateway.update("measurement", self.view.fields(m), stamp_ns(m)),
-            console.DISPLAY)
-        for actuator in FRAME_ACTUATORS:          # what the derived variables read
-            sub(ActuatorFrame, topics.actuator_frame(actuator),
-                lambda m, a=actuator: self.view.frames.__setitem__(a, m), console.DISPLAY)
+        follow(self, self.view.live,     # the measurement and the frames derived ones read
+               lambda m: self.gateway.update("measurement", self.view.fields(), stamp_ns(m)))
         sub(StateEstimate, where["estimate"],
             lambda m: self.gateway.update("estimate", fields(m, "estimate"), stamp_ns(m)),
             console.DISPLAY)

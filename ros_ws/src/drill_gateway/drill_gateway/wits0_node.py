@@ -14,18 +14,13 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from drill_msgs.msg import ActuatorFrame, RigMeasurement
 from rclpy.clock import Clock, ClockType
 
-from drill_bag.well_log import FRAME_ACTUATORS, RigSnapshot, stamp_ns
-from drill_core.config import Well, load_section
-from drill_core.well import build_geometry
-from drill_hmi import console
-from drill_ros import topics
 from drill_ros.context import common_parameters
 from drill_ros.node import RigNode
 from drill_ros.runner import run
 from drill_ros.status import StatusReporter
+from drill_gateway.live_rig import follow, live_rig
 from drill_gateway.wits0 import DEFAULT_ADDRESS, Wits0Server, frame
 
 
@@ -36,38 +31,22 @@ class Wits0GatewayNode(RigNode):
         address = self.declare_parameter("address", DEFAULT_ADDRESS).value or DEFAULT_ADDRESS
         period_s = float(self.declare_parameter("period_s", 1.0).value)
         self.well_id = self.declare_parameter("well_id", "").value or Path(scenario_path).stem
-        self.bit_depth_m = build_geometry(
-            load_section(Well, Path(config_dir) / "well.yaml")).bit_depth_m
         self.status = StatusReporter(self, mode)
         self.server = Wits0Server(address)
-        self._measurement: RigMeasurement | None = None
-        self._frames: dict[str, ActuatorFrame] = {}
-        self._pit_start_m3: float | None = None
+        self.live = live_rig(config_dir)
         self._last_sent_ns = -1
-        self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
-                                 console.DISPLAY)
-        for actuator in FRAME_ACTUATORS:
-            self.create_subscription(ActuatorFrame, topics.actuator_frame(actuator),
-                                     lambda m, a=actuator: self._frames.__setitem__(a, m),
-                                     console.DISPLAY)
+        follow(self, self.live)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(period_s, self._send, clock=steady)
         self.create_timer(1.0, self._tick, clock=steady)
         self.get_logger().info(f"WITS0 record 01 on tcp://{self.server.address}")
         print(f"WITS0_ADDRESS {self.server.address}", flush=True)
 
-    def _on_measurement(self, msg: RigMeasurement) -> None:
-        if self._pit_start_m3 is None:
-            self._pit_start_m3 = msg.pit_volume_m3
-        self._measurement = msg
-
     def _send(self) -> None:
-        m = self._measurement
-        if m is None or stamp_ns(m) == self._last_sent_ns:
+        snapshot = self.live.snapshot()
+        if snapshot is None or snapshot.stamp_ns == self._last_sent_ns:
             return                           # nothing new since the last frame
-        self._last_sent_ns = stamp_ns(m)
-        snapshot = RigSnapshot(m, dict(self._frames), self._last_sent_ns, self.bit_depth_m,
-                               self._pit_start_m3)
+        self._last_sent_ns = snapshot.stamp_ns
         self.server.send(frame(snapshot, self.well_id))
 
     def _tick(self) -> None:

@@ -58,7 +58,8 @@ def test_the_sources_are_the_topics_the_graph_declares_for_the_gateway():
 def test_the_derived_variables_are_the_ones_the_node_computes(cfg):
     from drill_msgs.msg import RigMeasurement
     view = MeasuredView(cfg.well)
-    computed = view.fields(RigMeasurement(bhp_pa=6.85e7, block_position_m=1.0))
+    view.live.on_measurement(RigMeasurement(bhp_pa=6.85e7, block_position_m=1.0))
+    computed = view.fields()
     assert {v.field for v in names.by_source("measurement")} == set(computed)
     assert computed["bit_depth_m"] == pytest.approx(3296.7 + 251.1 + 60.0 - 1.0)   # well.yaml
     assert math.isnan(computed["spp_pa"])                  # no mud pump frame yet
