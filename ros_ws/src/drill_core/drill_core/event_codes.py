@@ -83,12 +83,19 @@ _OPERATOR = {      # the operator link (console, terminal CLI, gateways) and the
                                                           "became the setpoints; value: the BHP reference"),
     "well_control_refused": EventCode("refusal", "", "the protection's well-control target was refused"),
 }
+_TRIP = {         # the trip sheet (drill_core.tripping.trip_sheet)
+    "trip_tank_gain": EventCode("alarm", "m^3", "the trip tank shows the well giving back more "
+                                                "than the steel tripped: a swabbed influx; "
+                                                "value: the running gain"),
+    "trip_tank_loss": EventCode("alarm", "m^3", "the trip tank shows the well taking more than "
+                                                "the steel tripped: losses; value: the running gain"),
+}
 ENDED = "_ended"
 _RIG = {code: EventCode(spec.category, spec.value[0] if spec.value else "", doc)
         for kind, spec in EVENT_KINDS.items()
         for code, doc in ((kind, f"scenario event: {spec.doc}"),
                           (kind + ENDED, f"the end of a lasting {kind} event"))}
-EVENT_CODES: dict[str, EventCode] = {**_PROTECTION, **_OPERATOR, **_RIG}
+EVENT_CODES: dict[str, EventCode] = {**_PROTECTION, **_TRIP, **_OPERATOR, **_RIG}
 
 
 @dataclass(frozen=True)

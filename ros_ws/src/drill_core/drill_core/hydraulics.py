@@ -57,11 +57,11 @@ def choke_opening_for_flow(wm: WellModel, flow_m3s: float, dp_pa: float) -> floa
     return flow_m3s / choke_flow(wm, 1.0, dp_pa)
 
 
-def bit_pressure_drop(string_pressure_pa, bhp_pa, rho_g, position_m):
-    """p_I - (p_n - rho g x_s): the string's bottom pressure over the annulus at the bit
-    [Pa]; the bit rises with the string, x_s above the BHP node (rho_g: mud density times
-    g [Pa/m])."""
-    return string_pressure_pa - (bhp_pa - rho_g * position_m)
+def bit_pressure_drop(geometry: WellGeometry, string_pressure_pa, bhp_pa, rho_g, position_m):
+    """p_I - (p_n - rho g (h_bit + x_s)): the string's bottom pressure over the annulus at
+    the bit [Pa]; the bit sits h_bit (stands pulled) plus x_s above the BHP node (rho_g:
+    mud density times g [Pa/m])."""
+    return string_pressure_pa - (bhp_pa - rho_g * (geometry.bit_above_bhp_node_m + position_m))
 
 
 def bit_flow(xp, wm: WellModel, dp_pa):
@@ -109,9 +109,9 @@ def bottom_inflow_rate(wm: WellModel, inflow_m3s):
 
 
 def hoisting_acceleration(wm: WellModel, position_m, velocity_mps, block_position_m):
-    """m a = -k_eq (x_s - u_b) - c_eq v_s - m g F_b (paper eq. 35)."""
+    """m a = -k (x_s - u_b) - c_eq v_s - m g F_b (paper eq. 35; k = k_eq with the whole string)."""
     w, g = wm.well, wm.geometry
-    return (-w.hoist_stiffness_n_m * (position_m - block_position_m)
+    return (-g.axial_stiffness_n_m * (position_m - block_position_m)
             - w.hoist_damping_n_s_m * velocity_mps) / g.string_mass_kg \
         - w.gravity_mps2 * g.buoyancy_factor
 
@@ -141,14 +141,14 @@ def hydraulic_rates(xp, wm: WellModel, pressures, flows, string_flow_m3s, string
     ``string_friction_factor`` (its string friction factor state) and the mud's bulk
     modulus, annulus and string, by ``bulk_modulus_factor`` (its compressibility state).
     The bit rises with the string, so the string column is D_bit - x_s high and the
-    annulus pressure at the bit is p_n - rho g x_s (:func:`bit_pressure_drop`).
+    annulus pressure at the bit is p_n - rho g (h_bit + x_s) (:func:`bit_pressure_drop`).
     """
     w, g = wm.well, wm.geometry
     n = g.n
     beta = w.mud.bulk_modulus_pa * bulk_modulus_factor
     rho_g = (w.mud.density_kgm3 + density_offset_kgm3) * w.gravity_mps2
     v_s = velocity_mps
-    q_bit = bit_flow(xp, wm, bit_pressure_drop(string_pressure_pa, pressures[n - 1], rho_g,
+    q_bit = bit_flow(xp, wm, bit_pressure_drop(g, string_pressure_pa, pressures[n - 1], rho_g,
                                                position_m))
 
     inflow_from_below = list(flows) + [q_bit]     # into volume i from i+1 (bit for volume n)

@@ -1,10 +1,15 @@
 """Well geometry derived once from the typed well description (docs/design.md §3).
 
 Lumping (documented in docs/model.md): annulus segment i is control volume i with
-pressure p_i. Node 1 sits at the surface (the choke sees p_1), node n at the bit
-depth at the start of the run (the BHP sensor depth), interior nodes at segment
-mid-depths. Flow q_i (i = 2..n) runs over the path between nodes i-1 and i.
-Tool joints are smeared over the pipe length by their length fraction.
+pressure p_i. Node 1 sits at the surface (the choke sees p_1), node n at the full
+string's bit depth (the BHP node), interior nodes at segment mid-depths. Flow q_i
+(i = 2..n) runs over the path between nodes i-1 and i. Tool joints are smeared over
+the pipe length by their length fraction.
+
+A string tripped out by ``pulled_m`` (whole stands racked back) is the same string
+with its top section that much shorter: the bit sits ``pulled_m`` above the BHP node,
+the hole below it is open, and mass, volumes, friction paths and the axial stiffness
+follow; the nodes stay where they are, so the pressure states carry over a connection.
 """
 from __future__ import annotations
 
@@ -44,7 +49,9 @@ class WellGeometry:
     well_depth_m: float
     string_mass_kg: float
     buoyancy_factor: float                          # F_b = 1 - rho_m / rho_s
-    static_stretch_m: float                         # m g F_b / k_eq
+    static_stretch_m: float                         # m g F_b / k
+    bit_above_bhp_node_m: float                     # the bit's height over node n with x_s = 0
+    axial_stiffness_n_m: float                      # k: hoist + string at this string length
 
 
 def equivalent_density_kgm3(pressure_pa: float, depth_m: float, gravity_mps2: float) -> float:
@@ -63,12 +70,13 @@ def clinging_constant(diameter_ratio: float) -> float:
     return 1.0 / (2.0 * math.log(1.0 / a)) - a * a / (1.0 - a * a)
 
 
-def _variants(well: Well):
-    """Per string section: depth interval and its (weight, outer d, inner d) variants."""
+def _variants(well: Well, pulled_m: float = 0.0):
+    """Per string section: depth interval and its (weight, outer d, inner d) variants;
+    the top section ``pulled_m`` shorter."""
     top = 0.0
     out = []
-    for s in well.string:
-        bottom = top + s.length_m
+    for index, s in enumerate(well.string):
+        bottom = top + s.length_m - (pulled_m if index == 0 else 0.0)
         variants = [(1.0, s.outer_diameter_m, s.inner_diameter_m)]
         if s.tool_joint_length_m > 0.0:
             f = s.tool_joint_length_m / s.tool_joint_spacing_m
@@ -124,16 +132,34 @@ def _annulus_sections(pieces) -> tuple[FlowSection, ...]:
     return tuple(out)
 
 
-def build_geometry(well: Well) -> WellGeometry:
-    """Derive volumes, inertances, friction paths and displacement terms from ``well``."""
+def _axial_compliance(sections) -> float:
+    """Sum of L / A_steel over the string [1/m]: its stretch per unit force times E."""
+    return sum((bottom - top) * w / (circle_area(od) - circle_area(idia))
+               for top, bottom, variants in sections for w, od, idia in variants)
+
+
+def build_geometry(well: Well, pulled_m: float = 0.0) -> WellGeometry:
+    """Derive volumes, inertances, friction paths and displacement terms from ``well``,
+    with the string tripped out by ``pulled_m`` (0 <= pulled_m < the top section's length).
+
+    The configured k_eq is the hoisting system's stiffness with the whole string; a
+    shorter string is stiffer in the ratio of the strings' axial compliances (sum of
+    L / A_steel), the only part of k_eq that changes with the length."""
+    top_length = well.string[0].length_m
+    if not 0.0 <= pulled_m < top_length:
+        raise ValueError(f"pulled_m = {pulled_m} m: allowed 0 <= pulled_m < {top_length} m "
+                         f"(the length of the top string section '{well.string[0].name}')")
     rho = well.mud.density_kgm3
-    sections = _variants(well)
+    full_sections = _variants(well)
+    sections = _variants(well, pulled_m)
     bit_depth = sections[-1][1]
+    bhp_node_depth = full_sections[-1][1]
     bounds = [0.0]
     for length in well.segment_lengths_m:
         bounds.append(bounds[-1] + length)
     n = len(well.segment_lengths_m)
-    depths = [0.0] + [0.5 * (bounds[i] + bounds[i + 1]) for i in range(1, n - 1)] + [bit_depth]
+    depths = [0.0] + [0.5 * (bounds[i] + bounds[i + 1]) for i in range(1, n - 1)] \
+        + [bhp_node_depth]
     if any(d1 >= d2 for d1, d2 in zip(depths[:-1], depths[1:])):
         raise ValueError(f"node depths {depths} are not increasing: the bit must lie below the "
                          "middle of the second-deepest segment")
@@ -169,6 +195,8 @@ def build_geometry(well: Well) -> WellGeometry:
                 * well.steel_density_kgm3
     top_variants = sections[0][2]
     buoyancy = 1.0 - rho / well.steel_density_kgm3
+    stiffness = well.hoist_stiffness_n_m \
+        * (_axial_compliance(full_sections) / _axial_compliance(sections))
     return WellGeometry(
         n=n,
         node_depth_m=tuple(depths),
@@ -187,5 +215,7 @@ def build_geometry(well: Well) -> WellGeometry:
         well_depth_m=bounds[-1],
         string_mass_kg=steel_mass,
         buoyancy_factor=buoyancy,
-        static_stretch_m=steel_mass * well.gravity_mps2 * buoyancy / well.hoist_stiffness_n_m,
+        static_stretch_m=steel_mass * well.gravity_mps2 * buoyancy / stiffness,
+        bit_above_bhp_node_m=bhp_node_depth - bit_depth,
+        axial_stiffness_n_m=stiffness,
     )

@@ -247,10 +247,10 @@ class PredictionModel:
                                          self.em.block_kp, self.em.block_ki_per_s)
 
         if self.block is not None:
-            w = self.em.wm.well
+            w, g = self.em.wm.well, self.em.wm.geometry
             b = measured("block_m")
             extra.append(b if b is not None else
-                         x0[0] + self._stretch + w.hoist_damping_n_s_m * x0[1] / w.hoist_stiffness_n_m)
+                         x0[0] + self._stretch + w.hoist_damping_n_s_m * x0[1] / g.axial_stiffness_n_m)
         if self.bpp is not None:
             v = measured("bpp_flow_m3s")
             extra.append(v if v is not None else (float(u_prev[U_BPP_FLOW]) if u_prev is not None else 0.0))
@@ -329,8 +329,8 @@ def string_pressure_margin(em: EstimationModel, x):
     """p_I - (p_n - rho g z1) - K_b q_d: string pressure above annulus-at-bit + BHA loss [Pa]."""
     w = em.wm.well
     rho_g = w.mud.density_kgm3 * w.gravity_mps2
-    return (hy.bit_pressure_drop(x[em.string_pressure], x[em.pressure(em.n)], rho_g,
-                                 x[em.position])
+    return (hy.bit_pressure_drop(em.wm.geometry, x[em.string_pressure], x[em.pressure(em.n)],
+                                 rho_g, x[em.position])
             - w.bha_loss_coefficient_pa_s_m3 * x[em.string_flow])
 
 

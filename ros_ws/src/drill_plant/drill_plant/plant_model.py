@@ -201,8 +201,8 @@ def build_outputs_function(wm: hy.WellModel) -> ca.Function:
     v_s = xs[lay.velocity]
     rho_g = wm.well.mud.density_kgm3 * wm.well.gravity_mps2
     q_c = hy.choke_flow(wm, u[U_CHOKE] * theta[2], p[0] - wm.well.choke_downstream_pressure_pa)
-    q_bit = hy.bit_flow(CASADI, wm, hy.bit_pressure_drop(xs[lay.string_pressure], p[-1], rho_g,
-                                                         xs[lay.position]))
+    q_bit = hy.bit_flow(CASADI, wm, hy.bit_pressure_drop(wm.geometry, xs[lay.string_pressure], p[-1],
+                                                         rho_g, xs[lay.position]))
     out = [q_c, q_bit, *hy.annulus_friction(CASADI, wm, q, v_s),
            hy.string_friction(CASADI, wm, xs[lay.string_flow], v_s),
            *hy.formation_flows(CASADI, wm.well.formation, p[-1], theta[0], theta[1])]

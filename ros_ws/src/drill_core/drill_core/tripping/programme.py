@@ -1,0 +1,34 @@
+"""What a multi-stand trip is asked to do: its direction, stands, connections, pump ramps
+and the trip tank it is watched on (a scenario's ``trip:`` mapping; SI units)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from drill_core.schema import param
+
+DIRECTIONS = ("out", "in")
+
+
+@dataclass(frozen=True)
+class TripProgramme:
+    """One trip: ``stands`` stands of ``stand_length_m`` pulled out or run in."""
+    direction: str = param(choices=DIRECTIONS, doc="out: pull out of the hole; in: run in")
+    stands: int = param("1", 1, 200)
+    stand_length_m: float = param("m", 5.0, 45.0, default=28.0, doc="a stand of three joints")
+    connection_s: float = param("s", 0.0, 3600.0, default=90.0,
+                                doc="slips to slips: the break-out (out) or make-up (in) time")
+    pump_ramp_down_s: float = param("s", 0.0, 600.0, default=30.0,
+                                    doc="the mud pump from its rate to off before a connection")
+    pump_ramp_up_s: float = param("s", 0.0, 600.0, default=30.0,
+                                  doc="the mud pump from off back to its rate after it")
+    pickup_margin_n: float = param(
+        "N", 0.0, 1.0e6, default=0.0,
+        doc="the slips are pulled once the elevator carries the string's weight less this "
+            "(0: once the line lifts the string off them, when they carry nothing)")
+    trip_tank_area_m2: float = param("m^2", 0.0, 50.0, lo_open=True, default=1.0,
+                                     doc="the trip tank's cross-section (level per volume)")
+    trip_tank_volume_m3: float = param("m^3", 0.0, 100.0, lo_open=True, default=6.0,
+                                       doc="the mud in the trip tank at the start")
+    discrepancy_alarm_m3: float = param(
+        "m^3", 0.0, 10.0, lo_open=True, default=0.3,
+        doc="the trip sheet alarms when measured and expected fill differ by more")
