@@ -32,8 +32,10 @@ class WellModel:
         return self.geometry.n
 
 
-def build_well_model(well: Well, regularisation_mps: float, choke_regularisation_pa: float) -> WellModel:
-    return WellModel(well, build_geometry(well), string_fluid(well.mud, well.turbulence),
+def build_well_model(well: Well, regularisation_mps: float, choke_regularisation_pa: float,
+                     pulled_m: float = 0.0) -> WellModel:
+    """The model of ``well`` with its string tripped out by ``pulled_m`` (drill_core.well)."""
+    return WellModel(well, build_geometry(well, pulled_m), string_fluid(well.mud, well.turbulence),
                      annulus_fluid(well.mud, well.turbulence), regularisation_mps,
                      choke_regularisation_pa)
 

@@ -46,8 +46,8 @@ def run_trip(well, direction, influx_m3_per_stand=0.0, stands_pulled=0):
     step = sequencer.step(t, geometry.bit_above_bhp_node_m + x, v, tension)
     while step.phase != DONE and t < 3600.0:
         if step.stands_pulled != sequencer_pulled(log, stands_pulled):
-            x = position_after_connection(x, sequencer_pulled(log, stands_pulled),
-                                          step.stands_pulled, STAND_M)
+            x = position_after_connection(x, sequencer_pulled(log, stands_pulled) * STAND_M,
+                                          step.stands_pulled * STAND_M)
             geometry = tripped_geometry(well, step.stands_pulled, STAND_M)
             sequencer.weight_n = buoyed_weight_n(geometry, well.gravity_mps2)
             u_b = x                                   # latched to the new top, slack

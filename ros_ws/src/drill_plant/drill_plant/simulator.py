@@ -10,6 +10,7 @@ from drill_core import hydraulics as hy
 from drill_core.compiled import compiled
 from drill_core.config import RigConfig
 from drill_core.input_layout import U_BPP_FLOW
+from drill_core.tripping.sequence import position_after_connection
 from drill_core.well import equivalent_density_kgm3
 from drill_plant.plant_model import (PARAMETER_NAMES, PlantLayout, SteadyState,
                                      build_frame_function, build_outputs_function,
@@ -56,15 +57,9 @@ class PlantSimulator:
 
     def __init__(self, config: RigConfig, initial: SteadyState, seed: int):
         self.config = config
-        self.wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                                      config.plant.choke_regularisation_pa)
+        self._build(0.0)
         self.layout = PlantLayout(self.wm.n)
         self._sensors = self.layout.sensor_map(self.config.well.choke_downstream_pressure_pa)
-        self._frame = build_frame_function(self.wm, config)
-        self._outputs = build_outputs_function(self.wm)
-        if config.plant.jit:
-            built = compiled([self._frame, self._outputs], "plant")
-            self._frame, self._outputs = built[self._frame.name()], built[self._outputs.name()]
         # the surface-flow sensors draw from their own stream so the paper's four sensors
         # (and runs recorded before the surface sensors existed) keep their noise
         process_seed, sensor_seed, surface_seed = np.random.SeedSequence(seed).spawn(3)
@@ -77,6 +72,29 @@ class PlantSimulator:
         self.inputs = initial.inputs.astype(float).copy()
         self.steps_per_frame = config.plant.steps_per_frame
         self._substep_s = config.plant.step_s / config.plant.substeps
+
+    def _build(self, pulled_m: float) -> None:
+        """The well model and the frame and outputs functions of the string ``pulled_m``
+        short (compiled when the configuration asks, cached per geometry)."""
+        plant = self.config.plant
+        self.wm = hy.build_well_model(self.config.well, plant.yield_regularisation_velocity_mps,
+                                      plant.choke_regularisation_pa, pulled_m)
+        self._frame = build_frame_function(self.wm, self.config)
+        self._outputs = build_outputs_function(self.wm)
+        if plant.jit:
+            built = compiled([self._frame, self._outputs], "plant")
+            self._frame, self._outputs = built[self._frame.name()], built[self._outputs.name()]
+
+    def rack_string(self, pulled_m: float) -> None:
+        """The string tripped to ``pulled_m`` at a connection (a stand racked back or made
+        up, the string in the slips): the new string's model from the next frame on, the
+        string's position counted in its new frame with the bit where it was, every other
+        state carried over (the nodes do not move). The block input is the caller's."""
+        before = self.wm.geometry.bit_above_bhp_node_m
+        self._build(pulled_m)
+        position = self.layout.position
+        self.state[position] = position_after_connection(self.state[position], before, pulled_m)
+        self._algebraic_now = None
 
     def advance(self, inputs: np.ndarray) -> None:
         """Integrate one frame with ``inputs`` [4 x steps_per_frame] held per plant step."""

@@ -121,8 +121,8 @@ class StandSequencer:
                         stands_pulled=self.stands_pulled)
 
 
-def position_after_connection(position_m: float, stands_pulled_before: int,
-                              stands_pulled_after: int, stand_length_m: float) -> float:
+def position_after_connection(position_m: float, pulled_before_m: float,
+                              pulled_after_m: float) -> float:
     """The string's position x_s [m] in the frame of the new string, the bit where it was:
-    h_bit + x_s is the same before and after (h_bit: stands pulled times their length)."""
-    return position_m + (stands_pulled_before - stands_pulled_after) * stand_length_m
+    h_bit + x_s is the same before and after (h_bit: the length pulled, drill_core.well)."""
+    return position_m + pulled_before_m - pulled_after_m
