@@ -110,11 +110,19 @@ def bottom_inflow_rate(wm: WellModel, inflow_m3s):
     return wm.well.mud.bulk_modulus_pa / wm.geometry.annulus_volume_m3[-1] * inflow_m3s
 
 
+def line_tension(geometry: WellGeometry, damping_n_s_m: float, position_m, velocity_mps,
+                 block_position_m):
+    """T = -k (x_s - u_b) - c_eq v_s: the hoisting line's pull on the string [N] (k = k_eq
+    with the whole string)."""
+    return (-geometry.axial_stiffness_n_m * (position_m - block_position_m)
+            - damping_n_s_m * velocity_mps)
+
+
 def hoisting_acceleration(wm: WellModel, position_m, velocity_mps, block_position_m):
-    """m a = -k (x_s - u_b) - c_eq v_s - m g F_b (paper eq. 35; k = k_eq with the whole string)."""
+    """m a = T - m g F_b (paper eq. 35, T: :func:`line_tension`)."""
     w, g = wm.well, wm.geometry
-    return (-g.axial_stiffness_n_m * (position_m - block_position_m)
-            - w.hoist_damping_n_s_m * velocity_mps) / g.string_mass_kg \
+    return line_tension(g, w.hoist_damping_n_s_m, position_m, velocity_mps,
+                        block_position_m) / g.string_mass_kg \
         - w.gravity_mps2 * g.buoyancy_factor
 
 

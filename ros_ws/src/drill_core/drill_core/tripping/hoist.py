@@ -1,7 +1,7 @@
 """The string on the elevator or in the slips: the forces that hold it and the hook load.
 
 On the elevator the hoisting line carries the string through the equivalent spring and
-damper of the paper's eq. 35, T = k (u_b - x_s) - c v_s [N] (k: the geometry's axial
+damper of the paper's eq. 35 (drill_core.hydraulics.line_tension; k: the geometry's axial
 stiffness). The slips are a one-sided support at the rotary table: set, they hold the
 string at rest for as long as the line carries less than its buoyed weight W = m g F_b;
 the moment the line carries W the slips carry nothing, so lifting the string off them
@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from drill_core.hydraulics import line_tension
 from drill_core.well import WellGeometry
 
 
@@ -37,8 +38,8 @@ def hoist_forces(geometry: WellGeometry, gravity_mps2: float, damping_n_s_m: flo
     string position and velocity (positive up), the elevator ``latched`` or not and the
     slips ``slips_set`` or not. Set slips hold a string that is not rising and that the line
     does not lift; the integrator then keeps it where it is, at rest."""
-    tension = (geometry.axial_stiffness_n_m * (block_position_m - position_m)
-               - damping_n_s_m * velocity_mps) if latched else 0.0
+    tension = line_tension(geometry, damping_n_s_m, position_m, velocity_mps,
+                           block_position_m) if latched else 0.0
     net = tension - buoyed_weight_n(geometry, gravity_mps2)
     held = slips_set and velocity_mps <= 0.0 and net <= 0.0
     reaction = -net if held else 0.0

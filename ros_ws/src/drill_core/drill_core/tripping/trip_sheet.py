@@ -64,9 +64,9 @@ class TripSheet:
 
     def expected_fill_m3(self) -> float:
         """The fill one stand should take: its steel (or closed end) out, given back in."""
-        fill = self.volumes.hole_fill_m3(self.wet) if self.programme.direction == "out" \
-            else self.volumes.steel_m3
-        return fill if self.programme.direction == "out" else -fill
+        if self.programme.direction == "out":
+            return self.volumes.hole_fill_m3(self.wet)
+        return -self.volumes.steel_m3
 
     def observe(self, time_s: float, step: TripStep, bhp_pa: float, bhp_ref_pa: float,
                 tank_volume_m3: float) -> list[Notice]:
