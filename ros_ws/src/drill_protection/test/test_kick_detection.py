@@ -1,4 +1,7 @@
-"""Flow-balance kick detector against a synthetic well whose flows are known exactly."""
+"""Flow-balance kick detector: its arithmetic (windows, confirmation, clearing, bad samples,
+the learnt baseline) on a synthetic well whose flows are its own balance run forward. The
+physics it must take out is judged on the truth plant's sensors in
+test_kick_detection_on_the_plant.py."""
 import math
 
 import numpy as np
