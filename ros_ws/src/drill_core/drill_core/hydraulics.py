@@ -118,12 +118,28 @@ def line_tension(geometry: WellGeometry, damping_n_s_m: float, position_m, veloc
             - damping_n_s_m * velocity_mps)
 
 
-def hoisting_acceleration(wm: WellModel, position_m, velocity_mps, block_position_m):
-    """m a = T - m g F_b (paper eq. 35, T: :func:`line_tension`)."""
+SLIPS_GRIP_TIME_S = 0.05   # set slips take a sinking string's speed out with this time constant
+
+
+def slips_hold(slips_set, velocity_mps, net_force_n):
+    """1 where set slips (``slips_set`` 1) hold the string: it is not rising and the line
+    does not lift it (``net_force_n`` = T - W <= 0); 0 elsewhere (numbers or CasADi)."""
+    return slips_set * (velocity_mps <= 0.0) * (net_force_n <= 0.0)
+
+
+def hoisting_acceleration(wm: WellModel, position_m, velocity_mps, block_position_m,
+                          latched=1.0, slips_set=0.0, xp=None):
+    """m a = T - m g F_b (paper eq. 35, T: :func:`line_tension`), T times ``latched`` (1: the
+    elevator holds the string, 0: unlatched). Given ``xp`` the slips act too: where
+    :func:`slips_hold`, the string's speed decays to rest within SLIPS_GRIP_TIME_S instead."""
     w, g = wm.well, wm.geometry
-    return line_tension(g, w.hoist_damping_n_s_m, position_m, velocity_mps,
-                        block_position_m) / g.string_mass_kg \
+    free = latched * line_tension(g, w.hoist_damping_n_s_m, position_m, velocity_mps,
+                                  block_position_m) / g.string_mass_kg \
         - w.gravity_mps2 * g.buoyancy_factor
+    if xp is None:
+        return free
+    held = slips_hold(slips_set, velocity_mps, free)
+    return xp.if_else(held > 0.5, -velocity_mps / SLIPS_GRIP_TIME_S, free)
 
 
 @dataclass(frozen=True)

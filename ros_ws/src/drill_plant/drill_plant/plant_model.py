@@ -27,21 +27,28 @@ from drill_core.integrators import srk_step
 from drill_core.operating_point import OperatingPoint, operating_point
 from drill_core.state_layout import POSITION, VELOCITY, WellboreLayout, hydraulic_state_names
 
-# Plant parameters a scenario event may change (pore/fracture steps, a plugging choke).
-PARAMETER_NAMES = ("pore_pressure_pa", "fracture_pressure_pa", "choke_capacity_factor")
+# Plant parameters a scenario event may change (pore/fracture steps, a plugging choke) and
+# the rig floor's hoisting mode (the elevator latched 1/0, the slips set 1/0).
+PARAMETER_NAMES = ("pore_pressure_pa", "fracture_pressure_pa", "choke_capacity_factor",
+                   "elevator_latched", "slips_set")
 # The scenario events (drill_core.events) that set a parameter, and which one.
 EVENT_PARAMETERS = {"pore_pressure": "pore_pressure_pa", "fracture_pressure": "fracture_pressure_pa",
                     "choke_plugging": "choke_capacity_factor"}
 
 
+# The hoisting parameters of a string on the elevator with the slips out.
+ON_THE_ELEVATOR = (1.0, 0.0)
+
 # The paper's well is closed down-hole: no pore pressure, a fracture pressure no BHP here
-# reaches, a clean choke (the physics tests of the paper's plant use it).
-CLOSED_BOTTOM = (0.0, 1.0e9, 1.0)
+# reaches, a clean choke, the string on the elevator (the physics tests of the paper's plant).
+CLOSED_BOTTOM = (0.0, 1.0e9, 1.0, *ON_THE_ELEVATOR)
 
 
 def nominal_parameters(well: Well) -> np.ndarray:
-    """The parameters as configured: the formation window of well.yaml, a clean choke."""
-    return np.array([well.formation.pore_pressure_pa, well.formation.fracture_pressure_pa, 1.0])
+    """The parameters as configured: the formation window of well.yaml, a clean choke, the
+    string on the elevator, the slips out."""
+    return np.array([well.formation.pore_pressure_pa, well.formation.fracture_pressure_pa, 1.0,
+                     *ON_THE_ELEVATOR])
 
 
 PIT_GAIN = "pit_gain_m3"
@@ -84,7 +91,8 @@ def drift(xp, wm: hy.WellModel, x, u, theta=None):
     entries (theta: PARAMETER_NAMES, nominal_parameters by default)."""
     lay = PlantLayout(wm.n)
     n = wm.n
-    pore, fracture, choke_capacity = nominal_parameters(wm.well) if theta is None else theta
+    pore, fracture, choke_capacity, latched, slips_set = \
+        nominal_parameters(wm.well) if theta is None else theta
     p = [x[lay.pressure(i)] for i in range(1, n + 1)]
     q = [x[lay.flow(i)] for i in range(2, n + 1)]
     x_s, v_s = x[lay.position], x[lay.velocity]
@@ -93,7 +101,7 @@ def drift(xp, wm: hy.WellModel, x, u, theta=None):
     rates = hy.hydraulic_rates(xp, wm, p, q, x[lay.string_flow], x[lay.string_pressure], x_s, v_s,
                                q_c, u[U_BPP_FLOW], u[U_PUMP_PRESSURE], friction)
     influx, loss = hy.formation_flows(xp, wm.well.formation, p[-1], pore, fracture)
-    out = [v_s, hy.hoisting_acceleration(wm, x_s, v_s, u[U_BLOCK])]
+    out = [v_s, hy.hoisting_acceleration(wm, x_s, v_s, u[U_BLOCK], latched, slips_set, xp)]
     for i in range(n):
         if i > 0:
             out.append(rates.flow[i - 1])
@@ -128,7 +136,7 @@ def wiener_increments(rng: np.random.Generator, layout: PlantLayout, count: int,
 
 
 def held_parameters(theta: np.ndarray, steps: int) -> np.ndarray:
-    """The plant parameters [3 x steps] held over a frame."""
+    """The plant parameters [len(PARAMETER_NAMES) x steps] held over a frame."""
     return np.repeat(np.asarray(theta, dtype=float)[:, None], steps, axis=1)
 
 
@@ -169,7 +177,7 @@ def _symbolic_drift(wm: hy.WellModel, x, u, theta):
 def build_frame_function(wm: hy.WellModel, config: RigConfig) -> ca.Function:
     """CasADi function advancing one sensor frame.
 
-    plant_frame(x0, U[4 x N], DW[nx x N*substeps], THETA[3 x N]) -> X[nx x N], X[:, k] the
+    plant_frame(x0, U[4 x N], DW[nx x N*substeps], THETA[5 x N]) -> X[nx x N], X[:, k] the
     state after plant step k; U[:, k] and THETA[:, k] are held over step k; DW are Wiener
     increments per substep (zero rows for the accumulated volumes).
     """

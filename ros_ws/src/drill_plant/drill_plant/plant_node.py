@@ -32,7 +32,7 @@ from drill_ros.runner import run
 from drill_ros.stamps import from_ns, seconds_to_ns
 from drill_ros.status import StatusReporter
 from drill_plant.frame_lateness import FrameLateness
-from drill_plant.plant_model import PlantLayout
+from drill_plant.plant_model import PARAMETER_NAMES, PlantLayout
 from drill_plant.plant_tick import PlantTick
 from drill_plant.simulator import PlantDiverged
 
@@ -185,8 +185,9 @@ class PlantNode(RigNode):
         msg.influx_m3s, msg.loss_m3s = t.influx_m3s, t.loss_m3s
         msg.pit_gain_m3 = t.pit_gain_m3
         msg.influx_volume_m3, msg.loss_volume_m3 = t.influx_volume_m3, t.loss_volume_m3
-        msg.pore_pressure_pa, msg.fracture_pressure_pa, msg.choke_capacity_factor = \
-            (float(v) for v in t.parameters)
+        in_force = dict(zip(PARAMETER_NAMES, t.parameters))
+        for name in ("pore_pressure_pa", "fracture_pressure_pa", "choke_capacity_factor"):
+            setattr(msg, name, float(in_force[name]))
         return msg
 
 

@@ -9,7 +9,7 @@ import numpy as np
 from drill_core import hydraulics as hy
 from drill_core.compiled import compiled
 from drill_core.config import RigConfig
-from drill_core.input_layout import U_BPP_FLOW
+from drill_core.input_layout import U_BLOCK, U_BPP_FLOW
 from drill_core.tripping.sequence import position_after_connection
 from drill_core.well import equivalent_density_kgm3
 from drill_plant.plant_model import (PARAMETER_NAMES, PlantLayout, SteadyState,
@@ -114,6 +114,20 @@ class PlantSimulator:
         """Change one of PARAMETER_NAMES from the next frame on (a scenario event)."""
         self.parameters[PARAMETER_NAMES.index(name)] = value
         self._algebraic_now = None
+
+    def set_hoisting(self, latched: bool, slips_set: bool) -> None:
+        """The rig floor's hoisting mode from the next frame on: the elevator latched to the
+        string or not, the slips set or pulled (drill_core.hydraulics.hoisting_acceleration)."""
+        self.set_parameter("elevator_latched", float(latched))
+        self.set_parameter("slips_set", float(slips_set))
+
+    def line_tension_n(self) -> float:
+        """The elevator's pull on the string now [N] (0 unlatched)."""
+        lay, well = self.layout, self.config.well
+        latched = self.parameters[PARAMETER_NAMES.index("elevator_latched")]
+        return latched * float(hy.line_tension(
+            self.wm.geometry, well.hoist_damping_n_s_m, self.state[lay.position],
+            self.state[lay.velocity], self.inputs[U_BLOCK]))
 
     def _algebraic(self) -> np.ndarray:
         """The algebraic outputs at the current state, evaluated once per frame for the

@@ -78,7 +78,7 @@ def test_a_shut_in_well_settles_at_the_pore_pressure(cfg):
     rest = pm.steady_state(wm, 0.0, 0.0, 0.0)
     lay = pm.PlantLayout(wm.n)
     pore = 6.50e7
-    theta = np.array([pore, cfg.well.formation.fracture_pressure_pa, 1.0])
+    theta = np.array([pore, cfg.well.formation.fracture_pressure_pa, 1.0, *pm.ON_THE_ELEVATOR])
     xs = run(frame, cfg, rest.state, lambda t: [rest.inputs[0], 0.0, 0.0, 0.0], theta, 60.0)
     bhp, surface = xs[lay.pressure(wm.n)], xs[lay.pressure(1)]
     rise = pore - bhp[0]
@@ -108,9 +108,9 @@ def test_pit_gain_conserves_mud_with_influx_losses_and_a_trip(cfg, wm, frame):
         return [start.inputs[0] + 0.3 * t, start.inputs[1], 0.0, start.inputs[3]]
 
     influx = run(frame, cfg, start.state, pulling_out,
-                 np.array([bhp0 + 8.0 * BAR, bhp0 + 30.0 * BAR, 1.0]), 5.0)
+                 np.array([bhp0 + 8.0 * BAR, bhp0 + 30.0 * BAR, 1.0, *pm.ON_THE_ELEVATOR]), 5.0)
     losses = run(frame, cfg, influx[:, -1], lambda t: pulling_out(t + 5.0),
-                 np.array([bhp0 - 30.0 * BAR, bhp0 - 6.0 * BAR, 1.0]), 5.0)
+                 np.array([bhp0 - 30.0 * BAR, bhp0 - 6.0 * BAR, 1.0, *pm.ON_THE_ELEVATOR]), 5.0)
     dx = losses[:, -1] - start.state
     assert dx[lay.influx_volume] > 1e-3 and dx[lay.loss_volume] > 1e-3     # litres each way
     g = wm.geometry

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from drill_core.hydraulics import line_tension
+from drill_core.hydraulics import line_tension, slips_hold
 from drill_core.well import WellGeometry
 
 
@@ -41,7 +41,7 @@ def hoist_forces(geometry: WellGeometry, gravity_mps2: float, damping_n_s_m: flo
     tension = line_tension(geometry, damping_n_s_m, position_m, velocity_mps,
                            block_position_m) if latched else 0.0
     net = tension - buoyed_weight_n(geometry, gravity_mps2)
-    held = slips_set and velocity_mps <= 0.0 and net <= 0.0
+    held = bool(slips_hold(slips_set, velocity_mps, net))
     reaction = -net if held else 0.0
     return HoistForces(line_tension_n=tension, slips_reaction_n=reaction,
                        hook_load_n=block_weight_n + tension,
