@@ -24,7 +24,7 @@ import numpy as np
 from drill_bag import mcap_io
 from drill_core.config import Well, load_section
 from drill_core.surface_flows import delta_flow_m3s
-from drill_core.units import LPM_PER_M3S, PA_PER_KPA
+from drill_core.units import LPM_PER_M3S, N_PER_KN, PA_PER_KPA
 from drill_core.well import build_geometry
 from drill_ros import topic_names
 
@@ -76,6 +76,8 @@ CHANNELS = (
             1.0, lambda s: s.bit_depth_start_m - s.measurement.block_position_m),
     Channel("BPOS", "0112", "Block Position, drill-string position from the start, up",
             "m", 1.0, lambda s: s.measurement.block_position_m),
+    Channel("HKLA", "0114", "Hookload (avg), the travelling block and the elevator's pull",
+            "kN", 1.0 / N_PER_KN, lambda s: s.measurement.hook_load_n),
     Channel("SPPA", "0121", "Standpipe Pressure, the mud pump's discharge pressure", "kPa",
             1.0 / PA_PER_KPA, lambda s: s.frame_output("mud_pump")),
     Channel("CHKP", "0122", "Casing (Choke) Pressure, choke differential pressure", "kPa",

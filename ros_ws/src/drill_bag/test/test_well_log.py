@@ -38,7 +38,8 @@ def measurement(k):
     return stamped(RigMeasurement(
         block_position_m=0.5 * k, choke_dp_pa=2.0e6 + 1.0e4 * k, bhp_pa=6.85e7 - 1.0e3 * k,
         string_flow_m3s=0.0166 if pumping else math.nan, string_flow_valid=pumping,
-        return_flow_m3s=0.0170, pit_volume_m3=40.0 + 0.01 * k, bpp_flow_m3s=0.0002),
+        return_flow_m3s=0.0170, pit_volume_m3=40.0 + 0.01 * k, bpp_flow_m3s=0.0002,
+        hook_load_n=1.25e6 - 1.0e3 * k),
         k * NS // 10)
 
 
@@ -83,14 +84,14 @@ def expected(k):
     choke = 0.2 + 3 + 0.1 * 9 if k == 4 else 0.2 + k     # frame 3, clipped at its last
     flow_in = m.string_flow_m3s * 60000.0 if m.string_flow_valid else math.nan
     return {"DBTM": STRING_LENGTH_M - m.block_position_m, "BPOS": m.block_position_m,
-            "SPPA": (1.0e7 + k) / 1000.0, "CHKP": m.choke_dp_pa / 1000.0,
+            "HKLA": 1250.0 - k, "SPPA": (1.0e7 + k) / 1000.0, "CHKP": m.choke_dp_pa / 1000.0,
             "TVA": m.pit_volume_m3, "TVCA": 0.01 * k, "MFOA": 0.0170 * 60000.0,
             "MFIA": flow_in, "BHP": m.bhp_pa / 1000.0, "BPPF": 0.0002 * 60000.0,
             "DFLO": (0.0170 - 0.0166 - 0.0002) * 60000.0 if m.string_flow_valid else math.nan,
             "CHKO": 100.0 * choke}
 
 
-UNITS = {"DBTM": "m", "BPOS": "m", "SPPA": "kPa", "CHKP": "kPa", "TVA": "m3", "TVCA": "m3",
+UNITS = {"DBTM": "m", "BPOS": "m", "HKLA": "kN", "SPPA": "kPa", "CHKP": "kPa", "TVA": "m3", "TVCA": "m3",
          "MFOA": "L/min", "MFIA": "L/min", "BHP": "kPa", "BPPF": "L/min", "DFLO": "L/min",
          "CHKO": "%"}
 

@@ -105,6 +105,9 @@ class Well:
     segment_hole_diameters_m: tuple[float, ...] | None = param(
         "m", 0.0, 2.0, lo_open=True, default=None,
         doc="hole diameter per annulus segment, top first (a washout); absent: hole_diameter_m")
+    travelling_block_weight_n: float = param(
+        "N", 0.0, 5.0e6, default=3.5e5,
+        doc="the travelling block, hook and top drive: the hook load with the elevator unlatched")
 
     def hole_diameters_m(self) -> tuple[float, ...]:
         """The hole diameter of each annulus segment [m], top first."""
@@ -154,6 +157,7 @@ class SurfaceSensorNoise:
     return_flow_m3s: float = param("m^3/s", 0.0, 1.0, doc="Coriolis meter on the choke line")
     pit_volume_m3: float = param("m^3", 0.0, 100.0, doc="active pit level sensor")
     bpp_flow_m3s: float = param("m^3/s", 0.0, 1.0, doc="back-pressure pump stroke counter")
+    hook_load_n: float = param("N", 0.0, 1.0e6, default=2.0e3, doc="deadline load cell")
 
 
 @dataclass(frozen=True)

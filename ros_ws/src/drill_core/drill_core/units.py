@@ -5,6 +5,7 @@ PA_PER_BAR = 1.0e5          # 1 bar in Pa
 LPM_PER_M3S = 60000.0       # L/min in 1 m^3/s
 L_PER_M3 = 1000.0            # L in 1 m^3
 PA_PER_KPA = 1.0e3          # 1 kPa in Pa (WITS, LAS and WITSML logs)
+N_PER_KN = 1.0e3            # 1 kN in N (the logs' hook load)
 
 # The console's unit systems (the display edge only): quantity -> (symbol, value in that
 # unit of 1 SI unit). Field units: psi = 6894.757293168 Pa, US gallon = 3.785411784 L,

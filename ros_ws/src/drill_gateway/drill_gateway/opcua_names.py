@@ -46,6 +46,7 @@ UNITS = {
     "m3/s": Unit("MQS", "m³/s", "cubic metre per second"),
     "m3": Unit("MTQ", "m³", "cubic metre"),
     "kg/m3": Unit("KMQ", "kg/m³", "kilogram per cubic metre"),
+    "N": Unit("NEW", "N", "newton"),
 }
 
 
@@ -97,6 +98,9 @@ VARIABLES = (
     _m("DownholeECD", "ecd_kgm3", "kg/m3",
        "equivalent circulating density at the BHP sensor, from the measured BHP",
        (500.0, 3000.0), "DownholeECD", "bhp_pa over g and the sensor's depth (well.yaml)"),
+    _m("HookLoad", "hook_load_n", "N",
+       "hook load: the travelling block and the elevator's pull (deadline load cell)",
+       (0.0, 5.0e6), "HookLoad"),
     _m("HookPosition", "block_position_m", "m", "drill-string position, positive up, 0 at start",
        (-5.0, 35.0), "HookPosition"),
     _m("BitDepth", "bit_depth_m", "m", "bit depth: the start depth less the block's travel",

@@ -37,7 +37,9 @@ def test_browse_paths_are_unique_and_units_are_given_for_every_number():
 def test_unit_ids_are_the_unece_codes_as_opc_ua_part_8_packs_them():
     assert names.UNITS["Pa"].unit_id == 0x50414C         # "PAL"
     assert names.UNITS["m"].unit_id == 5067858           # "MTR" = 0x4D5452
-    assert {u.code for u in names.UNITS.values()} == {"PAL", "MTR", "MTS", "MQS", "MTQ", "KMQ"}
+    assert names.UNITS["N"].unit_id == 0x4E4557          # "NEW"
+    assert {u.code for u in names.UNITS.values()} == {"PAL", "MTR", "MTS", "MQS", "MTQ", "KMQ",
+                                                      "NEW"}
 
 
 def test_the_writable_variables_are_the_setpoints_and_the_automation_level():
@@ -66,7 +68,7 @@ def test_the_derived_variables_are_the_ones_the_node_computes(cfg):
 
 
 def test_names_are_d_wis_prototypes_where_given_and_floats_have_a_range():
-    prototypes = {"DownholePressure", "MPDChokePressure", "SPP", "DownholeECD", "HookPosition",
+    prototypes = {"DownholePressure", "MPDChokePressure", "SPP", "DownholeECD", "HookLoad", "HookPosition",
                   "BitDepth", "FlowRateIn", "FlowRateOut", "ActiveVolume", "MPDPumpFlowRate",
                   "HookVelocity"}        # DDHub DrillingDataSemantics PrototypeData nouns
     assert all(v.prototype in prototypes for v in names.VARIABLES if v.prototype)

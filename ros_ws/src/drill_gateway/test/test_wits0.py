@@ -22,7 +22,7 @@ def snapshot(string_flow_valid=True):
     m = RigMeasurement(block_position_m=2.0, choke_dp_pa=2.5e6, bhp_pa=6.85e7,
                        string_flow_m3s=0.0166 if string_flow_valid else math.nan,
                        string_flow_valid=string_flow_valid, return_flow_m3s=0.0170,
-                       pit_volume_m3=40.5, bpp_flow_m3s=0.0)
+                       pit_volume_m3=40.5, bpp_flow_m3s=0.0, hook_load_n=1.25e6)
     m.header.stamp.sec, m.header.stamp.nanosec = divmod(STAMP_NS, NS)
     pump = ActuatorFrame(actuator="mud_pump", output=[1.05e7] * 10, sample_period_s=0.01)
     pump.header.stamp = m.header.stamp
@@ -34,6 +34,7 @@ def test_a_frame_carries_record_01_items_in_wits_metric_units():
     assert items["0101"] == "case2-with-a-lon"                 # 16 characters
     assert (items["0105"], items["0106"]) == ("251204", "000000")
     assert float(items["0108"]) == pytest.approx(3605.8)      # bit depth [m]
+    assert float(items["0114"]) == pytest.approx(1250.0)      # hook load [kN]
     assert float(items["0121"]) == pytest.approx(10500.0)     # SPP [kPa]
     assert float(items["0122"]) == pytest.approx(2500.0)      # choke pressure [kPa]
     assert float(items["0126"]) == pytest.approx(40.5)

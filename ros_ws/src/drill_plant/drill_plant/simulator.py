@@ -32,6 +32,7 @@ class Measurement:
     return_flow_m3s: float       # Coriolis meter on the choke line
     pit_volume_m3: float         # active pit
     bpp_flow_m3s: float          # back-pressure pump stroke counter
+    hook_load_n: float           # deadline load cell: the block and the elevator's pull
 
 
 @dataclass(frozen=True)
@@ -62,10 +63,13 @@ class PlantSimulator:
         self._sensors = self.layout.sensor_map(self.config.well.choke_downstream_pressure_pa)
         # the surface-flow sensors draw from their own stream so the paper's four sensors
         # (and runs recorded before the surface sensors existed) keep their noise
-        process_seed, sensor_seed, surface_seed = np.random.SeedSequence(seed).spawn(3)
+        # (the hook load's own stream, the fourth, leaves the first three as they were)
+        process_seed, sensor_seed, surface_seed, hook_seed = \
+            np.random.SeedSequence(seed).spawn(4)
         self._process_rng = np.random.default_rng(process_seed)
         self._sensor_rng = np.random.default_rng(sensor_seed)
         self._surface_rng = np.random.default_rng(surface_seed)
+        self._hook_rng = np.random.default_rng(hook_seed)
         self.parameters = nominal_parameters(config.well)
         self._algebraic_now: np.ndarray | None = None   # build_outputs_function at the state
         self.state = initial.state.astype(float).copy()
@@ -157,7 +161,9 @@ class PlantSimulator:
             return_flow_m3s=float(returns) + surface_noise.return_flow_m3s * float(surface[0]),
             pit_volume_m3=float(self.config.plant.active_pit_volume_m3 + x[lay.pit_gain]
                                 + surface_noise.pit_volume_m3 * surface[1]),
-            bpp_flow_m3s=float(self.inputs[U_BPP_FLOW] + surface_noise.bpp_flow_m3s * surface[2]))
+            bpp_flow_m3s=float(self.inputs[U_BPP_FLOW] + surface_noise.bpp_flow_m3s * surface[2]),
+            hook_load_n=float(self.config.well.travelling_block_weight_n + self.line_tension_n()
+                              + surface_noise.hook_load_n * self._hook_rng.normal()))
 
     def truth(self) -> Truth:
         out = self._algebraic()

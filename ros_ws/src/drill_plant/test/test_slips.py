@@ -54,11 +54,22 @@ def floor():
     f.sim.set_hoisting(latched=False, slips_set=True)
     f.move(-0.5, 56.0)                                            # the block down a stand
     f.free_frame = len(f.log)
+    f.hook_free_n = f.sim.measure(circulating=True).hook_load_n
     f.move(0.5, 56.0)                                             # and back up to the top
     f.sim.set_hoisting(latched=True, slips_set=True)
     f.latch_frame = len(f.log)
     f.move(0.1, 40.0)                                             # pick up
+    f.hook_lifting_n = f.sim.measure(circulating=True).hook_load_n
     return f
+
+
+def test_the_hook_load_reads_the_block_alone_off_the_string_and_the_string_on_it(floor):
+    """Within four of the load cell's standard deviations (and, lifting, the line's
+    residual swing about the weight, under 1 kN here)."""
+    cfg = floor.sim.config
+    block_n, sigma_n = cfg.well.travelling_block_weight_n, cfg.plant.surface_sensor_noise.hook_load_n
+    assert floor.hook_free_n == pytest.approx(block_n, abs=4.0 * sigma_n)
+    assert floor.hook_lifting_n == pytest.approx(block_n + floor.weight_n, abs=4.0 * sigma_n + 1.0e3)
 
 
 def test_set_slips_hold_the_string_while_the_block_slacks_off_and_travels(floor):
