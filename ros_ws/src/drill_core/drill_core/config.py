@@ -158,6 +158,8 @@ class SurfaceSensorNoise:
     pit_volume_m3: float = param("m^3", 0.0, 100.0, doc="active pit level sensor")
     bpp_flow_m3s: float = param("m^3/s", 0.0, 1.0, doc="back-pressure pump stroke counter")
     hook_load_n: float = param("N", 0.0, 1.0e6, default=2.0e3, doc="deadline load cell")
+    trip_tank_volume_m3: float = param("m^3", 0.0, 10.0, default=5.0e-3,
+                                       doc="trip tank level sensor (5 mm on a 1 m^2 tank)")
 
 
 @dataclass(frozen=True)
@@ -182,6 +184,8 @@ class Plant:
     active_pit_volume_m3: float = param("m^3", 0.0, 1000.0, doc="mud in the active pit at the start")
     measurement_noise: MeasurementNoise = param()
     surface_sensor_noise: SurfaceSensorNoise = param()
+    trip_tank_volume_m3: float = param("m^3", 0.0, 100.0, default=6.0,
+                                       doc="mud in the trip tank at the start")
     jit: bool = param(default=False, doc="compile the frame and outputs functions to C "
                                          "(cached; needs a C compiler); same numbers, about "
                                          "half the frame time")

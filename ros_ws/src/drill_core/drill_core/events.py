@@ -18,7 +18,8 @@ ACTUATORS = ("drawworks", "choke", "bpp", "mud_pump")    # the rig's actuators, 
 # The measured channels (drill_msgs/RigMeasurement's value fields) and their SI units.
 SENSOR_UNITS = {"block_position_m": "m", "choke_dp_pa": "Pa", "bhp_pa": "Pa",
                 "string_flow_m3s": "m^3/s", "return_flow_m3s": "m^3/s", "pit_volume_m3": "m^3",
-                "bpp_flow_m3s": "m^3/s", "hook_load_n": "N"}
+                "bpp_flow_m3s": "m^3/s", "hook_load_n": "N",
+                "trip_tank_volume_m3": "m^3"}
 SENSOR_CHANNELS = tuple(SENSOR_UNITS)
 
 SINGLE = "single"        # acts on one sample (the first at or after time_s)

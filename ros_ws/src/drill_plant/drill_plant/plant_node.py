@@ -150,7 +150,8 @@ class PlantNode(RigNode):
                              bhp_pa=m.bhp_pa, string_flow_m3s=m.string_flow_m3s,
                              string_flow_valid=m.string_flow_valid,
                              return_flow_m3s=m.return_flow_m3s, pit_volume_m3=m.pit_volume_m3,
-                             bpp_flow_m3s=m.bpp_flow_m3s, hook_load_n=m.hook_load_n)
+                             bpp_flow_m3s=m.bpp_flow_m3s, hook_load_n=m.hook_load_n,
+                             trip_tank_volume_m3=m.trip_tank_volume_m3)
         msg.header.stamp = stamp
         self.pub_measurement.publish(msg)
         self.pub_truth.publish(self._truth_msg(stamp))

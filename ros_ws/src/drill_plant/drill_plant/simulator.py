@@ -33,6 +33,7 @@ class Measurement:
     pit_volume_m3: float         # active pit
     bpp_flow_m3s: float          # back-pressure pump stroke counter
     hook_load_n: float           # deadline load cell: the block and the elevator's pull
+    trip_tank_volume_m3: float   # trip tank level sensor
 
 
 @dataclass(frozen=True)
@@ -47,7 +48,7 @@ class Truth:
     ecd_kgm3: float
     influx_m3s: float            # from the formation below pore pressure
     loss_m3s: float              # into the formation above fracture pressure
-    pit_gain_m3: float           # active pit volume minus its volume at the start
+    pit_gain_m3: float           # the mud the tanks (active pit and trip tank) gained since the start
     influx_volume_m3: float
     loss_volume_m3: float
     parameters: np.ndarray       # PARAMETER_NAMES in force
@@ -63,13 +64,15 @@ class PlantSimulator:
         self._sensors = self.layout.sensor_map(self.config.well.choke_downstream_pressure_pa)
         # the surface-flow sensors draw from their own stream so the paper's four sensors
         # (and runs recorded before the surface sensors existed) keep their noise
-        # (the hook load's own stream, the fourth, leaves the first three as they were)
-        process_seed, sensor_seed, surface_seed, hook_seed = \
+        # (the rig floor's sensors draw from a fourth, which leaves the first three as they were)
+        process_seed, sensor_seed, surface_seed, floor_seed = \
             np.random.SeedSequence(seed).spawn(4)
         self._process_rng = np.random.default_rng(process_seed)
         self._sensor_rng = np.random.default_rng(sensor_seed)
         self._surface_rng = np.random.default_rng(surface_seed)
-        self._hook_rng = np.random.default_rng(hook_seed)
+        self._floor_rng = np.random.default_rng(floor_seed)
+        self.trip_tank_lined_up = False
+        self._gain_in_trip_tank_m3 = 0.0    # the pit-gain state's part that went to the trip tank
         self.parameters = nominal_parameters(config.well)
         self._algebraic_now: np.ndarray | None = None   # build_outputs_function at the state
         self.state = initial.state.astype(float).copy()
@@ -110,6 +113,8 @@ class PlantSimulator:
         final = states[:, -1]
         if not np.all(np.isfinite(final)):
             raise PlantDiverged(f"non-finite plant state after inputs {inputs[:, -1]}")
+        if self.trip_tank_lined_up:
+            self._gain_in_trip_tank_m3 += final[self.layout.pit_gain] - self.state[self.layout.pit_gain]
         self.state = final
         self.inputs = inputs[:, -1].copy()
         self._algebraic_now = None
@@ -124,6 +129,11 @@ class PlantSimulator:
         string or not, the slips set or pulled (drill_core.hydraulics.hoisting_acceleration)."""
         self.set_parameter("elevator_latched", float(latched))
         self.set_parameter("slips_set", float(slips_set))
+
+    def line_up_trip_tank(self, lined_up: bool) -> None:
+        """The returns and the pumps' suction on the trip tank (True) or the active pit from
+        the next frame on: the well's gain and loss then move the trip tank's volume."""
+        self.trip_tank_lined_up = bool(lined_up)
 
     def line_tension_n(self) -> float:
         """The elevator's pull on the string now [N] (0 unlatched)."""
@@ -151,6 +161,7 @@ class PlantSimulator:
         y = [x[i] - o for i, o in zip(index, offset)]          # h(x), eq. 48
         flow = y[3] + noise.string_flow_m3s * draw[3] + bias.string_flow_m3s
         surface, surface_noise = self._surface_rng.normal(size=3), self.config.plant.surface_sensor_noise
+        floor = self._floor_rng.normal(size=2)
         returns = self._algebraic()[0] + bias.return_flow_m3s
         return Measurement(
             block_position_m=float(y[0] + noise.block_position_m * draw[0]),
@@ -160,10 +171,14 @@ class PlantSimulator:
             string_flow_valid=circulating,
             return_flow_m3s=float(returns) + surface_noise.return_flow_m3s * float(surface[0]),
             pit_volume_m3=float(self.config.plant.active_pit_volume_m3 + x[lay.pit_gain]
+                                - self._gain_in_trip_tank_m3
                                 + surface_noise.pit_volume_m3 * surface[1]),
             bpp_flow_m3s=float(self.inputs[U_BPP_FLOW] + surface_noise.bpp_flow_m3s * surface[2]),
             hook_load_n=float(self.config.well.travelling_block_weight_n + self.line_tension_n()
-                              + surface_noise.hook_load_n * self._hook_rng.normal()))
+                              + surface_noise.hook_load_n * floor[0]),
+            trip_tank_volume_m3=float(self.config.plant.trip_tank_volume_m3
+                                      + self._gain_in_trip_tank_m3
+                                      + surface_noise.trip_tank_volume_m3 * floor[1]))
 
     def truth(self) -> Truth:
         out = self._algebraic()
