@@ -94,9 +94,10 @@ class FrameOutput:
 
 class Drawworks:
     """Block-position controller + drawworks lag; the reference is u_r [m]. The emergency
-    brake (``brake``) bypasses the controller: the block decelerates at the brake's limit
-    to rest and is held there; the first frame after it takes the controller back from the
-    held block without a jump (its integral set so that it commands where the block is)."""
+    brake (``brake``) and the block's own moves with the string in the slips
+    (``drive_block``) bypass the controller: braked, the block decelerates at the brake's
+    limit to rest and is held there; the first frame after either takes the controller back
+    from where the block is without a jump (its integral set so that it commands there)."""
 
     def __init__(self, config: Actuators, static_stretch_m: float, initial_block_m: float):
         self.config = config
@@ -104,7 +105,7 @@ class Drawworks:
         self.lag = FirstOrderLag(config.drawworks, initial_block_m)
         self.integral_m_s = 0.0
         self.command_m = self.lag.value
-        self.braked = False
+        self.off_loop = False
 
     def safe_reference(self, measured_position_m: float) -> float:
         """Hold the string where it is."""
@@ -112,10 +113,19 @@ class Drawworks:
 
     def brake(self, step_s: float, steps: int) -> FrameOutput:
         """One frame with the brake set; the frame's reference is NaN (none is followed)."""
-        self.braked = True
+        self.off_loop = True
         out = self.lag.decelerate(self.config.brake_deceleration_mps2, step_s, steps)
         self.command_m = self.lag.value
         return FrameOutput(self.command_m, math.nan, out)
+
+    def drive_block(self, target_m: float, step_s: float, steps: int) -> FrameOutput:
+        """One frame with the block on its own encoder (the string in the slips, the
+        elevator off or slack: the string's position says nothing of the block): the lag
+        driven to ``target_m`` [m]; the next frame on the string's loop takes over from
+        where the block is without a jump, as after the brake."""
+        self.off_loop = True
+        self.command_m = self.lag.limit(target_m)
+        return FrameOutput(self.command_m, target_m, self.lag.advance(self.command_m, step_s, steps))
 
     def frame(self, reference_m: float, measured_position_m: float, step_s: float,
               steps: int) -> FrameOutput:
@@ -123,11 +133,11 @@ class Drawworks:
         controller's integral untouched, so one bad sample does not poison it)."""
         if math.isfinite(reference_m) and math.isfinite(measured_position_m):
             c = self.config
-            if self.braked and c.block_ki_per_s > 0.0:   # released: bumpless from the held block
+            if self.off_loop and c.block_ki_per_s > 0.0:   # released: bumpless from the held block
                 self.integral_m_s = integral_for_command(self.lag.value, reference_m,
                                                          measured_position_m, self.static_stretch_m,
                                                          c.block_kp, c.block_ki_per_s)
-            self.braked = False
+            self.off_loop = False
             command = block_command(reference_m, measured_position_m, self.integral_m_s,
                                     self.static_stretch_m, self.config.block_kp,
                                     self.config.block_ki_per_s)

@@ -144,7 +144,7 @@ def test_the_release_hands_the_block_back_without_a_jump(config):
     step, n = config.plant.step_s, config.plant.steps_per_frame
     out = drawworks.frame(held - 3.0, held - 2.0, step, n)   # a reference and string elsewhere
     assert out.command == pytest.approx(held, abs=1e-12) and out.output[-1] == pytest.approx(held)
-    assert not drawworks.braked
+    assert not drawworks.off_loop
 
 
 def test_a_bad_sample_at_the_release_holds_the_block_and_the_next_one_hands_back(config):
@@ -152,9 +152,9 @@ def test_a_bad_sample_at_the_release_holds_the_block_and_the_next_one_hands_back
     held = drawworks.lag.value
     step, n = config.plant.step_s, config.plant.steps_per_frame
     out = drawworks.frame(math.nan, held - 2.0, step, n)           # no reference yet: held
-    assert out.output[-1] == pytest.approx(held) and drawworks.braked
+    assert out.output[-1] == pytest.approx(held) and drawworks.off_loop
     out = drawworks.frame(held - 3.0, held - 2.0, step, n)         # then bumpless
-    assert out.command == pytest.approx(held, abs=1e-12) and not drawworks.braked
+    assert out.command == pytest.approx(held, abs=1e-12) and not drawworks.off_loop
 
 
 def test_the_bhp_loop_enters_bumpless_and_a_bad_sample_changes_nothing(config):

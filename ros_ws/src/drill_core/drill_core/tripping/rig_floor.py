@@ -1,0 +1,91 @@
+"""The rig floor's machines on a multi-stand trip, as a tick class: the stand sequencer
+(drill_core.tripping.sequence) fed from the floor's own instruments (the hook load, the
+string's position, the block's encoder), and the block's moves while the string is in
+the slips, where the string's position says nothing of the block.
+
+Per phase the block is on the string's loop (moving: the controller's reference) or on
+its encoder with a target in the string's frame: lifted until the line carries the
+string (pick up), lowered until it is slack (set slips), held (pump ramps), a stand down
+(pulling out) or up (running in) while the connection is made, so that it meets the new
+top of the string slack when the elevator latches. At the end of each connection the
+floor says which length the string is tripped to (the plant racks it, the estimators
+change their model) and the string's position counts from the new top
+(sequence.position_after_connection).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from drill_core.config import Well
+from drill_core.tripping.hoist import buoyed_weight_n
+from drill_core.tripping.programme import TripProgramme
+from drill_core.tripping.sequence import (CONNECTION, MOVING, PICK_UP, SET_SLIPS, StandSequencer,
+                                          TripStep, position_after_connection)
+from drill_core.tripping.stands import tripped_geometry
+
+LIFT_OVERTRAVEL_M = 0.10     # picking up, the block aims this far past the string's stretch
+SLACK_UNDERTRAVEL_M = 0.05   # slacking off, this far below the string's top
+
+
+@dataclass(frozen=True)
+class FloorCommand:
+    """What the floor does after one tick (SI)."""
+    step: TripStep
+    block_target_m: float        # the block on its encoder to here [m]; NaN: on the string's loop
+    racked_to_m: float | None    # the string tripped to this length pulled on this tick [m]
+
+
+class RigFloor:
+    """``step`` once per sensor sample with the floor's measurements."""
+
+    def __init__(self, well: Well, programme: TripProgramme, start_time_s: float,
+                 stands_pulled: int = 0):
+        self.well = well
+        self.programme = programme
+        self._geometry = tripped_geometry(well, stands_pulled, programme.stand_length_m)
+        self.sequencer = StandSequencer(programme, self._weight_n(), start_time_s, stands_pulled)
+        self._phase: str | None = None                 # the phase of the last tick
+        self._phase_start_position_m = math.nan        # the string's position as it began
+        self.stands_pulled = stands_pulled
+
+    @property
+    def pulled_m(self) -> float:
+        return self.stands_pulled * self.programme.stand_length_m
+
+    def _weight_n(self) -> float:
+        return buoyed_weight_n(self._geometry, self.well.gravity_mps2)
+
+    def step(self, time_s: float, hook_load_n: float, string_position_m: float,
+             block_speed_mps: float) -> FloorCommand:
+        """Advance on the hook load [N], the string's position in the present string's
+        frame [m] and the block's speed from its encoder [m/s]."""
+        tension = hook_load_n - self.well.travelling_block_weight_n
+        step = self.sequencer.step(time_s, self.pulled_m + string_position_m, block_speed_mps,
+                                   tension)
+        racked_to = None
+        if step.stands_pulled != self.stands_pulled:
+            before_m = self.pulled_m
+            self.stands_pulled = step.stands_pulled
+            self._geometry = tripped_geometry(self.well, self.stands_pulled,
+                                              self.programme.stand_length_m)
+            self.sequencer.weight_n = self._weight_n()
+            racked_to = self.pulled_m
+            string_position_m = position_after_connection(string_position_m, before_m, racked_to)
+        if step.phase != self._phase:
+            self._phase = step.phase
+            self._phase_start_position_m = string_position_m
+        return FloorCommand(step, self._block_target_m(step.phase, string_position_m), racked_to)
+
+    def _block_target_m(self, phase: str, string_position_m: float) -> float:
+        held_at = self._phase_start_position_m
+        if phase == MOVING:
+            return math.nan
+        if phase == PICK_UP:
+            return held_at + self._geometry.static_stretch_m + LIFT_OVERTRAVEL_M
+        if phase == SET_SLIPS:
+            return held_at - SLACK_UNDERTRAVEL_M
+        if phase == CONNECTION:
+            sign = -1.0 if self.programme.direction == "out" else 1.0
+            return held_at + sign * self.programme.stand_length_m
+        return held_at
