@@ -39,7 +39,7 @@ def run_trip(well, direction, influx_m3_per_stand=0.0, stands_pulled=0):
     sequencer = StandSequencer(programme, buoyed_weight_n(geometry, well.gravity_mps2), 0.0,
                                stands_pulled)
     sheet = TripSheet(programme, StandVolumes.of(geometry, STAND_M), BAND_PA)
-    tank = TripTank(programme.trip_tank_area_m2, programme.trip_tank_volume_m3)
+    tank = TripTank(area_m2=1.0, volume_m3=6.0)
     x = v = u_b = 0.0
     tension = 0.0
     log, alarms, t = [], [], 0.0

@@ -1,5 +1,6 @@
 """What a multi-stand trip is asked to do: its direction, stands, connections, pump ramps
-and the trip tank it is watched on (a scenario's ``trip:`` mapping; SI units)."""
+and the trip sheet's alarm limit (a scenario's ``trip:`` mapping; SI units). The trip
+tank itself is the rig's (config/plant.yaml)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -25,10 +26,6 @@ class TripProgramme:
         "N", 0.0, 1.0e6, default=0.0,
         doc="the slips are pulled once the elevator carries the string's weight less this "
             "(0: once the line lifts the string off them, when they carry nothing)")
-    trip_tank_area_m2: float = param("m^2", 0.0, 50.0, lo_open=True, default=1.0,
-                                     doc="the trip tank's cross-section (level per volume)")
-    trip_tank_volume_m3: float = param("m^3", 0.0, 100.0, lo_open=True, default=6.0,
-                                       doc="the mud in the trip tank at the start")
     discrepancy_alarm_m3: float = param(
         "m^3", 0.0, 10.0, lo_open=True, default=0.3,
         doc="the trip sheet alarms when measured and expected fill differ by more")
