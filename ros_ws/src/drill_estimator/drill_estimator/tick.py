@@ -4,6 +4,12 @@ update over the actuator frames since the last sample (drill_estimator.model_inp
 the update with the measurement (the string-flow channel only while the meter reads). The
 first sample with finite readings initialises the filter. The estimator node and the
 in-process loop bench both run it.
+
+On a multi-stand trip the rig floor says two things the model must follow: while the
+slips hold the string the block moves free, so the model's block input is a virtual
+block that holds the estimated string at rest on the line (its position plus the static
+stretch) instead of the drawworks' output; and at a connection the string's position
+counts from the new top, so the estimate's position moves with it (``rack``).
 """
 from __future__ import annotations
 
@@ -16,8 +22,16 @@ import numpy as np
 from drill_core.channel_watch import ChannelWatch
 from drill_core.config import RigConfig
 from drill_core.estimation_model import MEASUREMENT_NAMES
+from drill_core.tripping.sequence import position_after_connection
 from drill_estimator.model_inputs import ModelInputs
 from drill_estimator.ukf import RigUkf, UpdateResult
+
+
+@dataclass(frozen=True)
+class _Frame:
+    """An actuator frame's two fields the inputs read."""
+    output: np.ndarray
+    reference: float
 
 
 @dataclass(frozen=True)
@@ -38,10 +52,28 @@ class EstimatorTick:
         self.inputs = ModelInputs(self.ukf.em, self.ukf.block_input,
                                   config.estimator.frozen_after_samples)
 
-    def step(self, time_s: float, m, frames: Mapping[str, object], steps: int) -> TickResult:
+    def rack(self, pulled_before_m: float, pulled_after_m: float) -> None:
+        """A connection has tripped the string from ``pulled_before_m`` to
+        ``pulled_after_m`` [m] pulled: the position counts from the new top."""
+        shift_m = position_after_connection(0.0, pulled_before_m, pulled_after_m)
+        if self.ukf.initialised:
+            self.ukf.recount_position(shift_m)
+        self.inputs.held[0] += shift_m
+
+    def _string_held(self, frames: Mapping[str, object], steps: int) -> dict:
+        """The frames with the drawworks' replaced by the virtual block: the estimated
+        string at rest on the line."""
+        em = self.ukf.em
+        block_m = self.ukf.mean[em.position] + em.wm.geometry.static_stretch_m
+        virtual = _Frame(np.full(steps, block_m), block_m)
+        return {**frames, "drawworks": virtual}
+
+    def step(self, time_s: float, m, frames: Mapping[str, object], steps: int,
+             string_held: bool = False) -> TickResult:
         """Take the measurement ``m`` (drill_msgs/RigMeasurement fields) at ``time_s`` after
         ``steps`` plant steps driven by ``frames`` (actuator name -> its frame: ``output``
-        samples and ``reference``; absent when it did not come)."""
+        samples and ``reference``; absent when it did not come); ``string_held``: the slips
+        held the string over those steps (the block free)."""
         circulating = bool(m.string_flow_valid)
         y, frozen = self.watch.screen(time_s, [
             m.block_position_m, m.choke_dp_pa, m.bhp_pa,
@@ -57,6 +89,8 @@ class EstimatorTick:
             self.inputs.start(x0, float(y[1]))
             self.inputs.observe_return_flow(time_s, m.return_flow_m3s, circulating)
             return TickResult(None, (), frozen)
+        if string_held:
+            frames = self._string_held(frames, steps)
         inputs, problems = self.inputs.frame(frames, steps)
         try:
             ukf.predict_frame(inputs)

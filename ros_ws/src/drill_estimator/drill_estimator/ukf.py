@@ -256,6 +256,14 @@ class RigUkf:
         return UpdateResult(True, names, innovation_scaled * yscale, nis, len(names),
                             bool(circulating), alarm, window_mean, dropped)
 
+    def recount_position(self, shift_m: float) -> None:
+        """The string's position counted from a frame ``shift_m`` [m] away (a stand racked
+        or made up: drill_core.tripping.sequence.position_after_connection): the mean's
+        position moves, nothing else does (the block integral's input moves with it)."""
+        step = shift_m / self.scale[self.em.position]
+        self._ukf.x[self.em.position] += step
+        self._x_good[self.em.position] += step
+
     # -------------------------------------------------------------- accessors
     @property
     def mean(self) -> np.ndarray:

@@ -1,0 +1,119 @@
+"""An in-process multi-stand trip of the truth plant (no ROS): the rig floor
+(drill_core.tripping.rig_floor) driving the drawworks and the mud pump
+(drill_plant.actuators), the plant (drill_plant.simulator) slipping, racking and filling
+from the trip tank, the trip sheet, and the estimator tick (drill_estimator.tick) told
+what the floor does, or not (``floor_aware``).
+
+The controller's parts are stand-ins until the node graph trips: the choke is held at its
+opening (nothing holds the BHP through a connection) and each stand's move follows a
+block reference at a fixed speed, braking at BRAKING_MPS2. A test bed for the floor, the
+plant and the estimator, not a result of any controller.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drill_core.config import RigConfig
+from drill_core.hydraulics import build_well_model
+from drill_core.tripping.programme import TripProgramme
+from drill_core.tripping.rig_floor import RigFloor
+from drill_core.tripping.sequence import DONE, MOVING
+from drill_core.tripping.stands import StandVolumes
+from drill_core.tripping.trip_sheet import TripSheet
+from drill_estimator.tick import EstimatorTick
+from drill_plant import plant_model as pm
+from drill_plant.actuators import Drawworks, FrameOutput, Pump
+from drill_plant.simulator import PlantSimulator
+
+CIRCULATION_M3S = 1000.0 / 60000.0
+CHOKE_DP_PA = 2.0e6
+BHP_REF_PA = 6.85e7
+BHP_BAND_PA = 2.0e5
+BRAKING_MPS2 = 0.05
+
+
+@dataclass
+class TripRun:
+    """A finished bench trip: the plant, the floor and the sheet as they ended, the sheet's
+    alarms, the per-sample log (arrays by name, SI) and the trip tank's settled draw."""
+    sim: PlantSimulator
+    floor: RigFloor
+    sheet: TripSheet
+    alarms: list
+    log: dict[str, np.ndarray] = field(default_factory=dict)
+    drawn_m3: float = math.nan      # the trip tank's volume before less after, settled [m^3]
+
+
+def run_trip(config: RigConfig, programme: TripProgramme, seed: int,
+             trip_speed_mps: float = 0.5, settle_s: float = 180.0,
+             floor_aware: bool = True, max_s: float = 7200.0) -> TripRun:
+    """The trip from the steady state circulating 1000 L/min at 20 bar of choke dp, then
+    ``settle_s`` at rest with the pump on; the estimator follows the floor if
+    ``floor_aware``."""
+    wm = build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
+                          config.plant.choke_regularisation_pa)
+    start = pm.steady_state(wm, CIRCULATION_M3S, CHOKE_DP_PA, 0.0)
+    sim = PlantSimulator(config, start, seed=seed)
+    sim.line_up_trip_tank(True)
+    steps, step_s = sim.steps_per_frame, config.plant.step_s
+    frame_s = steps * step_s
+    floor = RigFloor(config.well, programme, 0.0)
+    drawworks = Drawworks(config.actuators, wm.geometry.static_stretch_m, start.inputs[0])
+    spp_pa = start.inputs[3]
+    mud_pump = Pump(config.actuators.mud_pump, spp_pa)
+    estimator = EstimatorTick(config)
+    sheet = TripSheet(programme, StandVolumes.of(wm.geometry, programme.stand_length_m),
+                      BHP_BAND_PA)
+    u = start.inputs.copy()
+    reference_m, frames, string_held, settled_at = 0.0, {}, False, None
+    alarms, rows = [], []
+    tank_start_m3 = sim.measure(True).trip_tank_volume_m3
+    for k in range(int(round(max_s / frame_s))):
+        t = k * frame_s
+        m = sim.measure(sim.inputs[3] > 0.0)
+        command = floor.step(t, m.hook_load_n, m.block_position_m, drawworks.lag.rate_per_s)
+        step = command.step
+        estimator.step(t, m, frames, steps, string_held and floor_aware)
+        if command.racked_to_m is not None and floor_aware:
+            estimator.rack(command.racked_to_m - programme.stand_length_m * floor.sequencer.sign,
+                           command.racked_to_m)
+        alarms += sheet.observe(t, step, m.bhp_pa, BHP_REF_PA, m.trip_tank_volume_m3)
+        rows.append((t, step.stand, step.phase == MOVING, sim.line_tension_n(),
+                     sim.state[sim.layout.velocity],
+                     sim.wm.geometry.bit_above_bhp_node_m + sim.state[sim.layout.position],
+                     sim.state[sim.layout.pressure(wm.n)],
+                     estimator.ukf.bhp_pa if estimator.ukf.initialised else math.nan))
+        if step.phase == DONE:
+            settled_at = t + settle_s if settled_at is None else settled_at
+            if t >= settled_at:
+                break
+        if command.racked_to_m is not None:
+            sim.rack_string(command.racked_to_m)
+        sim.set_hoisting(step.latched, step.slips_set)
+        string_held = step.slips_set and step.phase != MOVING
+        if step.phase == MOVING:
+            target = step.bit_height_target_m - floor.pulled_m
+            gap = abs(target - reference_m)
+            speed = min(trip_speed_mps, math.sqrt(2.0 * BRAKING_MPS2 * gap))
+            reference_m += math.copysign(min(speed * frame_s, gap), target - reference_m)
+            block = drawworks.frame(reference_m, m.block_position_m, step_s, steps)
+        else:
+            reference_m = m.block_position_m
+            block = drawworks.drive_block(command.block_target_m if step.phase != DONE
+                                          else drawworks.lag.value, step_s, steps)
+        pump = mud_pump.frame(spp_pa * step.pump_factor, step_s, steps)
+        inputs = np.repeat(u[:, None], steps, axis=1)
+        inputs[0], inputs[3] = block.output, pump.output
+        sim.advance(inputs)
+        frames = {"drawworks": block, "mud_pump": pump,
+                  "choke": FrameOutput(u[1], u[1], inputs[1]),
+                  "bpp": FrameOutput(u[2], u[2], inputs[2])}
+    tank_end_m3 = float(np.mean([sim.measure(True).trip_tank_volume_m3 for _ in range(50)]))
+    names = ("time_s", "stand", "moving", "line_tension_n", "string_velocity_mps",
+             "bit_height_m", "bhp_pa", "bhp_estimate_pa")
+    log = {name: np.array(column) for name, column in zip(names, zip(*rows))}
+    return TripRun(sim, floor, sheet, alarms, log, tank_start_m3 - tank_end_m3)
+
