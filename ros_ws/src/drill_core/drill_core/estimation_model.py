@@ -225,16 +225,17 @@ class EstimationModel(WellboreLayout):
 
 
 def build_estimation_model(config: RigConfig, with_disturbance: bool = False,
-                           smoothing_mps: float | None = None) -> EstimationModel:
+                           smoothing_mps: float | None = None,
+                           pulled_m: float = 0.0) -> EstimationModel:
     """The shared model of ``config`` with the annular friction law of config/estimator.yaml;
     ``smoothing_mps`` the yield jump's smoothing velocity of scaled_rheology (None: the
     configured ``annular_friction_smoothing_mps``; the NMPC's prediction takes its wider
     ``nmpc.prediction_friction_smoothing_mps``). The bottom influx comes with the bulk
     modulus factor: both explain more return flow than the model's, and without the factor
     every pressure change on a mud softer than the report reads as an influx
-    (docs/mismatch.md)."""
+    (docs/mismatch.md). ``pulled_m``: the string that much shorter (drill_core.well)."""
     wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa)
+                             config.plant.choke_regularisation_pa, pulled_m)
     est = config.estimator
     law = est.annular_friction_law                # validated by the config (FRICTION_LAWS)
     smoothing = est.annular_friction_smoothing_mps if smoothing_mps is None else smoothing_mps

@@ -8,8 +8,9 @@ in-process loop bench both run it.
 On a multi-stand trip the rig floor says two things the model must follow: while the
 slips hold the string the block moves free, so the model's block input is a virtual
 block that holds the estimated string at rest on the line (its position plus the static
-stretch) instead of the drawworks' output; and at a connection the string's position
-counts from the new top, so the estimate's position moves with it (``rack``).
+stretch) instead of the drawworks' output; and at a connection the string is a stand
+shorter or longer, so the model becomes the new string's and the estimate's position
+counts from its new top (``rack``).
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ import numpy as np
 
 from drill_core.channel_watch import ChannelWatch
 from drill_core.config import RigConfig
-from drill_core.estimation_model import MEASUREMENT_NAMES
+from drill_core.estimation_model import MEASUREMENT_NAMES, build_estimation_model
 from drill_core.tripping.sequence import position_after_connection
 from drill_estimator.model_inputs import ModelInputs
 from drill_estimator.ukf import RigUkf, UpdateResult
@@ -47,6 +48,7 @@ class EstimatorTick:
     """The UKF with its channel screen and input history, one sample at a time."""
 
     def __init__(self, config: RigConfig):
+        self.config = config
         self.ukf = RigUkf(config)
         self.watch = ChannelWatch(MEASUREMENT_NAMES, config.estimator.frozen_after_samples)
         self.inputs = ModelInputs(self.ukf.em, self.ukf.block_input,
@@ -54,11 +56,16 @@ class EstimatorTick:
 
     def rack(self, pulled_before_m: float, pulled_after_m: float) -> None:
         """A connection has tripped the string from ``pulled_before_m`` to
-        ``pulled_after_m`` [m] pulled: the position counts from the new top."""
+        ``pulled_after_m`` [m] pulled: the model is the new string's from the next frame
+        on, and the position counts from its top."""
         shift_m = position_after_connection(0.0, pulled_before_m, pulled_after_m)
         if self.ukf.initialised:
             self.ukf.recount_position(shift_m)
         self.inputs.held[0] += shift_m
+        em = build_estimation_model(self.config, self.ukf.em.with_disturbance,
+                                    pulled_m=pulled_after_m)
+        self.ukf.use_model(em)
+        self.inputs.em = em
 
     def _string_held(self, frames: Mapping[str, object], steps: int) -> dict:
         """The frames with the drawworks' replaced by the virtual block: the estimated

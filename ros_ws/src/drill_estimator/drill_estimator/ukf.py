@@ -95,16 +95,9 @@ class RigUkf:
         self.model_step_s = config.plant.sensor_period_s / est.model_steps_per_frame   # RK4 step
         self.scale = em.state_scale()
 
-        # discrete model on scaled states: one RK4 model step, chained per interval
         self._n_sigma = 2 * self.n_x + 1
         self._jit = est.jit if jit is None else jit       # compile the time update
-        F = build_discrete_model(em, self.model_step_s, 1, "rk4")
-        s, u = ca.SX.sym("s", self.n_x), ca.SX.sym("u", 4)
-        scale = ca.DM(self.scale)
-        x = s * scale
-        self._step = ca.Function("ukf_step", [s, u], [F(x, self._model_input(x, u)) / scale])
-        self._transition: dict[int, ca.Function] = {}
-        self._transition_for(self.model_steps_per_frame)
+        self._build_transition()
 
         # measurement model: channel -> state index; scaled like the state
         self._y_index, self._y_offset = measurement_map(em)
@@ -255,6 +248,26 @@ class RigUkf:
         self._project()
         return UpdateResult(True, names, innovation_scaled * yscale, nis, len(names),
                             bool(circulating), alarm, window_mean, dropped)
+
+    def _build_transition(self) -> None:
+        """The discrete model on scaled states: one RK4 model step of ``em``, chained per
+        interval (the frame's transition built now, others on first use)."""
+        F = build_discrete_model(self.em, self.model_step_s, 1, "rk4")
+        s, u = ca.SX.sym("s", self.n_x), ca.SX.sym("u", 4)
+        scale = ca.DM(self.scale)
+        x = s * scale
+        self._step = ca.Function("ukf_step", [s, u], [F(x, self._model_input(x, u)) / scale])
+        self._transition: dict[int, ca.Function] = {}
+        self._transition_for(self.model_steps_per_frame)
+
+    def use_model(self, em: EstimationModel) -> None:
+        """Predict with ``em`` from the next frame on: the same states (a string tripped to
+        another length, drill_core.well.build_geometry); the mean, the covariance, the
+        tuning and the scaling carry over."""
+        if em.names != self.em.names:
+            raise ValueError(f"a model with other states: {em.names} for {self.em.names}")
+        self.em = em
+        self._build_transition()
 
     def recount_position(self, shift_m: float) -> None:
         """The string's position counted from a frame ``shift_m`` [m] away (a stand racked
