@@ -12,6 +12,7 @@ plant and the estimator, not a result of any controller.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,20 +38,22 @@ BRAKING_MPS2 = 0.05
 
 @dataclass
 class TripRun:
-    """A finished bench trip: the plant, the floor and the sheet as they ended, the sheet's
-    alarms, the per-sample log (arrays by name, SI) and the trip tank's settled draw."""
+    """A finished bench trip: the plant and the last floor as they ended, a trip sheet per
+    programme, their alarms, the per-sample log (arrays by name, SI) and the trip tank's
+    settled draw."""
     sim: PlantSimulator
     floor: RigFloor
-    sheet: TripSheet
+    sheets: list[TripSheet]
     alarms: list
     log: dict[str, np.ndarray] = field(default_factory=dict)
     drawn_m3: float = math.nan      # the trip tank's volume before less after, settled [m^3]
 
 
-def run_trip(config: RigConfig, programme: TripProgramme, seed: int,
+def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
              trip_speed_mps: float = 0.5, settle_s: float = 180.0,
              floor_aware: bool = True, max_s: float = 7200.0) -> TripRun:
-    """The trip from the steady state circulating 1000 L/min at 20 bar of choke dp, then
+    """The trips ``programmes`` one after the other (each from the stands the last left
+    pulled) from the steady state circulating 1000 L/min at 20 bar of choke dp, then
     ``settle_s`` at rest with the pump on; the estimator follows the floor if
     ``floor_aware``."""
     wm = build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
@@ -60,13 +63,14 @@ def run_trip(config: RigConfig, programme: TripProgramme, seed: int,
     sim.line_up_trip_tank(True)
     steps, step_s = sim.steps_per_frame, config.plant.step_s
     frame_s = steps * step_s
-    floor = RigFloor(config.well, programme, 0.0)
+    remaining = list(programmes)
+    floor = RigFloor(config.well, remaining.pop(0), 0.0)
     drawworks = Drawworks(config.actuators, wm.geometry.static_stretch_m, start.inputs[0])
     spp_pa = start.inputs[3]
     mud_pump = Pump(config.actuators.mud_pump, spp_pa)
     estimator = EstimatorTick(config)
-    sheet = TripSheet(programme, StandVolumes.of(wm.geometry, programme.stand_length_m),
-                      BHP_BAND_PA)
+    volumes = StandVolumes.of(wm.geometry, floor.programme.stand_length_m)
+    sheets = [TripSheet(floor.programme, volumes, BHP_BAND_PA)]
     u = start.inputs.copy()
     reference_m, frames, string_held, settled_at = 0.0, {}, False, None
     alarms, rows = [], []
@@ -75,12 +79,19 @@ def run_trip(config: RigConfig, programme: TripProgramme, seed: int,
         t = k * frame_s
         m = sim.measure(sim.inputs[3] > 0.0)
         command = floor.step(t, m.hook_load_n, m.block_position_m, drawworks.lag.rate_per_s)
+        if command.step.phase == DONE and remaining:
+            alarms += sheets[-1].observe(t, command.step, m.bhp_pa, BHP_REF_PA,
+                                         m.trip_tank_volume_m3)
+            floor = RigFloor(config.well, remaining.pop(0), t, floor.stands_pulled)
+            sheets.append(TripSheet(floor.programme, volumes, BHP_BAND_PA))
+            command = floor.step(t, m.hook_load_n, m.block_position_m, drawworks.lag.rate_per_s)
         step = command.step
         estimator.step(t, m, frames, steps, string_held and floor_aware)
         if command.racked_to_m is not None and floor_aware:
-            estimator.rack(command.racked_to_m - programme.stand_length_m * floor.sequencer.sign,
+            estimator.rack(command.racked_to_m
+                           - floor.programme.stand_length_m * floor.sequencer.sign,
                            command.racked_to_m)
-        alarms += sheet.observe(t, step, m.bhp_pa, BHP_REF_PA, m.trip_tank_volume_m3)
+        alarms += sheets[-1].observe(t, step, m.bhp_pa, BHP_REF_PA, m.trip_tank_volume_m3)
         rows.append((t, step.stand, step.phase == MOVING, sim.line_tension_n(),
                      sim.state[sim.layout.velocity],
                      sim.wm.geometry.bit_above_bhp_node_m + sim.state[sim.layout.position],
@@ -115,5 +126,5 @@ def run_trip(config: RigConfig, programme: TripProgramme, seed: int,
     names = ("time_s", "stand", "moving", "line_tension_n", "string_velocity_mps",
              "bit_height_m", "bhp_pa", "bhp_estimate_pa")
     log = {name: np.array(column) for name, column in zip(names, zip(*rows))}
-    return TripRun(sim, floor, sheet, alarms, log, tank_start_m3 - tank_end_m3)
+    return TripRun(sim, floor, sheets, alarms, log, tank_start_m3 - tank_end_m3)
 
