@@ -209,6 +209,23 @@ class Supervisor:
             lo, hi = min(lo, float(u_prev[U_BLOCK])), max(hi, float(u_prev[U_BLOCK]))
         return lo, hi
 
+    def carried_integral(self, integral, y_now, dp_band, bhp_band) -> np.ndarray:
+        """NMPC1's integral states one sample on: the estimated error *outside the band*
+        (the part the model failed to prevent) integrated, so riding the band edge on
+        purpose does not wind it up and a persistent model bias does; clamped. Back inside
+        its band an output's integral leaks away: what a transient (a start off the
+        reference) wound up must not hold the output at the band's other edge until it has
+        been paid back."""
+        pb = self.problem
+        bands = {1: dp_band, 2: bhp_band}
+        err = np.array([(y_now[i] - min(max(y_now[i], bands[i][0]), bands[i][1]))
+                        / pb.y_span[i] for i in INTEGRAL_OUTPUTS])
+        leak = math.exp(-pb.ts / self.cfg.integral_leak_time_s) \
+            if self.cfg.integral_leak_time_s > 0.0 else 1.0
+        kept = np.where(err == 0.0, leak, 1.0)
+        return np.clip(kept * integral + pb.ts * err,
+                       -self.cfg.integral_limit_s, self.cfg.integral_limit_s)
+
     def block_profile(self, position_m: float, target_m: float, speed_mps: float) -> np.ndarray:
         """Block-position reference over the horizon (block_reference profile): the trip's
         motion profile (drill_nmpc.motion_profile) toward the target at the speed limit and
@@ -304,20 +321,7 @@ class Supervisor:
         if self.cfg.block_reference == "profile":
             y_ref[:, 0] = self.block_profile(float(x[self.em.position]), float(y_sp[0]), vlim)
         if pb.ne:
-            # NMPC1: integrate the estimated error *outside the band* (the part the model
-            # failed to prevent): riding the band edge on purpose does not wind it up, a
-            # persistent model bias does; clamped.
-            bands = {1: dp_band, 2: bhp_band}
-            err = np.array([(y_now[i] - min(max(y_now[i], bands[i][0]), bands[i][1]))
-                            / pb.y_span[i] for i in INTEGRAL_OUTPUTS])
-            # back inside its band, an output's integral leaks away: what a transient (a
-            # start off the reference) wound up must not hold the output at the band's
-            # other edge until it has been paid back
-            leak = math.exp(-pb.ts / self.cfg.integral_leak_time_s) \
-                if self.cfg.integral_leak_time_s > 0.0 else 1.0
-            kept = np.where(err == 0.0, leak, 1.0)
-            self.integral = np.clip(kept * self.integral + pb.ts * err,
-                                    -self.cfg.integral_limit_s, self.cfg.integral_limit_s)
+            self.integral = self.carried_integral(self.integral, y_now, dp_band, bhp_band)
         u_ref = np.array([y_sp[0], u_prev[U_CHOKE], 0.0, self.spp_nominal])
         if self._predicted_bhp is not None:
             # offset-free: integrate the error of the last one-step BHP prediction
