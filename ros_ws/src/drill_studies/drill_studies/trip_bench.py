@@ -4,10 +4,15 @@
 from the trip tank, the trip sheet, and the estimator tick (drill_estimator.tick) told
 what the floor does, or not (``floor_aware``).
 
-The controller's parts are stand-ins until the node graph trips: the choke is held at its
-opening (nothing holds the BHP through a connection) and each stand's move follows a
-block reference at a fixed speed, braking at BRAKING_MPS2. A test bed for the floor, the
-plant and the estimator, not a result of any controller.
+The controller (``controller``): ``held_choke``, the choke held at its opening (nothing
+holds the BHP through a connection) and each stand's move on a block reference at a fixed
+speed, braking at BRAKING_MPS2; or ``baseline``, the PI baseline's tick
+(drill_nmpc.advisor_ticks.BaselineTick) once a second on the measured BHP and position,
+its choke-flow reference through the choke's flow loop (drill_plant.actuators.Choke), its
+fixed-speed ramp for the moves (re-started from the measured string while the floor has
+the block), the back-pressure pump idle. A test bed for the floor, the plant and the
+estimator and a first look at a controller through connections, not a substitute for the
+node graph (no process protection, no DDS).
 """
 from __future__ import annotations
 
@@ -24,9 +29,11 @@ from drill_core.tripping.rig_floor import RigFloor
 from drill_core.tripping.sequence import DONE, MOVING
 from drill_core.tripping.stands import StandVolumes
 from drill_core.tripping.trip_sheet import TripSheet
+from drill_core.scenario import ActiveSetpoints
 from drill_estimator.tick import EstimatorTick
+from drill_nmpc.advisor_ticks import BaselineTick, StartInputs
 from drill_plant import plant_model as pm
-from drill_plant.actuators import Drawworks, FrameOutput, Pump
+from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
 from drill_plant.simulator import PlantSimulator
 
 CIRCULATION_M3S = 1000.0 / 60000.0
@@ -34,6 +41,7 @@ CHOKE_DP_PA = 2.0e6
 BHP_REF_PA = 6.85e7
 BHP_BAND_PA = 2.0e5
 BRAKING_MPS2 = 0.05
+CONTROLLERS = ("held_choke", "baseline")
 
 
 @dataclass
@@ -51,11 +59,14 @@ class TripRun:
 
 def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
              trip_speed_mps: float = 0.5, settle_s: float = 180.0,
-             floor_aware: bool = True, max_s: float = 7200.0) -> TripRun:
+             floor_aware: bool = True, max_s: float = 7200.0,
+             controller: str = "held_choke") -> TripRun:
     """The trips ``programmes`` one after the other (each from the stands the last left
     pulled) from the steady state circulating 1000 L/min at 20 bar of choke dp, then
     ``settle_s`` at rest with the pump on; the estimator follows the floor if
-    ``floor_aware``."""
+    ``floor_aware``; ``controller`` one of CONTROLLERS."""
+    if controller not in CONTROLLERS:
+        raise ValueError(f"controller {controller!r} is not one of {', '.join(CONTROLLERS)}")
     wm = build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                           config.plant.choke_regularisation_pa)
     start = pm.steady_state(wm, CIRCULATION_M3S, CHOKE_DP_PA, 0.0)
@@ -69,6 +80,13 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     spp_pa = start.inputs[3]
     mud_pump = Pump(config.actuators.mud_pump, spp_pa)
     estimator = EstimatorTick(config)
+    choke = Choke(config.actuators, wm, float(start.inputs[1]))
+    baseline = BaselineTick(config, trip_speed_mps, StartInputs(
+        start.choke_flow_m3s, CHOKE_DP_PA, 0.0, spp_pa, True)) \
+        if controller == "baseline" else None
+    per_command = int(round(config.nmpc.sample_time_s / (config.plant.steps_per_frame
+                                                        * config.plant.step_s)))
+    advice = None
     volumes = StandVolumes.of(wm.geometry, floor.programme.stand_length_m)
     sheets = [TripSheet(floor.programme, volumes, BHP_BAND_PA)]
     u = start.inputs.copy()
@@ -105,8 +123,17 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
             sim.rack_string(command.racked_to_m)
         sim.set_hoisting(step.latched, step.slips_set)
         string_held = step.slips_set and step.phase != MOVING
-        if step.phase == MOVING:
-            target = step.bit_height_target_m - floor.pulled_m
+        target = step.bit_height_target_m - floor.pulled_m
+        if baseline is not None and k % per_command == 0:
+            if step.phase != MOVING:
+                baseline.controller.block_ref_m = m.block_position_m
+            advice, _ = baseline.step(m.block_position_m, m.bhp_pa, _setpoints(
+                target if step.phase == MOVING else m.block_position_m, trip_speed_mps),
+                True, math.nan)
+        if step.phase == MOVING and baseline is not None:
+            block = drawworks.frame(advice.block_position_ref_m, m.block_position_m, step_s,
+                                    steps)
+        elif step.phase == MOVING:
             gap = abs(target - reference_m)
             speed = min(trip_speed_mps, math.sqrt(2.0 * BRAKING_MPS2 * gap))
             reference_m += math.copysign(min(speed * frame_s, gap), target - reference_m)
@@ -117,10 +144,13 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
                                           else drawworks.lag.value, step_s, steps)
         pump = mud_pump.frame(spp_pa * step.pump_factor, step_s, steps)
         inputs = np.repeat(u[:, None], steps, axis=1)
-        inputs[0], inputs[3] = block.output, pump.output
+        valve = FrameOutput(u[1], u[1], inputs[1])
+        if baseline is not None:
+            valve = choke.frame(advice.choke_flow_ref_m3s, m.choke_dp_pa, step_s, steps,
+                                return_flow_m3s=m.return_flow_m3s)
+        inputs[0], inputs[1], inputs[3] = block.output, valve.output, pump.output
         sim.advance(inputs)
-        frames = {"drawworks": block, "mud_pump": pump,
-                  "choke": FrameOutput(u[1], u[1], inputs[1]),
+        frames = {"drawworks": block, "mud_pump": pump, "choke": valve,
                   "bpp": FrameOutput(u[2], u[2], inputs[2])}
     tank_end_m3 = float(np.mean([sim.measure(True).trip_tank_volume_m3 for _ in range(50)]))
     names = ("time_s", "stand", "moving", "line_tension_n", "string_velocity_mps",
@@ -128,3 +158,11 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     log = {name: np.array(column) for name, column in zip(names, zip(*rows))}
     return TripRun(sim, floor, sheets, alarms, log, tank_start_m3 - tank_end_m3)
 
+
+def _setpoints(block_target_m: float, trip_speed_mps: float) -> ActiveSetpoints:
+    """Case 2's setpoints with the stand's block target (the string's frame)."""
+    return ActiveSetpoints(bhp_ref_pa=BHP_REF_PA, bhp_band_pa=BHP_BAND_PA,
+                           choke_dp_ref_pa=CHOKE_DP_PA, choke_dp_band_pa=5.0e5,
+                           block_position_target_m=block_target_m,
+                           trip_speed_limit_mps=trip_speed_mps, controller_enabled=True,
+                           mud_pump_on=True)
