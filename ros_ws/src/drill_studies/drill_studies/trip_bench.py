@@ -13,22 +13,31 @@ fixed-speed ramp for the moves (re-started from the measured string while the fl
 the block), the back-pressure pump idle. A test bed for the floor, the plant and the
 estimator and a first look at a controller through connections, not a substitute for the
 node graph (no process protection, no DDS).
+
+    python -m drill_studies.trip_bench [--stands 2] [--round-trip] [--controller baseline]
+                                       [--connection-s 90] [--settle-s 180] [--seed 12]
+
+prints the trip sheet (per stand, slips to slips) and the trip's figures.
 """
 from __future__ import annotations
 
+import argparse
 import math
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from drill_core.config import RigConfig
+from drill_core.config import RigConfig, load_rig
 from drill_core.hydraulics import build_well_model
 from drill_core.tripping.programme import TripProgramme
 from drill_core.tripping.rig_floor import RigFloor
 from drill_core.tripping.sequence import DONE, MOVING
 from drill_core.tripping.stands import StandVolumes
-from drill_core.tripping.trip_sheet import TripSheet
+from drill_core.tripping.trip_sheet import TripSheet, stands_per_hour
+from drill_core.rig_root import config_dir
+from drill_core.units import L_PER_M3, PA_PER_BAR
 from drill_core.scenario import ActiveSetpoints
 from drill_estimator.tick import EstimatorTick
 from drill_nmpc.advisor_ticks import BaselineTick, StartInputs
@@ -166,3 +175,72 @@ def _setpoints(block_target_m: float, trip_speed_mps: float) -> ActiveSetpoints:
                            block_position_target_m=block_target_m,
                            trip_speed_limit_mps=trip_speed_mps, controller_enabled=True,
                            mud_pump_on=True)
+
+
+def trip_figures(run: TripRun, pore_pressure_pa: float) -> dict[str, float]:
+    """The trip's figures from the first stand's start to the last one's end (SI)."""
+    rows = [row for sheet in run.sheets for row in sheet.rows]
+    t = run.log["time_s"]
+    during = (t >= rows[0].start_s) & (t <= rows[-1].end_s)
+    bhp = run.log["bhp_pa"][during]
+    frame_s = float(t[1] - t[0])
+    truth = run.sim.truth()
+    return {"stands_per_hour": stands_per_hour(rows),
+            "bhp_rmse_pa": float(np.sqrt(np.mean((bhp - BHP_REF_PA) ** 2))),
+            "outside_band_s": frame_s * float(np.sum(np.abs(bhp - BHP_REF_PA) > BHP_BAND_PA)),
+            "bhp_min_pa": float(bhp.min()), "bhp_max_pa": float(bhp.max()),
+            "under_pore_pressure_s": frame_s * float(np.sum(bhp < pore_pressure_pa)),
+            "influx_m3": truth.influx_volume_m3, "loss_m3": truth.loss_volume_m3,
+            "trip_tank_drawn_m3": run.drawn_m3,
+            "trip_sheet_gain_m3": sum(sheet.cumulative_gain_m3 for sheet in run.sheets)}
+
+
+def sheet_table(run: TripRun) -> list[str]:
+    """The trip sheet as a markdown table (display units: s, bar, L)."""
+    lines = ["| trip | stand | slips to slips [s] | out of slips [s] | peak surge / swab [bar] "
+             "| outside band [s] | expected / measured fill [L] | gain, running [L] |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for sheet in run.sheets:
+        for row in sheet.rows:
+            lines.append(
+                f"| {sheet.programme.direction} | {row.stand} | {row.end_s - row.start_s:.0f} "
+                f"| {row.out_of_slips_s:.0f} | {row.peak_surge_pa / PA_PER_BAR:.2f} / "
+                f"{row.peak_swab_pa / PA_PER_BAR:.2f} | {row.outside_band_s:.0f} "
+                f"| {row.expected_fill_m3 * L_PER_M3:.0f} / {row.measured_fill_m3 * L_PER_M3:.0f} "
+                f"| {row.gain_m3 * L_PER_M3:+.0f}, {row.cumulative_gain_m3 * L_PER_M3:+.0f} |")
+    return lines
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m drill_studies.trip_bench",
+                                     description=__doc__.splitlines()[0])
+    parser.add_argument("--stands", type=int, default=2)
+    parser.add_argument("--round-trip", action="store_true",
+                        help="pull the stands out, then run them back in")
+    parser.add_argument("--controller", choices=CONTROLLERS, default="held_choke")
+    parser.add_argument("--connection-s", type=float, default=90.0,
+                        help="slips to slips of each connection [s]")
+    parser.add_argument("--settle-s", type=float, default=180.0,
+                        help="at rest after the trip, the pump on, before the tank is read [s]")
+    parser.add_argument("--seed", type=int, default=12)
+    args = parser.parse_args(argv)
+    config = load_rig(config_dir())
+    directions = ("out", "in") if args.round_trip else ("out",)
+    programmes = [TripProgramme(direction=d, stands=args.stands,
+                                connection_s=args.connection_s) for d in directions]
+    run = run_trip(config, programmes, args.seed, settle_s=args.settle_s,
+                   controller=args.controller)
+    print("\n".join(sheet_table(run)) + "\n")
+    f = trip_figures(run, config.well.formation.pore_pressure_pa)
+    print(f"stands per hour {f['stands_per_hour']:.1f}; BHP RMSE {f['bhp_rmse_pa'] / PA_PER_BAR:.2f} "
+          f"bar, {f['outside_band_s']:.0f} s outside the band, "
+          f"{f['bhp_min_pa'] / PA_PER_BAR:.1f}-{f['bhp_max_pa'] / PA_PER_BAR:.1f} bar, "
+          f"{f['under_pore_pressure_s']:.0f} s under the pore pressure; influx "
+          f"{f['influx_m3'] * L_PER_M3:.0f} L, losses {f['loss_m3'] * L_PER_M3:.0f} L; trip "
+          f"tank {f['trip_tank_drawn_m3'] * L_PER_M3:.0f} L drawn ({args.settle_s:.0f} s "
+          f"after), the sheet's gain {f['trip_sheet_gain_m3'] * L_PER_M3:+.0f} L")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

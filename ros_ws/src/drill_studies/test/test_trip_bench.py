@@ -123,3 +123,12 @@ def test_the_pi_baselines_choke_traps_some_pressure_through_a_connection(one_sta
     assert pi.floor.stands_pulled == 1
     assert pi.sim.truth().influx_volume_m3 < 0.5 * held.sim.truth().influx_volume_m3
     assert pi.log["bhp_pa"].min() > held.log["bhp_pa"].min()
+
+
+def test_the_command_prints_the_trip_sheet_and_the_figures(capsys):
+    from drill_studies.trip_bench import main
+    assert main(["--stands", "1", "--connection-s", "30", "--settle-s", "10"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("| trip | stand | slips to slips [s]")
+    assert out[2].startswith("| out | 1 | ") and out[3] == ""
+    assert out[4].startswith("stands per hour ") and "L drawn (10 s after)" in out[4]
