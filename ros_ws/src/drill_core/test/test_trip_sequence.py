@@ -169,3 +169,16 @@ def test_running_in_makes_up_before_each_stand_and_the_tank_gets_the_steel_back(
         assert row.expected_fill_m3 == -steel
         assert abs(row.gain_m3) < 1e-3
     assert alarms == []
+
+
+def test_a_connection_waits_for_the_block_at_the_new_top(well):
+    """The elevator latches only where the string is: past its programmed time a
+    connection goes on until the floor says the block is at the new top."""
+    programme = TripProgramme(direction="in", stands=1, connection_s=90.0, pump_ramp_down_s=30.0)
+    sequencer = StandSequencer(programme, 1.0e6, 0.0, stands_pulled=1)
+    assert sequencer.step(0.0, STAND_M, 0.0, 0.0).phase == PUMP_DOWN
+    assert sequencer.step(30.0, STAND_M, 0.0, 0.0).phase == CONNECTION
+    late = sequencer.step(300.0, STAND_M, 0.0, 0.0, block_ready=False)
+    assert late.phase == CONNECTION and late.stands_pulled == 1 and not late.latched
+    ready = sequencer.step(300.1, STAND_M, 0.0, 0.0, block_ready=True)
+    assert ready.phase == PUMP_UP and ready.stands_pulled == 0 and ready.latched

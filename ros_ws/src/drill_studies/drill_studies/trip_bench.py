@@ -105,13 +105,15 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     for k in range(int(round(max_s / frame_s))):
         t = k * frame_s
         m = sim.measure(sim.inputs[3] > 0.0)
-        command = floor.step(t, m.hook_load_n, m.block_position_m, drawworks.lag.rate_per_s)
+        command = floor.step(t, m.hook_load_n, m.block_position_m, drawworks.lag.value,
+                             drawworks.lag.rate_per_s)
         if command.step.phase == DONE and remaining:
             alarms += sheets[-1].observe(t, command.step, m.bhp_pa, BHP_REF_PA,
                                          m.trip_tank_volume_m3)
             floor = RigFloor(config.well, remaining.pop(0), t, floor.stands_pulled)
             sheets.append(TripSheet(floor.programme, volumes, BHP_BAND_PA))
-            command = floor.step(t, m.hook_load_n, m.block_position_m, drawworks.lag.rate_per_s)
+            command = floor.step(t, m.hook_load_n, m.block_position_m, drawworks.lag.value,
+                                 drawworks.lag.rate_per_s)
         step = command.step
         estimator.step(t, m, frames, steps, string_held and floor_aware)
         if command.racked_to_m is not None and floor_aware:

@@ -26,6 +26,8 @@ from drill_core.tripping.stands import tripped_geometry
 
 LIFT_OVERTRAVEL_M = 0.10     # picking up, the block aims this far past the string's stretch
 SLACK_UNDERTRAVEL_M = 0.05   # slacking off, this far below the string's top
+LATCH_TOLERANCE_M = 0.05     # a connection ends with the block this close to the new top ...
+LATCH_SPEED_MPS = 0.01       # ... and this slow
 
 
 @dataclass(frozen=True)
@@ -57,12 +59,19 @@ class RigFloor:
         return buoyed_weight_n(self._geometry, self.well.gravity_mps2)
 
     def step(self, time_s: float, hook_load_n: float, string_position_m: float,
-             block_speed_mps: float) -> FloorCommand:
+             block_position_m: float, block_speed_mps: float) -> FloorCommand:
         """Advance on the hook load [N], the string's position in the present string's
-        frame [m] and the block's speed from its encoder [m/s]."""
+        frame [m] and the block's position and speed from its encoder [m, m/s]. A
+        connection lasts its programmed time and until the block has reached the new top
+        of the string (its travel of a stand may take longer)."""
         tension = hook_load_n - self.well.travelling_block_weight_n
+        ready = True
+        if self._phase == CONNECTION:
+            target = self._block_target_m(CONNECTION, string_position_m)
+            ready = (abs(block_position_m - target) <= LATCH_TOLERANCE_M
+                     and abs(block_speed_mps) <= LATCH_SPEED_MPS)
         step = self.sequencer.step(time_s, self.pulled_m + string_position_m, block_speed_mps,
-                                   tension)
+                                   tension, ready)
         racked_to = None
         if step.stands_pulled != self.stands_pulled:
             before_m = self.pulled_m

@@ -67,7 +67,7 @@ class StandSequencer:
         return (self.stands_pulled + ahead) * self.programme.stand_length_m
 
     def _finished(self, time_s: float, bit_height_m: float, velocity_mps: float,
-                  line_tension_n: float) -> bool:
+                  line_tension_n: float, block_ready: bool) -> bool:
         p, elapsed = self.programme, time_s - self.phase_start_s
         phase = self.phase
         if phase == PICK_UP:
@@ -77,6 +77,8 @@ class StandSequencer:
                     and abs(velocity_mps) <= AT_REST_MPS)
         if phase == SET_SLIPS:
             return line_tension_n <= SLACK_N
+        if phase == CONNECTION and not block_ready:
+            return False
         duration = {PUMP_DOWN: p.pump_ramp_down_s, CONNECTION: p.connection_s,
                     PUMP_UP: p.pump_ramp_up_s}[phase]
         return elapsed >= duration
@@ -106,12 +108,14 @@ class StandSequencer:
         return 1.0
 
     def step(self, time_s: float, bit_height_m: float, velocity_mps: float,
-             line_tension_n: float) -> TripStep:
+             line_tension_n: float, block_ready: bool = True) -> TripStep:
         """Advance on the tick's measurements: ``bit_height_m`` the bit's height over the
         BHP node (stands pulled plus the string's position) [m], ``velocity_mps`` (+ up)
-        [m/s], ``line_tension_n`` what the elevator carries [N]."""
+        [m/s], ``line_tension_n`` what the elevator carries [N]; ``block_ready``: the block
+        is at the new top of the string, so a connection may end (the elevator latches
+        there and nowhere else)."""
         if self.phase != DONE and self._finished(time_s, bit_height_m, velocity_mps,
-                                                 line_tension_n):
+                                                 line_tension_n, block_ready):
             self._advance(time_s)
         phase = self.phase
         return TripStep(phase=phase, stand=min(self.stand, self.programme.stands),
