@@ -166,14 +166,18 @@ class UkfState:
 
     def observe(self, m, inputs, t: float) -> tuple[EstimateView, np.ndarray]:
         self.tick.step(t, m, self.rig.frames, self.rig.steps)
-        ukf = self.tick.ukf
-        x = ukf.mean
-        return EstimateView(bhp_pa=ukf.bhp_pa, string_position_m=float(x[ukf.em.position]),
-                            string_velocity_mps=float(x[ukf.em.velocity]),
-                            string_flow_m3s=float(x[ukf.em.string_flow]),
-                            friction_factor=tuple(float(v) for v in ukf.theta),
-                            density_offset_kgm3=float(ukf.em.density_offset_of(x)),
-                            string_flow_observable=bool(m.string_flow_valid)), ukf.mean
+        return ukf_view(self.tick.ukf, bool(m.string_flow_valid)), self.tick.ukf.mean
+
+
+def ukf_view(ukf, string_flow_observable: bool) -> EstimateView:
+    """What automated MPD reads of the UKF's estimate, as its node reads the message."""
+    x = ukf.mean
+    return EstimateView(bhp_pa=ukf.bhp_pa, string_position_m=float(x[ukf.em.position]),
+                        string_velocity_mps=float(x[ukf.em.velocity]),
+                        string_flow_m3s=float(x[ukf.em.string_flow]),
+                        friction_factor=tuple(float(v) for v in ukf.theta),
+                        density_offset_kgm3=float(ukf.em.density_offset_of(x)),
+                        string_flow_observable=string_flow_observable)
 
 
 class NmpcController:

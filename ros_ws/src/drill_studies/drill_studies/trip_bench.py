@@ -12,7 +12,10 @@ its choke-flow reference through the choke's flow loop (drill_plant.actuators.Ch
 fixed-speed ramp for the moves (re-started from the measured string while the floor has
 the block), the back-pressure pump idle. A test bed for the floor, the plant and the
 estimator and a first look at a controller through connections, not a substitute for the
-node graph (no process protection, no DDS).
+node graph (no process protection, no DDS). ``automated_mpd``: its tick
+(drill_nmpc.advisor_ticks.AutomatedMpdTick) once a second on the UKF's estimate, its
+choke on the choke's pressure loop, its profile for the moves (re-started from the
+measured string while the floor has the block), its model the full string's.
 
     python -m drill_studies.trip_bench [--stands 2] [--round-trip] [--controller baseline]
                                        [--connection-s 90] [--settle-s 180] [--seed 12]
@@ -40,7 +43,9 @@ from drill_core.rig_root import config_dir
 from drill_core.units import L_PER_M3, PA_PER_BAR
 from drill_core.scenario import ActiveSetpoints
 from drill_estimator.tick import EstimatorTick
-from drill_nmpc.advisor_ticks import BaselineTick, StartInputs
+from drill_studies.loop_bench import ukf_view
+from drill_core.estimation_model import build_estimation_model
+from drill_nmpc.advisor_ticks import AutomatedMpdTick, BaselineTick, StartInputs
 from drill_plant import plant_model as pm
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
 from drill_plant.simulator import PlantSimulator
@@ -50,7 +55,7 @@ CHOKE_DP_PA = 2.0e6
 BHP_REF_PA = 6.85e7
 BHP_BAND_PA = 2.0e5
 BRAKING_MPS2 = 0.05
-CONTROLLERS = ("held_choke", "baseline")
+CONTROLLERS = ("held_choke", "baseline", "automated_mpd")
 
 
 @dataclass
@@ -90,9 +95,12 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     mud_pump = Pump(config.actuators.mud_pump, spp_pa)
     estimator = EstimatorTick(config)
     choke = Choke(config.actuators, wm, float(start.inputs[1]))
-    baseline = BaselineTick(config, trip_speed_mps, StartInputs(
-        start.choke_flow_m3s, CHOKE_DP_PA, 0.0, spp_pa, True)) \
+    start_inputs = StartInputs(start.choke_flow_m3s, CHOKE_DP_PA, 0.0, spp_pa, True)
+    baseline = BaselineTick(config, trip_speed_mps, start_inputs) \
         if controller == "baseline" else None
+    mpd = AutomatedMpdTick(config, build_estimation_model(config), start_inputs) \
+        if controller == "automated_mpd" else None
+    advised_at_frame = 0
     per_command = int(round(config.nmpc.sample_time_s / (config.plant.steps_per_frame
                                                         * config.plant.step_s)))
     advice = None
@@ -141,7 +149,14 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
             advice, _ = baseline.step(m.block_position_m, m.bhp_pa, _setpoints(
                 target if step.phase == MOVING else m.block_position_m, trip_speed_mps),
                 True, math.nan)
-        if step.phase == MOVING and baseline is not None:
+        if mpd is not None and k % per_command == 0 and estimator.ukf.initialised:
+            hold = math.nan if step.phase == MOVING else m.block_position_m
+            advice, _ = mpd.step(ukf_view(estimator.ukf, bool(m.string_flow_valid)),
+                                 _setpoints(target if step.phase == MOVING
+                                            else m.block_position_m, trip_speed_mps),
+                                 True, (trip_speed_mps, trip_speed_mps), hold)
+            advised_at_frame = k
+        if step.phase == MOVING and advice is not None and controller != "held_choke":
             block = drawworks.frame(advice.block_position_ref_m, m.block_position_m, step_s,
                                     steps)
         elif step.phase == MOVING:
@@ -159,6 +174,11 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
         if baseline is not None:
             valve = choke.frame(advice.choke_flow_ref_m3s, m.choke_dp_pa, step_s, steps,
                                 return_flow_m3s=m.return_flow_m3s)
+        elif mpd is not None and advice is not None:
+            valve = choke.pressure_frame(advice.choke_dp_ref_pa, advice.choke_dp_ref_rate_pa_s,
+                                         (k - advised_at_frame) * frame_s,
+                                         advice.choke_flow_ref_m3s, m.choke_dp_pa, step_s,
+                                         steps)
         inputs[0], inputs[1], inputs[3] = block.output, valve.output, pump.output
         sim.advance(inputs)
         frames = {"drawworks": block, "mud_pump": pump, "choke": valve,
@@ -234,8 +254,8 @@ def main(argv=None) -> int:
                    controller=args.controller)
     print("\n".join(sheet_table(run)) + "\n")
     f = trip_figures(run, config.well.formation.pore_pressure_pa)
-    print(f"stands per hour {f['stands_per_hour']:.1f}; BHP RMSE {f['bhp_rmse_pa'] / PA_PER_BAR:.2f} "
-          f"bar, {f['outside_band_s']:.0f} s outside the band, "
+    print(f"stands per hour {f['stands_per_hour']:.1f}; BHP RMSE "
+          f"{f['bhp_rmse_pa'] / PA_PER_BAR:.2f} bar, {f['outside_band_s']:.0f} s outside the band, "
           f"{f['bhp_min_pa'] / PA_PER_BAR:.1f}-{f['bhp_max_pa'] / PA_PER_BAR:.1f} bar, "
           f"{f['under_pore_pressure_s']:.0f} s under the pore pressure; influx "
           f"{f['influx_m3'] * L_PER_M3:.0f} L, losses {f['loss_m3'] * L_PER_M3:.0f} L; trip "

@@ -132,3 +132,13 @@ def test_the_command_prints_the_trip_sheet_and_the_figures(capsys):
     assert out[0].startswith("| trip | stand | slips to slips [s]")
     assert out[2].startswith("| out | 1 | ") and out[3] == ""
     assert out[4].startswith("stands per hour ") and "L drawn (10 s after)" in out[4]
+
+
+def test_automated_mpds_pressure_loop_keeps_the_connection_over_the_pore_pressure():
+    """Automated MPD's choke-dp set-point for no flow closes its choke early enough to trap
+    the pressure over the 660 bar pore pressure: nothing flows in (seed 12, one stand: BHP
+    at worst 664.6 bar, about 20 bar under the reference, the back-pressure pump idle)."""
+    mpd = _trip(stands=1, settle_s=0.0, controller="automated_mpd")
+    assert mpd.floor.stands_pulled == 1
+    assert mpd.sim.truth().influx_volume_m3 < 0.005
+    assert mpd.log["bhp_pa"].min() > load_rig(config_dir()).well.formation.pore_pressure_pa
