@@ -35,8 +35,8 @@ UUID_NAMESPACE = uuid.UUID("6f1c1e52-3c1d-4d8e-9a43-0f6f3ad0b6a1")   # this expo
 NAMESPACES = {"witsml": "http://www.energistics.org/energyml/data/witsmlv2",
               "eml": "http://www.energistics.org/energyml/data/commonv2",
               "xsi": "http://www.w3.org/2001/XMLSchema-instance"}
-PROPERTY_KIND = {"m": "length", "kPa": "pressure", "kN": "force", "m3": "volume", "L/min": "volume per time",
-                 "%": "dimensionless"}   # exported unit -> Energistics property kind
+PROPERTY_KIND = {"m": "length", "kPa": "pressure", "kN": "force", "m3": "volume",
+                 "L/min": "volume per time", "%": "dimensionless"}   # unit -> property kind
 
 
 def _uuid(*parts: str) -> str:

@@ -91,9 +91,9 @@ def expected(k):
             "CHKO": 100.0 * choke}
 
 
-UNITS = {"DBTM": "m", "BPOS": "m", "HKLA": "kN", "SPPA": "kPa", "CHKP": "kPa", "TVA": "m3", "TVCA": "m3",
-         "MFOA": "L/min", "MFIA": "L/min", "BHP": "kPa", "BPPF": "L/min", "DFLO": "L/min",
-         "CHKO": "%"}
+UNITS = {"DBTM": "m", "BPOS": "m", "HKLA": "kN", "SPPA": "kPa", "CHKP": "kPa", "TVA": "m3",
+         "TVCA": "m3", "MFOA": "L/min", "MFIA": "L/min", "BHP": "kPa", "BPPF": "L/min",
+         "DFLO": "L/min", "CHKO": "%"}
 
 
 def close(a, b):

@@ -118,6 +118,14 @@ def line_tension(geometry: WellGeometry, damping_n_s_m: float, position_m, veloc
             - damping_n_s_m * velocity_mps)
 
 
+def elevator_pull(geometry: WellGeometry, damping_n_s_m: float, position_m, velocity_mps,
+                  block_position_m, latched=1.0):
+    """The elevator's pull on the string [N]: the line's tension (:func:`line_tension`)
+    times ``latched`` (1: the elevator holds the string, 0: unlatched, no pull)."""
+    return latched * line_tension(geometry, damping_n_s_m, position_m, velocity_mps,
+                                  block_position_m)
+
+
 SLIPS_GRIP_TIME_S = 0.05   # set slips take a sinking string's speed out with this time constant
 
 
@@ -129,12 +137,12 @@ def slips_hold(slips_set, velocity_mps, net_force_n):
 
 def hoisting_acceleration(wm: WellModel, position_m, velocity_mps, block_position_m,
                           latched=1.0, slips_set=0.0, xp=None):
-    """m a = T - m g F_b (paper eq. 35, T: :func:`line_tension`), T times ``latched`` (1: the
-    elevator holds the string, 0: unlatched). Given ``xp`` the slips act too: where
+    """m a = T - m g F_b (paper eq. 35, T: :func:`elevator_pull`, ``latched`` 1: the elevator
+    holds the string, 0: unlatched). Given ``xp`` the slips act too: where
     :func:`slips_hold`, the string's speed decays to rest within SLIPS_GRIP_TIME_S instead."""
     w, g = wm.well, wm.geometry
-    free = latched * line_tension(g, w.hoist_damping_n_s_m, position_m, velocity_mps,
-                                  block_position_m) / g.string_mass_kg \
+    free = elevator_pull(g, w.hoist_damping_n_s_m, position_m, velocity_mps, block_position_m,
+                         latched) / g.string_mass_kg \
         - w.gravity_mps2 * g.buoyancy_factor
     if xp is None:
         return free

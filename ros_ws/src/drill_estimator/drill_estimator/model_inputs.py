@@ -65,13 +65,20 @@ class ModelInputs:
         self.flow_watch = ChannelWatch(("return_flow_m3s",), frozen_after_samples)
         self.valve_law_frames = 0     # frames whose choke flow came from the valve law
 
+    def holding_block_m(self, position_m: float) -> float:
+        """The block input [m] that holds the model's string at rest at ``position_m``:
+        the drawworks output carrying its weight (position plus the static stretch), or
+        with block_input "reference" the reference the model's block controller holds it
+        on (the position)."""
+        stretch = self.em.wm.geometry.static_stretch_m
+        return position_m + (stretch if self.block_input == "block_position" else 0.0)
+
     def start(self, x0: np.ndarray, choke_dp_pa: float) -> None:
         """Hold the inputs that keep the estimation model's steady state ``x0``."""
         em, wm = self.em, self.em.wm
         g, w = wm.geometry, wm.well
         self.choke_dp_pa = float(choke_dp_pa)
-        block = x0[em.position] + (g.static_stretch_m if self.block_input == "block_position"
-                                   else 0.0)
+        block = self.holding_block_m(x0[em.position])
         flow = x0[em.string_flow]
         per_opening = float(hy.choke_flow(wm, 1.0, self.choke_dp_pa))
         opening = min(1.0, flow / per_opening) if flow > 0.0 and per_opening > 0.0 else 0.0

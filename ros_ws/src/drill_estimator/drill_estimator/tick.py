@@ -7,10 +7,10 @@ in-process loop bench both run it.
 
 On a multi-stand trip the rig floor says two things the model must follow: while the
 slips hold the string the block moves free, so the model's block input is a virtual
-block that holds the estimated string at rest on the line (its position plus the static
-stretch) instead of the drawworks' output; and at a connection the string is a stand
-shorter or longer, so the model becomes the new string's and the estimate's position
-counts from its new top (``rack``).
+block that holds the estimated string at rest on the line
+(``ModelInputs.holding_block_m``) instead of the drawworks' output; and at a connection
+the string is a stand shorter or longer, so the model becomes the new string's and the
+estimate's position counts from its new top (``rack``).
 """
 from __future__ import annotations
 
@@ -70,8 +70,7 @@ class EstimatorTick:
     def _string_held(self, frames: Mapping[str, object], steps: int) -> dict:
         """The frames with the drawworks' replaced by the virtual block: the estimated
         string at rest on the line."""
-        em = self.ukf.em
-        block_m = self.ukf.mean[em.position] + em.wm.geometry.static_stretch_m
+        block_m = self.inputs.holding_block_m(float(self.ukf.mean[self.ukf.em.position]))
         virtual = _Frame(np.full(steps, block_m), block_m)
         return {**frames, "drawworks": virtual}
 

@@ -48,7 +48,7 @@ class Truth:
     ecd_kgm3: float
     influx_m3s: float            # from the formation below pore pressure
     loss_m3s: float              # into the formation above fracture pressure
-    pit_gain_m3: float           # the mud the tanks (active pit and trip tank) gained since the start
+    pit_gain_m3: float           # the mud the tanks (active pit, trip tank) gained since the start
     influx_volume_m3: float
     loss_volume_m3: float
     parameters: np.ndarray       # PARAMETER_NAMES in force
@@ -114,7 +114,8 @@ class PlantSimulator:
         if not np.all(np.isfinite(final)):
             raise PlantDiverged(f"non-finite plant state after inputs {inputs[:, -1]}")
         if self.trip_tank_lined_up:
-            self._gain_in_trip_tank_m3 += final[self.layout.pit_gain] - self.state[self.layout.pit_gain]
+            gain = self.layout.pit_gain
+            self._gain_in_trip_tank_m3 += final[gain] - self.state[gain]
         self.state = final
         self.inputs = inputs[:, -1].copy()
         self._algebraic_now = None
@@ -139,9 +140,9 @@ class PlantSimulator:
         """The elevator's pull on the string now [N] (0 unlatched)."""
         lay, well = self.layout, self.config.well
         latched = self.parameters[PARAMETER_NAMES.index("elevator_latched")]
-        return latched * float(hy.line_tension(
-            self.wm.geometry, well.hoist_damping_n_s_m, self.state[lay.position],
-            self.state[lay.velocity], self.inputs[U_BLOCK]))
+        return float(hy.elevator_pull(self.wm.geometry, well.hoist_damping_n_s_m,
+                                      self.state[lay.position], self.state[lay.velocity],
+                                      self.inputs[U_BLOCK], latched))
 
     def _algebraic(self) -> np.ndarray:
         """The algebraic outputs at the current state, evaluated once per frame for the

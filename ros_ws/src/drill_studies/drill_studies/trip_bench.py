@@ -101,8 +101,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     mpd = AutomatedMpdTick(config, build_estimation_model(config), start_inputs) \
         if controller == "automated_mpd" else None
     advised_at_frame = 0
-    per_command = int(round(config.nmpc.sample_time_s / (config.plant.steps_per_frame
-                                                        * config.plant.step_s)))
+    per_command = int(round(config.nmpc.sample_time_s / frame_s))
     advice = None
     volumes = StandVolumes.of(wm.geometry, floor.programme.stand_length_m)
     sheets = [TripSheet(floor.programme, volumes, BHP_BAND_PA)]
@@ -125,9 +124,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
         step = command.step
         estimator.step(t, m, frames, steps, string_held and floor_aware)
         if command.racked_to_m is not None and floor_aware:
-            estimator.rack(command.racked_to_m
-                           - floor.programme.stand_length_m * floor.sequencer.sign,
-                           command.racked_to_m)
+            estimator.rack(command.racked_from_m, command.racked_to_m)
         alarms += sheets[-1].observe(t, step, m.bhp_pa, BHP_REF_PA, m.trip_tank_volume_m3)
         rows.append((t, step.stand, step.phase == MOVING, sim.line_tension_n(),
                      sim.state[sim.layout.velocity],

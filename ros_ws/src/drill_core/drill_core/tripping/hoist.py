@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from drill_core.hydraulics import line_tension, slips_hold
+from drill_core.hydraulics import elevator_pull, slips_hold
 from drill_core.well import WellGeometry
 
 
@@ -38,8 +38,8 @@ def hoist_forces(geometry: WellGeometry, gravity_mps2: float, damping_n_s_m: flo
     string position and velocity (positive up), the elevator ``latched`` or not and the
     slips ``slips_set`` or not. Set slips hold a string that is not rising and that the line
     does not lift; the integrator then keeps it where it is, at rest."""
-    tension = line_tension(geometry, damping_n_s_m, position_m, velocity_mps,
-                           block_position_m) if latched else 0.0
+    tension = elevator_pull(geometry, damping_n_s_m, position_m, velocity_mps,
+                            block_position_m, float(latched))
     net = tension - buoyed_weight_n(geometry, gravity_mps2)
     held = bool(slips_hold(slips_set, velocity_mps, net))
     reaction = -net if held else 0.0

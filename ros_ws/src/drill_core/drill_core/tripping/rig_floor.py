@@ -35,7 +35,8 @@ class FloorCommand:
     """What the floor does after one tick (SI)."""
     step: TripStep
     block_target_m: float        # the block on its encoder to here [m]; NaN: on the string's loop
-    racked_to_m: float | None    # the string tripped to this length pulled on this tick [m]
+    racked_from_m: float | None  # the string tripped on this tick from this length pulled ...
+    racked_to_m: float | None    # ... to this one [m]
 
 
 class RigFloor:
@@ -72,19 +73,21 @@ class RigFloor:
                      and abs(block_speed_mps) <= LATCH_SPEED_MPS)
         step = self.sequencer.step(time_s, self.pulled_m + string_position_m, block_speed_mps,
                                    tension, ready)
-        racked_to = None
+        racked_from = racked_to = None
         if step.stands_pulled != self.stands_pulled:
-            before_m = self.pulled_m
+            racked_from = self.pulled_m
             self.stands_pulled = step.stands_pulled
             self._geometry = tripped_geometry(self.well, self.stands_pulled,
                                               self.programme.stand_length_m)
             self.sequencer.weight_n = self._weight_n()
             racked_to = self.pulled_m
-            string_position_m = position_after_connection(string_position_m, before_m, racked_to)
+            string_position_m = position_after_connection(string_position_m, racked_from,
+                                                          racked_to)
         if step.phase != self._phase:
             self._phase = step.phase
             self._phase_start_position_m = string_position_m
-        return FloorCommand(step, self._block_target_m(step.phase, string_position_m), racked_to)
+        return FloorCommand(step, self._block_target_m(step.phase, string_position_m),
+                            racked_from, racked_to)
 
     def _block_target_m(self, phase: str, string_position_m: float) -> float:
         held_at = self._phase_start_position_m
@@ -94,7 +97,6 @@ class RigFloor:
             return held_at + self._geometry.static_stretch_m + LIFT_OVERTRAVEL_M
         if phase == SET_SLIPS:
             return held_at - SLACK_UNDERTRAVEL_M
-        if phase == CONNECTION:
-            sign = -1.0 if self.programme.direction == "out" else 1.0
-            return held_at + sign * self.programme.stand_length_m
+        if phase == CONNECTION:      # a stand down pulling out (sign +1), up running in
+            return held_at - self.sequencer.sign * self.programme.stand_length_m
         return held_at
