@@ -292,7 +292,8 @@ class Estimator:
     annular_friction_smoothing_mps: float = param(
         "m/s", 0.0, 1.0, lo_open=True,
         doc="scaled_rheology: yield-jump smoothing velocity of F_nom (the UKF's RK4 steps' "
-            "stiffness; the NMPC predicts with nmpc.prediction_friction_smoothing_mps)")
+            "stiffness; the NMPC predicts with nmpc.prediction_friction_smoothing_mps and "
+            "nmpc.pump_off_friction_smoothing_mps)")
     quadratic_friction: FrictionLawTuning = param(doc="tuning under the quadratic law")
     scaled_rheology_friction: FrictionLawTuning = param(doc="tuning under the scaled_rheology law")
     initial_pressure_std_pa: float = param("Pa", 0.0, lo_open=True)
@@ -403,8 +404,12 @@ class Nmpc:
     integrator: str = param(choices=("rk4", "euler"))
     prediction_friction_smoothing_mps: float = param(
         "m/s", 0.0, 1.0, lo_open=True,
-        doc="scaled_rheology: the prediction model's yield-jump smoothing velocity, wider "
-            "than the estimator's for the RK4 steps' stability (docs/nmpc.md)")
+        doc="scaled_rheology: the prediction model's yield-jump smoothing velocity while the "
+            "mud pump is planned on (docs/nmpc.md)")
+    pump_off_friction_smoothing_mps: float = param(
+        "m/s", 0.0, 1.0, lo_open=True,
+        doc="scaled_rheology: ... while the mud pump is planned off, where every annular "
+            "flow is near zero (docs/nmpc.md)")
     reference_smoothing: OutputVector = param(doc="alpha_i of eq. 59, each in [0, 1)")
     output_weight: OutputVector = param(doc="w_c tilde (eq. 55)")
     output_span: OutputVector = param(doc="y_span (eq. 55)")

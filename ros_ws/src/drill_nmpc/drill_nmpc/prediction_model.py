@@ -9,6 +9,7 @@ rclpy); docs/nmpc.md section 1 has the derivation.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -20,7 +21,8 @@ from drill_core.backend import CASADI, NUMPY
 from drill_core.block_control import (block_command, integral_for_command, integral_rate,
                                        reference_for_command)
 from drill_core.config import RigConfig
-from drill_core.estimation_model import EstimationModel, build_estimation_model, drift, measurement
+from drill_core.estimation_model import (EstimationModel, NominalFriction, build_estimation_model,
+                                         drift, measurement)
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE, U_SIZE
 from drill_core.integrators import euler_step, rk4_step
 from drill_core.state_layout import StateLayout
@@ -87,6 +89,39 @@ LAGGED_OUTPUTS = (("drawworks_output_m", "drawworks_s"), ("bpp_flow_output_m3s",
                   ("spp_output_pa", "pump_s"))
 
 
+@dataclass(frozen=True)
+class PumpSwitchedFriction:
+    """The prediction's nominal annular friction F_nom,i: the yield jump smoothed over
+    ``circulating``'s velocity while the mud pump is planned on and over ``pump_off``'s
+    (wider) one while it is off, where every annular flow is near zero and the real-time
+    iteration's linearisation of the sharper jump failed (docs/nmpc.md). ``pump_on`` is 1
+    or 0, or the prediction's CasADi symbol; evaluated with a number it is one law alone."""
+    circulating: NominalFriction
+    pump_off: NominalFriction
+    pump_on: object = 1.0
+
+    def at(self, pump_on) -> "PumpSwitchedFriction":
+        """The same laws selected by ``pump_on``."""
+        return dataclasses.replace(self, pump_on=pump_on)
+
+    def loss(self, xp, k: int, flow_m3s, string_velocity_mps):
+        """F_nom of path k + 2 [Pa] (numpy rows or CasADi symbols)."""
+        on = self.pump_on
+        if isinstance(on, (int, float)):
+            law = self.circulating if on else self.pump_off
+            return law.loss(xp, k, flow_m3s, string_velocity_mps)
+        return on * self.circulating.loss(xp, k, flow_m3s, string_velocity_mps) \
+            + (1.0 - on) * self.pump_off.loss(xp, k, flow_m3s, string_velocity_mps)
+
+    def peak_gain_near(self, k: int, flow_m3s: float, half_width_m3s: float) -> float:
+        """dF_nom/dq's bound (NominalFriction.peak_gain_near) of the law selected, the
+        larger of the two where ``pump_on`` is a symbol."""
+        on = self.pump_on
+        laws = ((self.circulating if on else self.pump_off),) if isinstance(on, (int, float)) \
+            else (self.circulating, self.pump_off)
+        return max(law.peak_gain_near(k, flow_m3s, half_width_m3s) for law in laws)
+
+
 class PredictionLayout(StateLayout):
     """The prediction state's names: the estimation model's states before theta_2, then
     the actuator outputs whose lag is modelled."""
@@ -112,7 +147,8 @@ class PredictionModel:
     model's evolving states, then the lagged actuator outputs that are modelled (block
     position b, back-pressure pump flow, stand-pipe pressure); par = the estimation model's
     states from theta_2 on (theta_2..theta_n, then the density offset, the string friction
-    factor and d where the model has them) frozen over the horizon; ``pump_on`` (0/1) switches the mud pump (off: p_in -> 0).
+    factor and d where the model has them) frozen over the horizon; ``pump_on`` (0/1) switches the mud pump (off: p_in -> 0)
+    and, under :class:`PumpSwitchedFriction`, the annular friction law.
 
     The shared estimation model puts the block at the block controller's output and the
     pumps at their commands instantly; the actuators (and the truth plant) lag them by
@@ -149,9 +185,16 @@ class PredictionModel:
         """The estimation model's state (list) from a prediction state and par."""
         return [x[i] for i in range(self.nd_model)] + [par[i] for i in range(self.npar)]
 
+    def model_at(self, pump_on) -> EstimationModel:
+        """The estimation model with the friction law of ``pump_on`` (a number or symbol)."""
+        em = self.em
+        if isinstance(em.nominal_friction, PumpSwitchedFriction):
+            em = dataclasses.replace(em, nominal_friction=em.nominal_friction.at(pump_on))
+        return em
+
     def rhs(self, x, u, par, pump_on=1.0):
         """Time derivative of the prediction state (list of expressions)."""
-        em = self.em
+        em = self.model_at(pump_on)
         full = self.full(x, par)
         spp_cmd = u[U_PUMP_PRESSURE] * pump_on
         inputs = [u[U_BLOCK], self.choke_flow(x, u, em.bulk_modulus_of(full)),
@@ -297,11 +340,19 @@ class PredictionModel:
 
 def nmpc_estimation_model(config: RigConfig, configuration: str | None = None) -> EstimationModel:
     """The estimation model the NMPC predicts with: the shared one with the influx state
-    under NMPC2 (``configuration``, None: config/nmpc.yaml's) and the yield jump smoothed
-    over ``prediction_friction_smoothing_mps`` for its RK4 steps."""
-    configuration = configuration or config.nmpc.configuration
-    return build_estimation_model(config, configuration == "NMPC2",
-                                  config.nmpc.prediction_friction_smoothing_mps)
+    under NMPC2 (``configuration``, None: config/nmpc.yaml's) and, under scaled_rheology,
+    the yield jump smoothed over ``prediction_friction_smoothing_mps`` while the mud pump
+    is planned on and ``pump_off_friction_smoothing_mps`` while it is off
+    (:class:`PumpSwitchedFriction`)."""
+    cfg = config.nmpc
+    configuration = configuration or cfg.configuration
+    em = build_estimation_model(config, configuration == "NMPC2",
+                                cfg.prediction_friction_smoothing_mps)
+    if em.nominal_friction is None:
+        return em
+    pump_off = NominalFriction(em.wm, cfg.pump_off_friction_smoothing_mps)
+    return dataclasses.replace(em, nominal_friction=PumpSwitchedFriction(em.nominal_friction,
+                                                                         pump_off))
 
 
 def full_state(em: EstimationModel, x_hat, disturbance=None) -> np.ndarray:

@@ -158,16 +158,18 @@ class Supervisor:
             .choke_dp_limits(cfg.choke_dp_min_pa)
         return vlim, (y_sp[2] - band, y_sp[2] + band), dp_limits
 
-    def _clamp_friction(self, x, par) -> str:
+    def _clamp_friction(self, x, par, pump_on: bool) -> str:
         """Cap the friction parameters theta_i (in ``par``) where the annular flow mode
         d(q_i)/dt = -(theta_i dF_i/dq_i / M_i) q_i + ... becomes too stiff for the
         prediction's RK4 step h (|lambda| h <= 2, inside RK4's stability region): an
         estimate several times the circulating value would make the prediction diverge.
-        dF_i/dq_i is the law's bound (em.friction_flow_gain_bound: 2|v_e|/A_i for the
-        quadratic law). Returns a note when it acted."""
+        dF_i/dq_i is the bound of the law the prediction takes with the pump ``pump_on``
+        (em.friction_flow_gain_bound: 2|v_e|/A_i for the quadratic law). Returns a note
+        when it acted."""
         em, g = self.em, self.em.wm.geometry
         h = self.problem.ts / self.problem.substeps
-        gain = friction_flow_gain_bound(em, x, THETA_SPEED_FLOOR_MPS)
+        gain = friction_flow_gain_bound(self.model.model_at(1.0 if pump_on else 0.0), x,
+                                        THETA_SPEED_FLOOR_MPS)
         notes = []
         for k, i in enumerate(range(2, em.n + 1)):
             limit = THETA_STIFFNESS_LIMIT / h * g.annulus_inertance_kg_m4[k] / gain[k]
@@ -310,7 +312,7 @@ class Supervisor:
         self._next_actuators = None
         x0 = self.model.initial_state(x, u_prev, known, pump_on)
         par = x[self.model.nd_model:].copy()
-        clamped = self._clamp_friction(x, par)
+        clamped = self._clamp_friction(x, par, pump_on)
         y_now = np.array([float(v) for v in outputs(em, x)])
         y_sp = self.setpoint_vector(x, setpoints, par)
         # reference trajectory (59), anchored at the estimated output
