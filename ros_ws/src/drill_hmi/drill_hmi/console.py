@@ -130,7 +130,8 @@ def measurement_dict(m: RigMeasurement) -> dict:
     return {"block_position_m": m.block_position_m, "choke_dp_pa": m.choke_dp_pa, "bhp_pa": m.bhp_pa,
             "string_flow_m3s": m.string_flow_m3s, "string_flow_valid": m.string_flow_valid,
             "return_flow_m3s": m.return_flow_m3s, "pit_volume_m3": m.pit_volume_m3,
-            "bpp_flow_m3s": m.bpp_flow_m3s}
+            "bpp_flow_m3s": m.bpp_flow_m3s, "hook_load_n": m.hook_load_n,
+            "trip_tank_volume_m3": m.trip_tank_volume_m3}
 
 
 def truth_dict(m: PlantTruth) -> dict:

@@ -255,4 +255,6 @@ def test_the_display_unit_systems_convert_from_si():
     assert 1000.0 * field["density"][1] == pytest.approx(8.34540, rel=1e-5)     # ppg per s.g.
     assert field["length"][1] == pytest.approx(3.28084, rel=1e-5)               # ft per m
     assert field["volume"][1] == pytest.approx(6.28981, rel=1e-5)               # bbl per m^3
+    assert 1000.0 * field["force"][1] == pytest.approx(0.224809, rel=1e-5)      # klbf per kN
     assert (metric["pressure"], metric["density"]) == (["bar", 1e-5], ["s.g.", 1e-3])
+    assert metric["force"] == ["kN", 1e-3]
