@@ -28,20 +28,19 @@ from drill_core.units import PA_PER_BAR
 from drill_core.yaml_files import merge
 
 CONTROLLERS = (("NMPC", "nmpc"), ("automated MPD", "automated_mpd"), ("PI baseline", "baseline"))
-PARTS = (   # (what was added, the controllers it acts in, its overrides back to before)
-    ("the density offset state", ("nmpc", "automated_mpd", "baseline"),
-     {"estimator": {"estimate_density_offset": False}}),
-    ("the estimator's sharp yield jump", ("nmpc", "automated_mpd", "baseline"),
-     {"estimator": {"annular_friction_smoothing_mps": 0.05}}),
-    ("the prediction's sharp yield jump", ("nmpc",),
+PARTS = (   # (what was added, its overrides back to before)
+    ("the density offset state", {"estimator": {"estimate_density_offset": False}}),
+    ("the estimator's sharp yield jump", {"estimator": {"annular_friction_smoothing_mps": 0.05}}),
+    ("the prediction's sharp yield jump",
      {"nmpc": {"prediction_friction_smoothing_mps": 0.05,
                "pump_off_friction_smoothing_mps": 0.05, "substeps": 4}}),
-    ("the integral's leak", ("nmpc",), {"nmpc": {"integral_leak_time_s": 0.0}}),
-    ("the learnt flow baseline", ("nmpc", "automated_mpd", "baseline"),
+    ("the integral's leak", {"nmpc": {"integral_leak_time_s": 0.0}}),
+    ("the learnt flow baseline",
      {"protection": {"kick_detection": {"baseline_time_constant_s": 0.0}}}),
 )
+ABLATED = ("nmpc",)   # the controllers whose rows say which part recovered them
 BEFORE: dict = {}
-for _, _, _overrides in PARTS:
+for _, _overrides in PARTS:
     BEFORE = merge(BEFORE, _overrides)
 
 
@@ -51,9 +50,9 @@ def _rungs() -> tuple:
     for name, controller in CONTROLLERS:
         out += [(f"{name} before", controller, "ukf", BEFORE, None),
                 (name, controller, "ukf", {}, None)]
-        if controller != "baseline":
+        if controller in ABLATED:
             out += [(f"{name} without {part}", controller, "ukf", overrides, part)
-                    for part, acts_in, overrides in PARTS if controller in acts_in]
+                    for part, overrides in PARTS]
     return tuple(out)
 
 
@@ -112,7 +111,7 @@ def _needed_most(rows: list[dict], member: str, name: str) -> str:
 def markdown(rows: list[dict], members: list[str], described: dict[str, str]) -> str:
     seeds = sorted({r["seed"] for r in rows})
     parts = "; ".join(f"{part} ({', '.join(f'{k}: {v}' for k, v in _flat(o))})"
-                      for part, _, o in PARTS)
+                      for part, o in PARTS)
     lines = ["# The ladder for a plant that is not the model", "",
              "Made by `python -m drill_studies.mismatch_ladder` on "
              f"{datetime.now():%Y-%m-%d %H:%M} from its runs (figures in "
