@@ -25,7 +25,7 @@ from drill_bringup import runs
 from drill_studies import loop_bench
 from drill_core.mismatch import load_suite
 from drill_core.units import PA_PER_BAR
-from drill_core.yaml_files import merge
+from drill_core.yaml_files import dotted_items, merge
 
 CONTROLLERS = (("NMPC", "nmpc"), ("automated MPD", "automated_mpd"), ("PI baseline", "baseline"))
 PARTS = (   # (what was added, its overrides back to before)
@@ -110,7 +110,7 @@ def _needed_most(rows: list[dict], member: str, name: str) -> str:
 
 def markdown(rows: list[dict], members: list[str], described: dict[str, str]) -> str:
     seeds = sorted({r["seed"] for r in rows})
-    parts = "; ".join(f"{part} ({', '.join(f'{k}: {v}' for k, v in _flat(o))})"
+    parts = "; ".join(f"{part} ({', '.join(f'{k}: {v}' for k, v in dotted_items(o))})"
                       for part, o in PARTS)
     lines = ["# The ladder for a plant that is not the model", "",
              "Made by `python -m drill_studies.mismatch_ladder` on "
@@ -150,15 +150,6 @@ def markdown(rows: list[dict], members: list[str], described: dict[str, str]) ->
             lines.append(f"| {member} | " + " | ".join(cells) + " | "
                          + _needed_most(rows, member, name) + " |")
     return "\n".join(lines) + "\n"
-
-
-def _flat(overrides: dict, prefix: str = ""):
-    """(dotted key, value) pairs of a nested override mapping."""
-    for key, value in overrides.items():
-        if isinstance(value, dict):
-            yield from _flat(value, f"{prefix}{key}.")
-        else:
-            yield f"{prefix}{key}", value
 
 
 def main(argv=None) -> int:

@@ -5,6 +5,7 @@ import pytest
 
 from drill_core.config import load_rig
 from drill_core.rig_root import config_dir
+from drill_core.yaml_files import dotted_items
 from drill_studies import mismatch_ladder as ml
 
 
@@ -19,7 +20,7 @@ def _value(config, path: str):
 def test_each_part_switched_back_is_a_valid_configuration_that_differs(part):
     _, overrides = part
     committed, before = load_rig(config_dir()), load_rig(config_dir(), overrides)
-    for path, value in ml._flat(overrides):
+    for path, value in dotted_items(overrides):
         assert _value(before, path) == value
         assert _value(committed, path) != value, f"{path} is already {value}: nothing measured"
     load_rig(config_dir(), ml.BEFORE)                        # all of them at once
