@@ -8,7 +8,8 @@ friction factors fitted to the truth, the true density offset), so the row shows
 model's error alone costs. The page is rendered from the runs' figures, which go to a
 JSON file beside it.
 
-    python -m drill_studies.mismatch_ladder [--seeds N] [--workers W] [--output FILE]
+    python -m drill_studies.mismatch_ladder [--seeds N] [--workers W] [--rungs LABEL ...]
+                                            [--output FILE]
 """
 from __future__ import annotations
 
@@ -156,11 +157,15 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=1, help="seeds: 2, 1002, ...")
     parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument("--rungs", nargs="*", metavar="LABEL",
+                        help="run only the rungs whose label starts with one of these (e.g. "
+                             "'NMPC without'); the JSON's other rows are kept")
     parser.add_argument("--output", type=Path, default=runs.ROOT / "docs" / "mismatch-ladder.md")
     args = parser.parse_args(argv)
     suite, described, _ = load_suite(runs.ROOT / "config")
     members = [MODEL, *suite]
-    jobs = [(m, rung[0], 2 + 1000 * k) for m in members for rung in RUNGS
+    chosen = [r[0] for r in RUNGS if not args.rungs or r[0].startswith(tuple(args.rungs))]
+    jobs = [(m, rung, 2 + 1000 * k) for m in members for rung in chosen
             for k in range(args.seeds)]
     rows = []
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
@@ -168,7 +173,11 @@ def main(argv=None) -> int:
             rows.append(row)
             print(f"[ladder] {row['member']} / {row['rung']} / seed {row['seed']}: "
                   f"{row['bhp_rmse_settled_pa'] / PA_PER_BAR:.2f} bar settled", flush=True)
-    args.output.with_suffix(".json").write_text(json.dumps(rows, indent=1))
+    table = args.output.with_suffix(".json")
+    if args.rungs and table.exists():    # read now: another share of the rungs may have written
+        rows = [r for r in json.loads(table.read_text()) if r["rung"] not in chosen
+                and r["rung"] in {rung[0] for rung in RUNGS}] + rows
+    table.write_text(json.dumps(rows, indent=1))
     args.output.write_text(markdown(rows, members, described))
     print(f"[ladder] wrote {args.output}")
     return 0
