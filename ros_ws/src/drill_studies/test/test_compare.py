@@ -1,5 +1,6 @@
 """The comparison table: SI summaries shown in bar, ratios against the baseline."""
 import json
+import re
 import subprocess
 
 import numpy as np
@@ -221,3 +222,15 @@ def test_a_row_records_the_checkouts_commit_and_whether_it_was_changed(tmp_path,
     assert "+" not in runs.source_commit()                 # not what makes a run
     (tmp_path / "config" / "well.yaml").write_text("a: 2\n")
     assert runs.source_commit().endswith("+changes")
+
+
+def test_the_committed_results_page_is_its_json_rendered():
+    """docs/results.md is made by code from docs/results.json alone (`rig compare` or
+    `--render`), never edited by hand: rendered again it is the same text but for the
+    time it was made."""
+    page = runs.ROOT / "docs" / "results.md"
+    text = page.read_text()
+    made = re.search(r"Made by `scripts/rig compare` on (.*?): each run went", text).group(1)
+    rows = json.loads(page.with_suffix(".json").read_text())
+    picture = compare._picture(page)
+    assert compare.markdown(rows, picture.name if picture.exists() else None, made) == text
