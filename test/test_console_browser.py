@@ -261,12 +261,18 @@ def test_console_in_a_real_browser(tmp_path):
         wait_until(lambda: number(driver, "mpd-out") is not None and number(driver, "mpd-ecd"),
                    10, "the MPD view's flow out and ECD", launch)
         assert 1.7 < number(driver, "mpd-ecd") < 2.1, "ECD in s.g."
+        wait_until(lambda: number(driver, "mpd-ecd-shoe"), 10, "the ECD at the shoe", launch)
+        assert 1.7 < number(driver, "mpd-ecd-shoe") < 2.1, "ECD at the shoe in s.g."
+        hook_kn = number(driver, "mpd-hook")
+        assert 350.0 < hook_kn < 2000.0, "hook load in kN: the block and the string's weight"
         Select(driver.find_element(By.ID, "units")).select_by_value("field")
         wait_until(lambda: driver.find_element(By.CSS_SELECTOR, "#bhp-value + .unit").text == "psi",
                    5, "the BHP unit to read psi", launch)
         psi = number(driver, "bhp-value")
         assert 600.0 * 14.5 < psi < 750.0 * 14.51, f"BHP {psi} psi"       # 1 bar = 14.504 psi
         assert 14.0 < number(driver, "mpd-ecd") < 17.6, "ECD in ppg"       # 1 s.g. = 8.345 ppg
+        assert 14.0 < number(driver, "mpd-ecd-shoe") < 17.6, "ECD at the shoe in ppg"
+        assert 0.2 * hook_kn < number(driver, "mpd-hook") < 0.25 * hook_kn, "hook load in klbf"
         screenshot(driver, "1b-field-units", shots)
         Select(driver.find_element(By.ID, "units")).select_by_value("metric")
         wait_until(lambda: driver.find_element(By.CSS_SELECTOR, "#bhp-value + .unit").text == "bar",

@@ -26,8 +26,7 @@ from pathlib import Path
 
 import pytest
 
-pytestmark = [pytest.mark.dds,
-              pytest.mark.filterwarnings("ignore::DeprecationWarning:lark.utils")]
+pytestmark = pytest.mark.dds
 
 HELPERS = Path(__file__).resolve().parent / "processes"
 DOMAIN_PUBSUB = 71

@@ -20,8 +20,7 @@ import pytest
 
 from drill_ros.executors import EXECUTOR_ENV, EXECUTORS
 
-pytestmark = [pytest.mark.dds,
-              pytest.mark.filterwarnings("ignore::DeprecationWarning:lark.utils")]
+pytestmark = pytest.mark.dds
 
 HELPER = Path(__file__).resolve().parent / "processes" / "stop_while_converting.py"
 DOMAIN_ID = 55

@@ -63,6 +63,7 @@ def main(argv: list[str]) -> int:
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     from drill_msgs.msg import RigMeasurement
+    from drill_ros.runner import shut_down
 
     qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.VOLATILE)
@@ -112,9 +113,7 @@ def main(argv: list[str]) -> int:
             return 0 if len(received) == count else 5
         raise SystemExit(f"unknown role {role!r}")
     finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
+        shut_down(executor, node)
 
 
 if __name__ == "__main__":

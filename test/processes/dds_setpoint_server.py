@@ -34,6 +34,7 @@ def main(argv: list[str]) -> int:
     from rclpy.executors import SingleThreadedExecutor
     from drill_msgs.msg import Setpoints
     from drill_msgs.srv import SetSetpoints
+    from drill_ros.runner import shut_down
 
     rclpy.init(args=[])
     node = rclpy.create_node("test_dds_setpoint_server")
@@ -63,9 +64,7 @@ def main(argv: list[str]) -> int:
         print(f"SERVED {state['served']}", flush=True)
         return 0
     finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
+        shut_down(executor, node)
 
 
 if __name__ == "__main__":

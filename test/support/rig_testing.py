@@ -1,9 +1,11 @@
-"""Helpers shared by the DDS tests: a node spinning in its own context, polling, and the
-comparison of two runs' recorded data."""
+"""Helpers shared by the DDS tests: a node spinning in its own context, polling, stopping
+a node's process, and the comparison of two runs' recorded data."""
 from __future__ import annotations
 
 import asyncio
 import math
+import signal
+import subprocess
 import threading
 import time
 from contextlib import contextmanager
@@ -52,6 +54,17 @@ async def until(read, predicate, timeout_s: float, what: str = ""):
         assert loop.time() < deadline, f"timed out waiting for {what}; last {value!r}"
         await asyncio.sleep(0.02)
     return value
+
+
+def stop_process(proc: subprocess.Popen) -> None:
+    """Stop a node's process as a launcher does: SIGTERM, 10 s to exit cleanly, then kill."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=5)
 
 
 def wait_for(predicate, timeout_s: float, what: str) -> None:

@@ -17,6 +17,7 @@ from drill_ros import topics
 from drill_ros.budget import ProcessClock
 from drill_ros.executors import create_executor
 from drill_ros.node import RigNode
+from drill_ros.runner import shut_down
 from drill_ros.status import HealthPublisher
 from drill_msgs.msg import NodeStatus
 from rclpy.clock import Clock, ClockType
@@ -199,9 +200,7 @@ def main(args: list[str] | None = None) -> int:
     finally:
         node.close()
         clock.write(node.get_name(), {node.get_name(): node.budget})
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
+        shut_down(executor, node)
     return 0
 
 

@@ -22,6 +22,8 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 
+from drill_ros.runner import shut_down
+
 from drill_bag import mcap_io
 from drill_bag.mcap_io import QosOffer, RecordedMessage
 
@@ -291,8 +293,7 @@ def main(argv: list[str] | None = None) -> int:
                             stop=stop)
         node.get_logger().info(f"replayed {count} messages from {args.file}")
     finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+        shut_down(None, node)
     return 0
 
 

@@ -40,6 +40,7 @@ def main(argv=None) -> int:
         return 2
     import rclpy
     from rclpy.signals import SignalHandlerOptions
+    from drill_ros.runner import shut_down
 
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("finish_watch", start_parameter_services=False)
@@ -54,8 +55,7 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         return 130
     finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+        shut_down(None, node)
     return 0
 
 

@@ -108,6 +108,10 @@ class Well:
     travelling_block_weight_n: float = param(
         "N", 0.0, 5.0e6, default=3.5e5,
         doc="the travelling block, hook and top drive: the hook load with the elevator unlatched")
+    casing_shoe_depth_m: float | None = param(
+        "m", 0.0, 20000.0, lo_open=True, default=None,
+        doc="vertical depth of the last casing's shoe, above the open hole (the ECD there); "
+            "absent: no shoe reported")
 
     def hole_diameters_m(self) -> tuple[float, ...]:
         """The hole diameter of each annulus segment [m], top first."""
@@ -134,6 +138,11 @@ class Well:
                 raise FieldError(f"string[{i}].{key}",
                                  f"value {widest} m (section {section.name}) does not fit in the hole: "
                                  f"must be smaller than hole_diameter_m {self.hole_diameter_m} m")
+        shoe = self.casing_shoe_depth_m
+        if shoe is not None and shoe >= sum(self.segment_lengths_m):
+            raise FieldError("casing_shoe_depth_m",
+                             f"value {shoe:g} m: must be above the well's bottom, "
+                             f"sum(segment_lengths_m) = {sum(self.segment_lengths_m):g} m")
         string_length = sum(s.length_m for s in self.string)
         if string_length > sum(self.segment_lengths_m):
             raise FieldError("string",

@@ -14,11 +14,11 @@ DISPLAY_UNITS = {
     "metric": {"pressure": ("bar", 1.0 / PA_PER_BAR), "flow": ("L/min", LPM_PER_M3S),
                "gain": ("L", L_PER_M3),
                "density": ("s.g.", 1.0e-3), "length": ("m", 1.0), "volume": ("m³", 1.0),
-               "velocity": ("m/s", 1.0)},
+               "velocity": ("m/s", 1.0), "force": ("kN", 1.0e-3)},
     "field": {"pressure": ("psi", 1.0 / 6894.757293168), "gain": ("bbl", 1.0 / 0.158987294928),
               "flow": ("gpm", LPM_PER_M3S / 3.785411784), "density": ("ppg", 1.0 / 119.8264273),
               "length": ("ft", 1.0 / 0.3048), "volume": ("bbl", 1.0 / 0.158987294928),
-              "velocity": ("ft/s", 1.0 / 0.3048)},
+              "velocity": ("ft/s", 1.0 / 0.3048), "force": ("klbf", 1.0 / 4448.2216152605)},
 }
 
 

@@ -16,6 +16,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from drill_core.config import Well
 
 
@@ -58,6 +60,16 @@ def equivalent_density_kgm3(pressure_pa: float, depth_m: float, gravity_mps2: fl
     """The density of a static mud column that gives ``pressure_pa`` (gauge) at the
     vertical depth ``depth_m``: ECD (circulating) or ESD (static) [kg/m^3]."""
     return pressure_pa / (gravity_mps2 * depth_m)
+
+
+def annulus_pressure_at_depth_pa(node_depth_m, pressures_pa, depth_m: float) -> float:
+    """The annulus pressure at the vertical depth ``depth_m`` between the model's nodes
+    (``node_depth_m`` D_1..D_n, ``pressures_pa`` p_1..p_n): linear between the two nodes
+    around it, as the hydrostatic and frictional gradients along one path are uniform."""
+    if not node_depth_m[0] <= depth_m <= node_depth_m[-1]:
+        raise ValueError(f"depth {depth_m:g} m outside the nodes' {node_depth_m[0]:g}.."
+                         f"{node_depth_m[-1]:g} m")
+    return float(np.interp(depth_m, node_depth_m, pressures_pa))
 
 
 def circle_area(diameter_m: float) -> float:

@@ -53,6 +53,15 @@ def load_yaml(path: str | os.PathLike) -> object:
         raise ConfigError(f"{path}: not valid YAML: {err}") from None
 
 
+def dotted_items(tree: dict, prefix: str = ""):
+    """(dotted key, value) pairs of a nested mapping's leaves: {"a": {"b": 1}} -> ("a.b", 1)."""
+    for key, value in tree.items():
+        if isinstance(value, dict):
+            yield from dotted_items(value, f"{prefix}{key}.")
+        else:
+            yield f"{prefix}{key}", value
+
+
 def merge(base: object, over: object) -> object:
     """Recursive merge of mappings; ``over`` wins."""
     if isinstance(base, dict) and isinstance(over, dict):

@@ -10,6 +10,18 @@ import numpy as np
 from drill_core.config import Estimator
 from drill_core.estimation_model import EstimationModel, measurement_map
 
+# the optional random-walk parameters: the model's flag, its index, config/estimator.yaml's
+# process and initial standard deviations
+RANDOM_WALK_PARAMETERS = (
+    ("with_density_offset", "density_offset", "density_offset_process_std_kgm3",
+     "initial_density_offset_std_kgm3"),
+    ("with_string_friction", "string_friction", "string_friction_process_std",
+     "initial_string_friction_std"),
+    ("with_bulk_modulus", "bulk_modulus", "bulk_modulus_process_std", "initial_bulk_modulus_std"),
+    ("with_disturbance", "disturbance", "bottom_influx_process_std_m3s",
+     "initial_bottom_influx_std_m3s"),
+)
+
 
 @dataclass(frozen=True)
 class UkfTuning:
@@ -54,18 +66,10 @@ def build_tuning(est: Estimator, em: EstimationModel, scale: np.ndarray) -> UkfT
     p_std[flows] = est.initial_flow_std_m3s
     q_std[theta] = friction.theta_process_std
     p_std[theta] = friction.theta_initial_std
-    if em.with_density_offset:
-        q_std[em.density_offset] = est.density_offset_process_std_kgm3
-        p_std[em.density_offset] = est.initial_density_offset_std_kgm3
-    if em.with_string_friction:
-        q_std[em.string_friction] = est.string_friction_process_std
-        p_std[em.string_friction] = est.initial_string_friction_std
-    if em.with_bulk_modulus:
-        q_std[em.bulk_modulus] = est.bulk_modulus_process_std
-        p_std[em.bulk_modulus] = est.initial_bulk_modulus_std
-    if em.with_disturbance:
-        q_std[em.disturbance] = est.bottom_influx_process_std_m3s
-        p_std[em.disturbance] = est.initial_bottom_influx_std_m3s
+    for present, index, process_std, initial_std in RANDOM_WALK_PARAMETERS:
+        if getattr(em, present):
+            q_std[getattr(em, index)] = getattr(est, process_std)
+            p_std[getattr(em, index)] = getattr(est, initial_std)
 
     correlation = friction.theta_correlation + (1.0 - friction.theta_correlation) * np.eye(em.n - 1)
     block = np.ix_(theta, theta)

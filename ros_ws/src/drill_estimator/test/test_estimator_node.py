@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from drill_core.rig_root import config_dir
+from rig_testing import stop_process
 
-pytestmark = [pytest.mark.dds,
-              pytest.mark.filterwarnings("ignore::DeprecationWarning:lark.utils")]
+pytestmark = pytest.mark.dds
 
 DOMAIN_ID = 83
 CONFIG_DIR = config_dir()
@@ -41,28 +41,18 @@ def _start_estimator(mode: str) -> subprocess.Popen:
     return proc
 
 
-def _stop(proc: subprocess.Popen) -> None:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout=5)
-
-
 @pytest.fixture
 def estimator_process():
     proc = _start_estimator("fast")
     yield proc
-    _stop(proc)
+    stop_process(proc)
 
 
 @pytest.fixture
 def realtime_estimator_process():
     proc = _start_estimator("realtime")
     yield proc
-    _stop(proc)
+    stop_process(proc)
 
 
 class Feeder:

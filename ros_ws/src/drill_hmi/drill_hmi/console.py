@@ -78,6 +78,7 @@ from std_msgs.msg import Bool, String
 from drill_hmi import console_state as cs
 from drill_core import access
 from drill_core.access import SecurityDir
+from drill_core.state_layout import annulus_pressure_name
 from drill_core.config import load_rig
 from drill_core.event_codes import Notice
 from drill_core.rig_root import config_dir as default_config_dir
@@ -129,7 +130,8 @@ def measurement_dict(m: RigMeasurement) -> dict:
     return {"block_position_m": m.block_position_m, "choke_dp_pa": m.choke_dp_pa, "bhp_pa": m.bhp_pa,
             "string_flow_m3s": m.string_flow_m3s, "string_flow_valid": m.string_flow_valid,
             "return_flow_m3s": m.return_flow_m3s, "pit_volume_m3": m.pit_volume_m3,
-            "bpp_flow_m3s": m.bpp_flow_m3s}
+            "bpp_flow_m3s": m.bpp_flow_m3s, "hook_load_n": m.hook_load_n,
+            "trip_tank_volume_m3": m.trip_tank_volume_m3}
 
 
 def truth_dict(m: PlantTruth) -> dict:
@@ -142,7 +144,13 @@ def truth_dict(m: PlantTruth) -> dict:
 def estimate_dict(m: StateEstimate) -> dict:
     names = list(m.state_names)
     i = names.index("string_position_m") if "string_position_m" in names else None
-    return {"bhp_pa": m.bhp_pa, "choke_dp_pa": m.choke_dp_pa, "string_velocity_mps": m.string_velocity_mps,
+    pressures = []                           # p_1..p_n, while the estimate names them
+    while annulus_pressure_name(len(pressures) + 1) in names:
+        k = names.index(annulus_pressure_name(len(pressures) + 1))
+        if k >= len(m.mean):
+            break
+        pressures.append(float(m.mean[k]))
+    return {"annulus_pressures_pa": pressures,"bhp_pa": m.bhp_pa, "choke_dp_pa": m.choke_dp_pa, "string_velocity_mps": m.string_velocity_mps,
             "string_position_m": float(m.mean[i]) if i is not None and i < len(m.mean) else None,
             "nis": m.nis, "nis_dof": int(m.nis_dof), "string_flow_observable": m.string_flow_observable,
             "rejected_measurements": int(m.rejected_measurements),

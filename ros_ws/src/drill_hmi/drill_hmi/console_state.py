@@ -27,7 +27,8 @@ from drill_core.scenario import SETPOINT_BOOL_FIELDS as BOOL_FIELDS
 from drill_core.scenario import SETPOINT_FIELDS
 from drill_core.surface_flows import delta_flow_m3s
 from drill_core.units import DISPLAY_UNITS, LPM_PER_M3S, PA_PER_BAR
-from drill_core.well import build_geometry, equivalent_density_kgm3
+from drill_core.well import (annulus_pressure_at_depth_pa, build_geometry,
+                             equivalent_density_kgm3)
 
 STAND_LENGTH_M = 28.0          # one stand of drill pipe (docs/design.md §8)
 TREND_POINTS = 1500            # per series: 150 s at the 10 Hz sensor rate
@@ -235,13 +236,26 @@ class Window:
     trip_speed_max_mps: float = math.inf
     bhp_depth_m: float = math.nan          # vertical depth of the BHP sensor (ECD) [m]
     gravity_mps2: float = 9.81
+    shoe_depth_m: float = math.nan         # vertical depth of the casing shoe (ECD) [m]
+    node_depth_m: tuple[float, ...] = ()   # the model's annulus nodes D_1..D_n [m]
 
     @classmethod
     def from_config(cls, config) -> "Window":
-        f, p = config.well.formation, config.protection
+        f, p, w = config.well.formation, config.protection, config.well
+        depths = build_geometry(w).node_depth_m
+        shoe = math.nan if w.casing_shoe_depth_m is None else w.casing_shoe_depth_m
         return cls(f.pore_pressure_pa, f.fracture_pressure_pa, p.pressure_margin_pa,
-                   p.trip_speed_max_mps, build_geometry(config.well).node_depth_m[-1],
-                   config.well.gravity_mps2)
+                   p.trip_speed_max_mps, depths[-1], w.gravity_mps2, shoe, depths)
+
+    def shoe_ecd_kgm3(self, annulus_pressures_pa) -> float | None:
+        """The ECD at the casing shoe from the annulus pressures p_1..p_n at the nodes (the
+        estimate's: no sensor reads there); None without a shoe or pressures."""
+        if not (math.isfinite(self.shoe_depth_m) and annulus_pressures_pa
+                and len(annulus_pressures_pa) == len(self.node_depth_m)):
+            return None
+        pressure = annulus_pressure_at_depth_pa(self.node_depth_m, annulus_pressures_pa,
+                                                self.shoe_depth_m)
+        return equivalent_density_kgm3(pressure, self.shoe_depth_m, self.gravity_mps2)
 
 
 class ConsoleState:
@@ -329,7 +343,8 @@ class ConsoleState:
 
     def on_estimate(self, t: float, m: dict) -> None:
         with self._lock:
-            self._touch("estimate", dict(m, t=t))
+            self._touch("estimate", dict(
+                m, t=t, shoe_ecd_kgm3=self.window.shoe_ecd_kgm3(m.get("annulus_pressures_pa"))))
             self.add_point("bhp_estimate", t, m["bhp_pa"])
             self.add_point("dp_estimate", t, m["choke_dp_pa"])
             self.add_point("velocity_estimate", t, m["string_velocity_mps"])

@@ -225,6 +225,28 @@ def test_the_mpd_view_of_a_measurement():
     assert state.snapshot()["measurement"]["delta_flow_m3s"] is None   # pump off: no balance
 
 
+def test_the_ecd_at_the_casing_shoe_comes_from_the_estimates_pressures():
+    """Nodes at 0 / 1638 / 2730 / 3607.8 m, the shoe at 3276 m (0.622 of the way from the
+    third node to the fourth): a static 1800 kg/m^3 column reads 1800 there; 20 bar at
+    the choke and 150 Pa/m of friction, 1800 + (20e5 + 150 * 3276) / (9.81 * 3276)."""
+    depths = (0.0, 1638.0, 2730.0, 3607.8)
+    window = cs.Window(6.6e7, 7.1e7, 5.0e5, 0.6, bhp_depth_m=3607.8, gravity_mps2=9.81,
+                       shoe_depth_m=3276.0, node_depth_m=depths)
+    state = cs.ConsoleState(window)
+    estimate = {"bhp_pa": 6.4e7, "choke_dp_pa": 0.0, "string_velocity_mps": 0.0}
+    state.on_estimate(0.0, dict(estimate, annulus_pressures_pa=[1800.0 * 9.81 * d for d in depths]))
+    assert state.snapshot()["estimate"]["shoe_ecd_kgm3"] == pytest.approx(1800.0)
+    circulating = [2.0e6 + 1800.0 * 9.81 * d + 150.0 * d for d in depths]
+    state.on_estimate(0.1, dict(estimate, annulus_pressures_pa=circulating))
+    assert state.snapshot()["estimate"]["shoe_ecd_kgm3"] == pytest.approx(
+        1800.0 + (2.0e6 + 150.0 * 3276.0) / (9.81 * 3276.0))              # 1877.5 kg/m^3
+    state.on_estimate(0.2, dict(estimate, annulus_pressures_pa=[]))      # no pressures named
+    assert state.snapshot()["estimate"]["shoe_ecd_kgm3"] is None
+    unknown = cs.ConsoleState(cs.Window(6.6e7, 7.1e7, node_depth_m=depths))   # no shoe reported
+    unknown.on_estimate(0.0, dict(estimate, annulus_pressures_pa=circulating))
+    assert unknown.snapshot()["estimate"]["shoe_ecd_kgm3"] is None
+
+
 def test_the_display_unit_systems_convert_from_si():
     units = cs.ConsoleState(WINDOW).snapshot()["display_units"]
     field, metric = units["field"], units["metric"]
@@ -233,4 +255,6 @@ def test_the_display_unit_systems_convert_from_si():
     assert 1000.0 * field["density"][1] == pytest.approx(8.34540, rel=1e-5)     # ppg per s.g.
     assert field["length"][1] == pytest.approx(3.28084, rel=1e-5)               # ft per m
     assert field["volume"][1] == pytest.approx(6.28981, rel=1e-5)               # bbl per m^3
+    assert 1000.0 * field["force"][1] == pytest.approx(0.224809, rel=1e-5)      # klbf per kN
     assert (metric["pressure"], metric["density"]) == (["bar", 1e-5], ["s.g.", 1e-3])
+    assert metric["force"] == ["kN", 1e-3]

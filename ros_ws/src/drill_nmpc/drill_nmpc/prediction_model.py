@@ -104,21 +104,27 @@ class PumpSwitchedFriction:
         """The same laws selected by ``pump_on``."""
         return dataclasses.replace(self, pump_on=pump_on)
 
-    def loss(self, xp, k: int, flow_m3s, string_velocity_mps):
-        """F_nom of path k + 2 [Pa] (numpy rows or CasADi symbols)."""
+    def _selected(self) -> NominalFriction | None:
+        """The one law a numeric ``pump_on`` selects (None: a symbol, both in play)."""
         on = self.pump_on
         if isinstance(on, (int, float)):
-            law = self.circulating if on else self.pump_off
+            return self.circulating if on else self.pump_off
+        return None
+
+    def loss(self, xp, k: int, flow_m3s, string_velocity_mps):
+        """F_nom of path k + 2 [Pa] (numpy rows or CasADi symbols)."""
+        law = self._selected()
+        if law is not None:
             return law.loss(xp, k, flow_m3s, string_velocity_mps)
+        on = self.pump_on
         return on * self.circulating.loss(xp, k, flow_m3s, string_velocity_mps) \
             + (1.0 - on) * self.pump_off.loss(xp, k, flow_m3s, string_velocity_mps)
 
     def peak_gain_near(self, k: int, flow_m3s: float, half_width_m3s: float) -> float:
         """dF_nom/dq's bound (NominalFriction.peak_gain_near) of the law selected, the
         larger of the two where ``pump_on`` is a symbol."""
-        on = self.pump_on
-        laws = ((self.circulating if on else self.pump_off),) if isinstance(on, (int, float)) \
-            else (self.circulating, self.pump_off)
+        law = self._selected()
+        laws = (law,) if law is not None else (self.circulating, self.pump_off)
         return max(law.peak_gain_near(k, flow_m3s, half_width_m3s) for law in laws)
 
 

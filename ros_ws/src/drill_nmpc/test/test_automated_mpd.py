@@ -108,6 +108,9 @@ def test_the_flow_filter_holds_while_the_meter_reads_and_lets_go_when_it_reads_n
 
 
 def test_pulling_out_raises_the_set_point_by_the_swab_ahead_of_the_string(rig, em):
+    """At cruise the set-point is the quasi-steady choke dp of 0.5 m/s, the one whose flows
+    and pressures drill_core/test/test_surge_swab.py finds a steady state of the shared
+    drift (every balance at rest) with the BHP on the reference."""
     mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
     model = SurgeSwabModel(em)
     est = _estimate(em, 6.85e7)

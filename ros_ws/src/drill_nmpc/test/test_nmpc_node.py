@@ -11,7 +11,6 @@ from __future__ import annotations
 import copy
 import math
 import os
-import signal
 import subprocess
 import sys
 import time
@@ -20,9 +19,9 @@ import numpy as np
 import pytest
 
 from drill_core.rig_root import config_dir
+from rig_testing import stop_process
 
-pytestmark = [pytest.mark.dds,
-              pytest.mark.filterwarnings("ignore::DeprecationWarning:lark.utils")]
+pytestmark = pytest.mark.dds
 
 DOMAIN_ID = 86
 CONFIG_DIR = config_dir()
@@ -47,13 +46,7 @@ def nmpc_process():
          "-p", "use_sim_time:=true"],
         env=_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     yield proc
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout=5)
+    stop_process(proc)
 
 
 class Estimator:

@@ -21,10 +21,7 @@ DP_PA = 5.0e5
 
 
 @pytest.fixture(scope="module")
-def setup():
-    cfg = load_rig(CONFIG_DIR)
-    wm = hy.build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
-                             cfg.plant.choke_regularisation_pa)
+def setup(cfg, wm):
     return cfg.actuators, wm
 
 

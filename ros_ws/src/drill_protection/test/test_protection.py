@@ -3,22 +3,15 @@ import math
 import numpy as np
 import pytest
 
-from drill_core import hydraulics as hy
-from drill_core.config import load_rig
-from drill_core.rig_root import config_dir
 from drill_protection.protection import ProcessProtection, surge_swab_pa
 from drill_protection.well_control import Hold
 
-CONFIG = config_dir()
 CIRCULATION = 1000.0 / 60000.0          # 1000 L/min
 
 
 @pytest.fixture(scope="module")
-def setup():
-    config = load_rig(CONFIG)
-    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa)
-    return config, wm
+def setup(cfg, wm):
+    return cfg, wm
 
 
 def fresh(setup, start=(0.0, CIRCULATION, 0.0, 1.06e7)):

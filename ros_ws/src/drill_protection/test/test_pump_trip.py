@@ -2,35 +2,36 @@
 the command and the string-flow meter only, the back-pressure pump kept going, the choke
 held shut once while the BHP without friction is under the window, within the fracture
 limit; and how the limiter applies it."""
-
-
 import numpy as np
 import pytest
 
 from drill_core import hydraulics as hy
-from drill_core.config import load_rig
 from drill_core.event_codes import Notice
-from drill_core.rig_root import config_dir
 from drill_protection.protection import ProcessProtection
 from drill_protection.pump_trip import PumpTripResponse, TripAction
 
-CONFIG = config_dir()
 SPP_PA = 1.06e7
 BHP_PA = 6.85e7
 PERIOD_S = 0.1
 
 
 @pytest.fixture(scope="module")
-def setup():
-    config = load_rig(CONFIG)
-    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa)
-    return config, wm
+def setup(cfg, wm):
+    return cfg, wm
 
 
 def response(setup) -> PumpTripResponse:
     config, wm = setup
     return PumpTripResponse(config.protection.pump_trip, wm, config.pressure_window_pa)
+
+
+def pumping(setup, seconds: float, mud_pump_on: bool = True,
+            spp_pa: float = SPP_PA) -> tuple[PumpTripResponse, float]:
+    """A response whose advisor asked for the pump, after ``seconds`` of circulation read;
+    the time reached."""
+    r = response(setup)
+    r.request(mud_pump_on, spp_pa)
+    return r, circulate(r, seconds)
 
 
 def circulate(r: PumpTripResponse, seconds: float, start_s: float = 0.0) -> float:
@@ -58,9 +59,7 @@ def test_the_mud_column_plus_the_choke_dp_is_the_bhp_without_friction(setup):
 
 
 def test_a_blank_meter_while_the_pump_is_asked_for_is_a_lost_circulation(setup):
-    r = response(setup)
-    r.request(True, SPP_PA)
-    t = circulate(r, 2.0)
+    r, t = pumping(setup, 2.0)
     assert r.action(t) is None                                 # circulating: nothing to do
     assert r.observe(t, False, 2.0e6, BHP_PA).code == "circulation_lost" and r.lost
     assert r.observe(t + PERIOD_S, False, 2.0e6, BHP_PA) is None   # said once
@@ -76,9 +75,7 @@ def test_a_blank_meter_while_the_pump_is_asked_for_is_a_lost_circulation(setup):
 ])
 def test_a_planned_stop_or_a_well_never_circulated_is_no_loss(setup, mud_pump_on, spp_pa,
                                                                circulated_s):
-    r = response(setup)
-    r.request(mud_pump_on, spp_pa)
-    t = circulate(r, circulated_s)
+    r, t = pumping(setup, circulated_s, mud_pump_on, spp_pa)
     for k in range(20):
         assert r.observe(t + k * PERIOD_S, False, 2.0e6, BHP_PA) is None
     assert not r.lost and r.action(t + 2.0) is None
@@ -88,9 +85,7 @@ def test_the_choke_is_held_shut_once_until_the_bhp_without_friction_is_inside(se
     config, _ = setup
     c = config.protection.pump_trip
     low, _ = config.pressure_window_pa
-    r = response(setup)
-    r.request(True, SPP_PA)
-    t = circulate(r, 1.0)
+    r, t = pumping(setup, 1.0)
     r.observe(t, False, 2.0e6, BHP_PA)                   # lost; without friction 657 bar
     a = r.action(t + 1.0)
     assert a.choke_flow_m3s == 0.0 and a.bpp_flow_min_m3s == c.bpp_flow_m3s
@@ -108,9 +103,7 @@ def test_the_choke_is_not_shut_at_the_fracture_edge_nor_after_its_time(setup):
     config, _ = setup
     c = config.protection.pump_trip
     _, high = config.pressure_window_pa
-    r = response(setup)
-    r.request(True, SPP_PA)
-    t = circulate(r, 1.0)
+    r, t = pumping(setup, 1.0)
     r.observe(t, False, 2.0e6, high)                     # BHP at the fracture edge
     assert r.action(t + 1.0).choke_flow_m3s is None      # the window guard's side
     r.observe(t + 1.1, False, 2.0e6, BHP_PA)

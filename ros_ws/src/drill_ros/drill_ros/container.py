@@ -31,6 +31,7 @@ from drill_ros.budget import ProcessClock
 from drill_ros.executors import SPIN_TIMEOUT_S, create_executor
 from drill_ros.local_bus import LocalBus
 from drill_ros.node import CONTAINED
+from drill_ros.runner import shut_down
 from drill_ros.stopping import PROCESS
 
 
@@ -81,10 +82,7 @@ def main(argv: list[str]) -> int:
     finally:
         clock.write(process, {node.get_name(): node.budget for node in nodes})
         code = code or next((c for c in (getattr(n, "exit_code", 0) for n in nodes) if c), 0)
-        executor.shutdown()
-        for node in nodes:
-            node.destroy_node()
-        rclpy.try_shutdown()
+        shut_down(executor, *nodes)
     return code
 
 

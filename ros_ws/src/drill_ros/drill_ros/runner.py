@@ -14,6 +14,17 @@ from drill_ros.executors import SPIN_TIMEOUT_S, create_executor
 from drill_ros.stopping import PROCESS
 
 
+def shut_down(executor, *nodes) -> None:
+    """The end of a process's ROS life: its executor shut down (None: none made), each
+    node destroyed, rclpy shut down."""
+    if executor is not None:
+        executor.shutdown()
+    for node in nodes:
+        if node is not None:
+            node.destroy_node()
+    rclpy.try_shutdown()
+
+
 def run(node_factory, args=None) -> int:
     """Create the node with ``node_factory`` and spin it; returns the process exit code."""
     stop = PROCESS.install()
@@ -36,10 +47,7 @@ def run(node_factory, args=None) -> int:
         print(f"[fatal] {type(err).__name__}: {err}", file=sys.stderr, flush=True)
         code = 1
     finally:
-        if executor is not None:
-            executor.shutdown()
         if node is not None:
             clock.write(node.get_name(), {node.get_name(): node.budget})
-            node.destroy_node()
-        rclpy.try_shutdown()
+        shut_down(executor, node)
     return code

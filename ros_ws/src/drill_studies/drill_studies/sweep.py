@@ -32,7 +32,7 @@ from drill_core.config import ConfigError, parse_settings
 from drill_ros.graph import CONTROLLERS
 from drill_core.scenario import load_scenario_config, scenario_kind
 from drill_core.units import LPM_PER_M3S, PA_PER_BAR
-from drill_core.yaml_files import load_yaml, merge
+from drill_core.yaml_files import dotted_items, load_yaml, merge
 
 SCENARIO_FILE = "scenario.yaml"
 INDEX_FILE = "sweep.json"
@@ -76,16 +76,8 @@ def command(index: dict) -> str:
              "--controller " + " ".join(index["controllers"])]
     if index.get("mismatch_draws"):
         parts.append(f"--mismatch-draws {index['mismatch_draws']}")
-    parts += [f"--set {key}={value}" for key, value in _flat(index["overrides"])]
+    parts += [f"--set {key}={value}" for key, value in dotted_items(index["overrides"])]
     return " ".join(parts)
-
-
-def _flat(tree: dict, prefix: str = ""):
-    for key, value in tree.items():
-        if isinstance(value, dict):
-            yield from _flat(value, f"{prefix}{key}.")
-        else:
-            yield f"{prefix}{key}", value
 
 
 def sweep_scenario(source: Path, sets, output: Path) -> Path:
