@@ -78,10 +78,10 @@ from std_msgs.msg import Bool, String
 from drill_hmi import console_state as cs
 from drill_core import access
 from drill_core.access import SecurityDir
-from drill_core.state_layout import annulus_pressure_name
 from drill_core.config import load_rig
 from drill_core.event_codes import Notice
 from drill_core.rig_root import config_dir as default_config_dir
+from drill_core.state_layout import annulus_pressure_name
 from drill_ros import topics
 from drill_ros.diagnostics import HARDWARE_ID, status_fields
 from drill_ros.events import event_message
@@ -142,16 +142,13 @@ def truth_dict(m: PlantTruth) -> dict:
 
 
 def estimate_dict(m: StateEstimate) -> dict:
-    names = list(m.state_names)
-    i = names.index("string_position_m") if "string_position_m" in names else None
+    value = {name: float(v) for name, v in zip(m.state_names, m.mean)}
     pressures = []                           # p_1..p_n, while the estimate names them
-    while annulus_pressure_name(len(pressures) + 1) in names:
-        k = names.index(annulus_pressure_name(len(pressures) + 1))
-        if k >= len(m.mean):
-            break
-        pressures.append(float(m.mean[k]))
-    return {"annulus_pressures_pa": pressures,"bhp_pa": m.bhp_pa, "choke_dp_pa": m.choke_dp_pa, "string_velocity_mps": m.string_velocity_mps,
-            "string_position_m": float(m.mean[i]) if i is not None and i < len(m.mean) else None,
+    while annulus_pressure_name(len(pressures) + 1) in value:
+        pressures.append(value[annulus_pressure_name(len(pressures) + 1)])
+    return {"annulus_pressures_pa": pressures, "bhp_pa": m.bhp_pa, "choke_dp_pa": m.choke_dp_pa,
+            "string_velocity_mps": m.string_velocity_mps,
+            "string_position_m": value.get("string_position_m"),
             "nis": m.nis, "nis_dof": int(m.nis_dof), "string_flow_observable": m.string_flow_observable,
             "rejected_measurements": int(m.rejected_measurements),
             "covariance_inflations": int(m.covariance_inflations),
