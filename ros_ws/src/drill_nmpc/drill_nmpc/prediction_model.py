@@ -198,9 +198,10 @@ class PredictionModel:
             em = dataclasses.replace(em, nominal_friction=em.nominal_friction.at(pump_on))
         return em
 
-    def rhs(self, x, u, par, pump_on=1.0):
-        """Time derivative of the prediction state (list of expressions)."""
-        em = self.model_at(pump_on)
+    def rhs(self, x, u, par, pump_on=1.0, friction_pump_on=None):
+        """Time derivative of the prediction state (list of expressions); the friction law
+        is ``friction_pump_on``'s (0/1) where given, else ``pump_on``'s."""
+        em = self.model_at(pump_on if friction_pump_on is None else friction_pump_on)
         full = self.full(x, par)
         spp_cmd = u[U_PUMP_PRESSURE] * pump_on
         inputs = [u[U_BLOCK], self.choke_flow(x, u, em.bulk_modulus_of(full)),
@@ -236,9 +237,14 @@ class PredictionModel:
                 + (dp - u[U_CHOKE]) * g.annulus_volume_m3[0]
                 / (w.mud.bulk_modulus_pa * bulk_modulus_factor * self.choke_time_constant_s))
 
-    def function(self, step_s: float, substeps: int, integrator: str) -> ca.Function:
+    def function(self, step_s: float, substeps: int, integrator: str,
+                 friction_pump_on: float | None = None) -> ca.Function:
         """F(x, u, par, pump_on) -> x after one sample (inputs held), ``substeps`` RK4/Euler
-        steps: calls of one step function (its code once, however many steps). F's
+        steps: calls of one step function (its code once, however many steps). With
+        ``friction_pump_on`` (0/1) the friction law is that pump state's alone whatever
+        ``pump_on`` says (under :class:`PumpSwitchedFriction` the symbolic law evaluates
+        both laws' splines, twice the cost, to select one); ``pump_on`` still switches the
+        pump. F's
         derivative is its explicit Jacobian, the chain rule over the steps of the step's
         own (one SX function), so every derivative the NLP needs is one call of it per
         stage instead of forward sweeps through the integrator."""
@@ -248,7 +254,8 @@ class PredictionModel:
         on = ca.SX.sym("pump_on")
 
         def f(s):
-            return ca.vertcat(*self.rhs([s[i] for i in range(self.nd)], u, par, on))
+            return ca.vertcat(*self.rhs([s[i] for i in range(self.nd)], u, par, on,
+                                        friction_pump_on))
 
         h = step_s / substeps
         xn = rk4_step(f, x, h) if integrator == "rk4" else euler_step(f, x, h)

@@ -24,8 +24,8 @@ from drill_core.input_layout import U_BLOCK, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.scenario import ActiveSetpoints
 from drill_core.surge_swab import SurgeSwabModel
 from drill_nmpc.motion_profile import MotionProfile
-from drill_nmpc.prediction_model import (ACTUATOR_KEYS, ActuatorLags, full_state, outputs,
-                                         string_pressure_margin)
+from drill_nmpc.prediction_model import (ACTUATOR_KEYS, ActuatorLags, PumpSwitchedFriction,
+                                         full_state, outputs, string_pressure_margin)
 from drill_nmpc.soft_constraints import SLACK_NAMES, SLACK_UNITS
 from drill_nmpc.solve_result import Fallback, SolveResult
 from drill_nmpc.transcription import INTEGRAL_OUTPUTS, NmpcProblem
@@ -64,10 +64,21 @@ class Supervisor:
         accel = rig.protection.trip_acceleration_max_mps2 if rig is not None else None
         self.acceleration = accel
         jit = (cfg.jit if jit is None else jit) and hessian == "gauss-newton"
-        self.problem = NmpcProblem(cfg, em, configuration=configuration, solver=solver, jit=jit,
-                                   cache_dir=cache_dir, substeps=substeps, integrator=integrator,
-                                   solver_options=solver_options, hessian=hessian,
-                                   lags=lags, acceleration_limit_mps2=accel)
+
+        def problem(friction_pump_on):
+            return NmpcProblem(cfg, em, configuration=configuration, solver=solver, jit=jit,
+                               cache_dir=cache_dir, substeps=substeps, integrator=integrator,
+                               solver_options=solver_options, hessian=hessian, lags=lags,
+                               acceleration_limit_mps2=accel, friction_pump_on=friction_pump_on)
+
+        # one problem per pump state where the friction law follows it (the same OCP as
+        # one with the law selected by its pump_on parameter, at one law's cost); the one
+        # of the pump state in force is self.problem
+        if isinstance(em.nominal_friction, PumpSwitchedFriction):
+            self._problems = {True: problem(1.0), False: problem(0.0)}
+        else:
+            self._problems = dict.fromkeys((True, False), problem(None))
+        self.problem = self._problems[True]
         self.em = self.problem.em
         self.model = self.problem.model
         self.configuration = self.problem.configuration
@@ -96,6 +107,10 @@ class Supervisor:
         self._held_choke_dp = math.nan                 # the choke dp held since the holds began [Pa]
 
     # -- helpers ------------------------------------------------------------------------
+    def problem_for(self, pump_on: bool) -> NmpcProblem:
+        """The OCP solved while the mud pump is planned ``pump_on``."""
+        return self._problems[bool(pump_on)]
+
     def reset(self) -> None:
         """Forget warm start and integral state (e.g. after a hand-back to manual)."""
         self._warm = None
@@ -240,7 +255,7 @@ class Supervisor:
         return np.array([s.position_m for s in self._profile.ahead(
             target_m, speed_mps, accel, self.problem.ts, self.problem.N)])
 
-    def _initial_guess(self, x0, par, u_prev, pump_on=True):
+    def _initial_guess(self, x0, par, u_prev, pump_on):
         """Cold start: inputs held at u_{-1}, states simulated, slacks and multipliers zero."""
         pb = self.problem
         U = np.tile(u_prev, (pb.N, 1))
@@ -262,7 +277,7 @@ class Supervisor:
         E = pb.integral_rollout(X, par, self.integral, y_sp, self.bhp_bias) if pb.ne else None
         return pb.pack(x0, u_prev, X, U, E, {}, self._speed), None, None
 
-    def _shifted_guess(self, x0, par, u_prev):
+    def _shifted_guess(self, x0, par, u_prev, pump_on):
         """Previous solution shifted one sample (primal and multipliers), re-expressed
         around the new x_0 and u_{-1}."""
         pb, w = self.problem, self._warm
@@ -277,7 +292,7 @@ class Supervisor:
         z = pb.pack(x0, u_prev, X, U, E, slacks, self._speed)
         lam_z, lam_g = pb.shift_multipliers(w["lam_z"], w["lam_g"])
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(lam_z)) and np.all(np.isfinite(lam_g))):
-            return self._initial_guess(x0, par, u_prev)
+            return self._initial_guess(x0, par, u_prev, pump_on)
         return z, lam_z, lam_g
 
     # -- one sample ---------------------------------------------------------------------
@@ -305,6 +320,7 @@ class Supervisor:
         if self.spp_nominal is None:
             self.spp_nominal = float(u_prev[U_PUMP_PRESSURE])
         pump_on = bool(setpoints.mud_pump_on)
+        pb = self.problem = self.problem_for(pump_on)
         known = {}
         if self._next_actuators is not None and np.allclose(u_prev, self._next_actuators[1]):
             known.update(self._next_actuators[0])
@@ -349,7 +365,7 @@ class Supervisor:
         for start in attempts:
             relaxed = start == "relaxed"
             if start == "shifted":
-                z0, lam_z0, lam_g0 = self._shifted_guess(x0, par, u_prev)
+                z0, lam_z0, lam_g0 = self._shifted_guess(x0, par, u_prev, pump_on)
             elif start == "rollout":
                 z0, lam_z0, lam_g0 = self._rollout_guess(x0, par, u_prev, pump_on, y_sp)
             else:

@@ -62,7 +62,8 @@ class NmpcProblem:
                  integrator: str | None = None, solver_options: dict | None = None,
                  tabulate_string_friction: bool = True, hessian: str = "exact",
                  lags: ActuatorLags | None = None, terminal_constraints: bool = False,
-                 cache_dir: str | None = None, acceleration_limit_mps2: float | None = None):
+                 cache_dir: str | None = None, acceleration_limit_mps2: float | None = None,
+                 friction_pump_on: float | None = None):
         self.cfg = cfg
         self.configuration = configuration or cfg.configuration
         if self.configuration == "NMPC2" and not em.with_disturbance:
@@ -108,7 +109,9 @@ class NmpcProblem:
         self.Su = self.inputs["slew"]
         self.u_span = self.inputs["span"]
         self.y_span = np.array(cfg.output_span.as_tuple(), dtype=float)
-        self.F = self.model.function(self.ts, self.substeps, self.integrator)
+        # the friction law of one pump state (PredictionModel.function), None: the parameter's
+        self.friction_pump_on = friction_pump_on
+        self.F = self.model.function(self.ts, self.substeps, self.integrator, friction_pump_on)
         if jit:     # the step and its Jacobian in C; the NLP around them stays an MX graph
             self.F = compiled([self.F, self.F.jacobian()], "nmpc_predict", cache_dir)["predict"]
         self._state_box = self._trust_region()

@@ -68,6 +68,36 @@ def test_the_prediction_step_takes_each_law_with_its_pump_state(config):
     assert abs(sharp[em.pressure(em.n)] - wide[em.pressure(em.n)]) > 1.0e3    # Pa
 
 
+def test_a_step_built_for_one_pump_state_is_the_switched_step_at_that_state(config):
+    """F built with one pump state's friction law (what the supervisor solves with, one
+    problem per pump state) equals the switched F at that state bit for bit, and its
+    pump_on parameter still switches the pump: off, the stand-pipe pressure winds down."""
+    em = nmpc_estimation_model(config, "NMPC1")
+    model = PredictionModel(em, ActuatorLags.from_config(config))
+    step_s, substeps = config.nmpc.sample_time_s, config.nmpc.substeps
+    switched = model.function(step_s, substeps, "rk4")
+    x_em, u = steady_estimate(em, Initial(circulation_m3s=30.0 * LPM, choke_dp_pa=2.0e6,
+                                          bpp_flow_m3s=0.0))
+    x = model.initial_state(x_em, u)
+    par = x_em[model.nd_model:]
+    for pump_on in (1.0, 0.0):
+        fixed = model.function(step_s, substeps, "rk4", friction_pump_on=pump_on)
+        assert np.array_equal(np.asarray(fixed(x, u, par, pump_on)),
+                              np.asarray(switched(x, u, par, pump_on)))
+    on_law = model.function(step_s, substeps, "rk4", friction_pump_on=1.0)
+    running, stopping = (np.asarray(on_law(x, u, par, on)).ravel()[model.pump] for on in (1.0, 0.0))
+    assert stopping < running
+
+
+def test_the_supervisor_solves_each_pump_state_with_its_own_problem(config):
+    from drill_nmpc.supervisor import Supervisor
+    em = nmpc_estimation_model(config, "NMPC1")
+    sup = Supervisor(config, em)
+    on, off = sup.problem_for(True), sup.problem_for(False)
+    assert on is not off
+    assert (on.friction_pump_on, off.friction_pump_on) == (1.0, 0.0)
+
+
 def test_the_stiffness_cap_reads_the_law_in_force(config):
     switched = nmpc_estimation_model(config, "NMPC1").nominal_friction
     for k in range(3):

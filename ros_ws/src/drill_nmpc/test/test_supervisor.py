@@ -270,7 +270,8 @@ def test_a_hold_puts_the_choke_on_its_pressure_loop_at_the_dp_for_the_reference_
     less the mud column (1800 kg/m^3 over 3607.8 m: 637.07 bar) - fixed when the run
     began; a solve ends it."""
     x, u = _steady(config, em)
-    real = supervisor.problem.solve
+    pump_off = supervisor.problem_for(False)
+    real = pump_off.solve
 
     def always_nan(*args, **kwargs):
         sol = real(*args, **kwargs)
@@ -280,7 +281,7 @@ def test_a_hold_puts_the_choke_on_its_pressure_loop_at_the_dp_for_the_reference_
     supervisor.reset()
     off = dataclasses.replace(trip_setpoints(0.0, 0.0, 0.0, 6.85e7), mud_pump_on=False,
                               choke_dp_band_upper_pa=6.63e7)
-    monkeypatch.setattr(supervisor.problem, "solve", always_nan)
+    monkeypatch.setattr(pump_off, "solve", always_nan)
     r = supervisor.step(x, off, u)
     assert r.fallback == "hold"
     assert r.hold_choke_dp_pa == pytest.approx(6.85e7 - 637.07e5, abs=0.01e5)
@@ -289,7 +290,7 @@ def test_a_hold_puts_the_choke_on_its_pressure_loop_at_the_dp_for_the_reference_
     assert choke.dp_ref_rate_pa_s == 0.0 and choke.flow_m3s == r.u[1]   # its feed-forward
     again = supervisor.step(x, dataclasses.replace(off, bhp_ref_pa=6.8e7), u)
     assert again.hold_choke_dp_pa == r.hold_choke_dp_pa                # fixed over the run
-    monkeypatch.setattr(supervisor.problem, "solve", real)
+    monkeypatch.setattr(pump_off, "solve", real)
     solved = supervisor.step(x, trip_setpoints(0.0, 0.0, 100.0, float(outputs(em, x)[2])), u)
     assert solved.fallback != "hold" and math.isnan(solved.hold_choke_dp_pa)
     assert not choke_command(config.nmpc, solved, 0.01).pressure_control
