@@ -537,6 +537,22 @@ class PumpTrip:
 
 
 @dataclass(frozen=True)
+class DrawworksWatch:
+    """A drawworks that does not follow its reference (drill_protection.drawworks_watch):
+    the block reference held at the measured string meanwhile."""
+    window_s: float = param("s", 0.0, 60.0, lo_open=True,
+                            doc="the drawworks' frames judged over this long")
+    reference_travel_m: float = param("m", 0.0, 10.0, lo_open=True,
+                                      doc="the reference moved at least this in the window ...")
+    block_travel_m: float = param("m", 0.0, 1.0, lo_open=True,
+                                  doc="... and the block less than this: not following")
+    response_s: float = param("s", 0.0, 60.0, doc="the reference's moves in the window's last "
+                                                  "this long are not judged (the block's answer)")
+    hold_s: float = param("s", 0.0, 600.0, doc="the reference held at the string this long, "
+                                               "then the advisor's again, from rest")
+
+
+@dataclass(frozen=True)
 class WellControl:
     """The protection's answer to a kick or losses alarm: the BHP window narrowed in steps
     (drill_protection.well_control)."""
@@ -573,6 +589,7 @@ class Protection:
                                    "pressure pump are driven back toward it")
     pump_trip: PumpTrip = param()
     well_control: WellControl = param()
+    drawworks_watch: DrawworksWatch = param()
 
 
 @dataclass(frozen=True)

@@ -55,6 +55,9 @@ _PROTECTION = {
     "pump_trip_response": EventCode("clamp", "", "the mud pump has tripped: the response acts"),
     "speed_clamp": EventCode("clamp", "m/s", "the block's speed cut (surge/swab model, operator "
                                              "limit, drawworks); value: the speed allowed"),
+    "drawworks_not_following": EventCode("clamp", "m", "the block did not follow its reference "
+                                                      "(a stuck drawworks): the reference held at "
+                                                      "the string; value: the reference"),
     "drawworks_range": EventCode("clamp", "m", "the block reference held inside the drawworks' "
                                                "range; value: the reference"),
     "estop_engaged": EventCode("emergency_stop", "", "the emergency stop is engaged"),

@@ -34,7 +34,10 @@ machines respects the most conservative of
   trip-speed limits kept to the narrowed window,
 * an unplanned loss of circulation (drill_protection.pump_trip): the back-pressure pump
   kept at a flow the choke can hold back-pressure with, and once the choke held shut
-  while the BHP the well will have without the annular friction is under the window.
+  while the BHP the well will have without the annular friction is under the window,
+* a drawworks that does not follow its reference (drill_protection.drawworks_watch): the
+  block reference held at the measured string, at rest, so that a stuck block does not
+  catch up at the drawworks' speed limit when it lets go.
 
 A manual choke opening (choke panel in manual) is kept inside the choke's range; its
 rate is limited by the choke actuator's own lag. A choke-dp set-point (the choke on its
@@ -192,15 +195,16 @@ class ProcessProtection:
               surface_flows: tuple[float, float] | None = None,
               trip_action: TripAction | None = None,
               advisor_bhp_ref_pa: float = float("nan"),
-              choke_dp_pa: float = float("nan")) -> Decision:
+              choke_dp_pa: float = float("nan"), block_not_following: bool = False) -> Decision:
         """Limit ``request`` [u_r, q_c, q_bpp, p_spp], the requested manual choke opening and
         choke-dp set-point (dp Pa, ramp Pa/s) (both None: the choke on its PI flow
         controller; a manual opening wins); ``surface_flows`` are the measured return and
         back-pressure pump flows [m^3/s] the window guard starts from; ``trip_action`` the
         answer to a lost circulation (drill_protection.pump_trip), None when there is
         none; ``advisor_bhp_ref_pa`` the BHP the advisor aims at (NaN: none);
-        ``choke_dp_pa`` the measured choke dp (the emergency stop's feedforward). Returns the
-        command to send and why."""
+        ``choke_dp_pa`` the measured choke dp (the emergency stop's feedforward);
+        ``block_not_following`` the drawworks watch's judgement. Returns the command to send
+        and why."""
         p = self.config.protection
         period = p.command_period_s
         request = np.asarray(request, dtype=float)
@@ -234,6 +238,12 @@ class ProcessProtection:
             clamps.append(Notice("non_finite_dp_setpoint", f"non-finite choke dp set-point "
                                  f"{choke_dp_setpoint[0]} Pa: choke on its flow controller"))
             choke_dp_setpoint = None
+        held_block = block_not_following and not not_applied
+        if held_block:
+            request[U_BLOCK] = position_m if np.isfinite(position_m) else self.previous[U_BLOCK]
+            clamps.append(Notice("drawworks_not_following", "the block did not follow its "
+                                 "reference: the reference held at the string, "
+                                 f"{request[U_BLOCK]:.2f} m", float(request[U_BLOCK])))
         command = request.copy()
         manual_choke_opening = self._limit_opening(manual_choke_opening, clamps)
         if manual_choke_opening is not None:
@@ -276,7 +286,7 @@ class ProcessProtection:
                                    operator_speed_limit_mps, friction_free)
         (down, why_down), (up, why_up) = limits.running_in, limits.pulling_out
         speed = (command[U_BLOCK] - self.previous[U_BLOCK]) / period
-        if self.emergency_stop:
+        if self.emergency_stop or held_block:       # to where the string is, at once
             limited_speed = speed
         else:
             accel = p.trip_acceleration_max_mps2 * period
@@ -293,7 +303,8 @@ class ProcessProtection:
             clamps.append(Notice("drawworks_range", "block reference held inside the drawworks "
                                  "range", ref))
         command[U_BLOCK] = ref
-        self.previous_speed_mps = 0.0 if self.emergency_stop else (ref - self.previous[U_BLOCK]) / period
+        self.previous_speed_mps = 0.0 if self.emergency_stop or held_block \
+            else (ref - self.previous[U_BLOCK]) / period
         self.previous = command.copy()
         self.previous_manual_opening = manual_choke_opening
         self.previous_dp_setpoint = choke_dp_setpoint

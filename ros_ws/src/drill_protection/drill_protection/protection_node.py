@@ -18,7 +18,10 @@ kick or losses alarm is raised and cleared as an event and, with ``stop_trip``, 
 trip (the block reference brakes to rest within the acceleration limit) until it clears.
 Every measurement also feeds the circulation watch (drill_protection.pump_trip): a lost
 circulation (the mud pump asked for, the string-flow meter blank) is an alarm, and the
-protection answers it until circulation is back or no longer asked for.
+protection answers it until circulation is back or no longer asked for. The drawworks'
+frames (/actuators/drawworks/frame) feed the drawworks watch (drill_protection.
+drawworks_watch): a block that does not follow its reference has the reference held at the
+string; in fast mode the command stamped t_k waits for the frame stamped t_k - dt.
 """
 from __future__ import annotations
 
@@ -26,7 +29,7 @@ import math
 import sys
 from dataclasses import asdict
 
-from drill_msgs.msg import OperatorEvent, RigCommand, RigMeasurement, Setpoints
+from drill_msgs.msg import ActuatorFrame, OperatorEvent, RigCommand, RigMeasurement, Setpoints
 from std_msgs.msg import Bool, String
 
 from drill_core.event_codes import Notice
@@ -36,7 +39,7 @@ from drill_ros.events import event_message
 from drill_ros.inbox import StampedInbox
 from drill_ros.node import RigNode
 from drill_ros.runner import run
-from drill_ros.stamps import ScenarioClock, from_ns, to_ns
+from drill_ros.stamps import ScenarioClock, from_ns, seconds_to_ns, to_ns
 from drill_ros.status import StatusReporter
 from drill_protection.tick import ProtectionTick
 
@@ -54,6 +57,7 @@ class ProtectionNode(RigNode):
         self.clock = ScenarioClock()             # the operator actions' times
         self.last_request: RigCommand | None = None
         self.inbox = StampedInbox(("command", "measurement"))
+        self.frame_ns = seconds_to_ns(ctx.config.plant.sensor_period_s)
         self.clamp_count = 0
         self.status = StatusReporter(self, ctx.mode)
         self.pub_command = self.create_publisher(RigCommand, topics.MACHINE_COMMAND, topics.RELIABLE)
@@ -64,6 +68,8 @@ class ProtectionNode(RigNode):
         self.create_subscription(RigCommand, topics.COMMAND, self._on_command, topics.RELIABLE)
         self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
                                  topics.RELIABLE)
+        self.create_subscription(ActuatorFrame, topics.actuator_frame("drawworks"),
+                                 self._on_drawworks, topics.RELIABLE)
         self.create_subscription(Setpoints, topics.SETPOINTS, self._on_setpoints, topics.LATCHED)
         self.create_subscription(Bool, topics.EMERGENCY_STOP, self._on_estop, topics.LATCHED)
         self.create_subscription(String, topics.AUTOMATION_LEVEL, self._on_level, topics.LATCHED)
@@ -111,6 +117,10 @@ class ProtectionNode(RigNode):
         self.inbox.put("measurement", msg)
         self._process()
 
+    def _on_drawworks(self, msg: ActuatorFrame) -> None:
+        self.tick.observe_drawworks(to_ns(msg.header.stamp), msg.reference, msg.output)
+        self._process()
+
     def _on_command(self, msg: RigCommand) -> None:
         self.inbox.put("command", msg)
         self._process()
@@ -121,7 +131,9 @@ class ProtectionNode(RigNode):
             return
         stamp = to_ns(request.header.stamp)
         if self.ctx.fast:
-            if not self.inbox.has("measurement", stamp):
+            due = stamp - self.frame_ns            # the last drawworks frame before t_k
+            if not self.inbox.has("measurement", stamp) or \
+                    (due >= 0 and not self.tick.has_drawworks_frame(due)):
                 return
             measurement = self.inbox.take("measurement", stamp)
         else:

@@ -19,6 +19,7 @@ from drill_core.hydraulics import WellModel
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.operator_actions import OperatorScript
 from drill_core.units import PA_PER_BAR
+from drill_protection.drawworks_watch import DrawworksWatch
 from drill_protection.protection import Decision, ProcessProtection
 from drill_protection.watch import MeasurementWatch
 
@@ -72,6 +73,7 @@ class ProtectionTick:
                           float(op.inputs[U_PUMP_PRESSURE])])
         self.protection = ProcessProtection(config, wm, start)
         self.watch = MeasurementWatch(config, wm, self.protection)
+        self.drawworks = DrawworksWatch(config.protection.drawworks_watch)
         self.script = OperatorScript(scenario.operator)
         self.formation = config.well.formation
         self.in_window = True
@@ -81,8 +83,17 @@ class ProtectionTick:
         """One measurement through the watch: the notices it raised."""
         return self.watch.observe(stamp_ns, m)
 
+    def observe_drawworks(self, stamp_ns: int, reference_m: float, output) -> None:
+        """One drawworks frame (drill_msgs/ActuatorFrame's stamp, reference and output)."""
+        self.drawworks.frame(stamp_ns * 1e-9, reference_m, output)
+
+    def has_drawworks_frame(self, stamp_ns: int) -> bool:
+        """Whether the drawworks frame stamped ``stamp_ns`` has been observed."""
+        return self.drawworks.has(stamp_ns * 1e-9)
+
     def limit(self, request, m, stamp_ns: int, latched_speed_limit_mps: float) -> Decision:
-        """``request`` limited with the measurement ``m`` at ``stamp_ns``, under the
+        """``request`` limited with the measurement ``m`` at ``stamp_ns`` (and the drawworks
+        frames stamped before it), under the
         operator's trip-speed limit the advisor planned it under (it rides on the command,
         so every run applies it at the same stamp), else ``latched_speed_limit_mps`` (the
         latched setpoints'; the open-loop sequencer sends none) [m/s]."""
@@ -101,7 +112,8 @@ class ProtectionTick:
             if request.choke_pressure_control else None,
             surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s),
             trip_action=self.watch.circulation.action(stamp_ns * 1e-9),
-            advisor_bhp_ref_pa=request.bhp_ref_pa, choke_dp_pa=m.choke_dp_pa)
+            advisor_bhp_ref_pa=request.bhp_ref_pa, choke_dp_pa=m.choke_dp_pa,
+            block_not_following=self.drawworks.not_following(stamp_ns * 1e-9))
 
     def machine_command(self, decision: Decision, request) -> MachineCommand:
         """The machine command of ``decision`` on ``request`` (the window in force on it)."""

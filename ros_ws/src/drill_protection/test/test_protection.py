@@ -242,3 +242,21 @@ def test_outside_the_window_the_choke_and_pump_are_driven_back_from_where_they_a
     assert any("under the window's pore limit 665.0 bar" in c.text for c in d.clamps)
     inside = p.apply([0.0, 0.02, 0.0, 0.0], 0.0, 0.0, 6.85e7, 0.0, 0.5, surface_flows=flows)
     assert not any("window's" in c.text for c in inside.clamps)
+
+
+def test_a_block_not_following_has_its_reference_held_at_the_string_then_starts_from_rest(setup):
+    """While the drawworks watch says the block does not follow, the reference goes to the
+    measured string at once (not at the acceleration limit); after it, the advisor's
+    reference starts from there at rest, within the acceleration limit."""
+    config, _ = setup
+    p = fresh(setup)
+    for k in range(1, 8):                     # the reference pulled out at 0.5 m/s
+        d = p.apply([0.5 * k, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
+    ahead = d.command[0]
+    d = p.apply([ahead + 0.5, CIRCULATION, 0.0, 1.06e7], 1.2, 0.0, 6.85e7, CIRCULATION, 0.5,
+                block_not_following=True)
+    assert d.command[0] == 1.2 and ahead > 1.2
+    assert [c.code for c in d.clamps] == ["drawworks_not_following"] and d.clamps[0].value == 1.2
+    d = p.apply([ahead + 1.0, CIRCULATION, 0.0, 1.06e7], 1.2, 0.0, 6.85e7, CIRCULATION, 0.5)
+    step = config.protection.trip_acceleration_max_mps2 * config.protection.command_period_s ** 2
+    assert d.command[0] == pytest.approx(1.2 + step)

@@ -229,6 +229,9 @@ class Protection:
             elif notice.code not in DETECTOR_CODES:
                 self.alarms.append((t, notice))
 
+    def drawworks_frame(self, stamp_ns: int, frame: FrameOutput) -> None:
+        self.tick.observe_drawworks(stamp_ns, frame.reference, frame.output)
+
     def limit(self, request: SupervisorRequest, m, stamp_ns: int) -> MachineCommand:
         t = stamp_ns / NS_PER_S
         self.notices += [(t, n) for n in self.tick.press_due(t)]
@@ -325,6 +328,8 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
         log["pore_pressure_pa"].append(rig.sim.parameters[PORE])
         log["fracture_pressure_pa"].append(rig.sim.parameters[FRACTURE])
         inputs = rig.frame(m, stamp)
+        if guard is not None:
+            guard.drawworks_frame(stamp, rig.frames["drawworks"])
         log["choke_opening_1"].append(inputs[U_CHOKE, 0])
         log["bpp_flow_m3s"].append(inputs[U_BPP_FLOW, 0])
         log["spp_pa"].append(inputs[U_PUMP_PRESSURE, 0])
