@@ -537,19 +537,31 @@ class PumpTrip:
 
 
 @dataclass(frozen=True)
-class DrawworksWatch:
-    """A drawworks that does not follow its reference (drill_protection.drawworks_watch):
-    the block reference held at the measured string meanwhile."""
-    window_s: float = param("s", 0.0, 60.0, lo_open=True,
-                            doc="the drawworks' frames judged over this long")
-    reference_travel_m: float = param("m", 0.0, 10.0, lo_open=True,
-                                      doc="the reference moved at least this in the window ...")
-    block_travel_m: float = param("m", 0.0, 1.0, lo_open=True,
-                                  doc="... and the block less than this: not following")
+class FollowingWatch:
+    """An actuator that does not follow its reference (drill_protection.actuator_watch);
+    the travels in the actuator's own unit (SI: m, m^3/s, 1)."""
+    window_s: float = param("s", 0.0, 60.0, lo_open=True, doc="the frames judged over this long")
+    reference_travel: float = param("SI", 0.0, 100.0, lo_open=True,
+                                    doc="the reference moved at least this in the window ...")
+    output_travel: float = param("SI", 0.0, 100.0, lo_open=True,
+                                 doc="... and the output less than this: not following")
     response_s: float = param("s", 0.0, 60.0, doc="the reference's moves in the window's last "
-                                                  "this long are not judged (the block's answer)")
-    hold_s: float = param("s", 0.0, 600.0, doc="the reference held at the string this long, "
-                                               "then the advisor's again, from rest")
+                                                  "this long are not judged (the output's answer)")
+    hold_s: float = param("s", 0.0, 600.0, doc="judged not following this long after")
+
+
+@dataclass(frozen=True)
+class ValveWatch:
+    """A valve on its flow loop that does not move (drill_protection.actuator_watch)."""
+    window_s: float = param("s", 0.0, 60.0, lo_open=True, doc="the frames judged over this long")
+    flow_error_m3s: float = param("m^3/s", 0.0, 1.0, lo_open=True,
+                                  doc="the flow loop's error stood at least this ...")
+    output_travel: float = param("1", 0.0, 1.0, lo_open=True,
+                                 doc="... and the opening moved less than this: stuck")
+    range_margin: float = param("1", 0.0, 1.0, doc="an opening this near a stop of the valve's "
+                                                   "range is not judged (it slows to the stop)")
+    response_s: float = param("s", 0.0, 60.0, doc="the error of the window's last this long "
+                                                  "is not judged (the valve's answer)")
 
 
 @dataclass(frozen=True)
@@ -589,7 +601,10 @@ class Protection:
                                    "pressure pump are driven back toward it")
     pump_trip: PumpTrip = param()
     well_control: WellControl = param()
-    drawworks_watch: DrawworksWatch = param()
+    drawworks_watch: FollowingWatch = param(doc="the block reference held at the string while "
+                                                "the drawworks does not follow it")
+    choke_watch: ValveWatch = param(doc="a choke that does not move on its flow loop while "
+                                        "circulation is lost: the protective stop")
 
 
 @dataclass(frozen=True)

@@ -42,6 +42,9 @@ _PROTECTION = {
                                                       "last choke mode held"),
     "estop_hold": EventCode("clamp", "Pa", "emergency stop in force: the advisor's command not "
                                            "applied; value: the BHP held"),
+    "protective_stop": EventCode("clamp", "Pa", "circulation lost and the choke stuck: the "
+                                                "brake set, the back-pressure pump at its "
+                                                "maximum, the choke's BHP loop; value: its BHP"),
     "level_hold": EventCode("clamp", "", "the automation level keeps the advisor's command off"),
     "non_finite_dp_setpoint": EventCode("clamp", "", "a non-finite choke dp set-point: the choke "
                                                      "on its flow reference"),
@@ -55,6 +58,10 @@ _PROTECTION = {
     "pump_trip_response": EventCode("clamp", "", "the mud pump has tripped: the response acts"),
     "speed_clamp": EventCode("clamp", "m/s", "the block's speed cut (surge/swab model, operator "
                                              "limit, drawworks); value: the speed allowed"),
+    "lost_circulation_hold": EventCode("clamp", "m", "circulation lost while the string is "
+                                                    "pulled faster than the swab limit without "
+                                                    "friction: the block reference held at the "
+                                                    "string; value: the reference"),
     "drawworks_not_following": EventCode("clamp", "m", "the block did not follow its reference "
                                                       "(a stuck drawworks): the reference held at "
                                                       "the string; value: the reference"),

@@ -21,6 +21,14 @@ def config():
     return load_rig(config_dir())
 
 
+def _slow_circulation(model: PredictionModel, em):
+    """(x, u, par) of the prediction at 30 L/min circulating, 20 bar at the choke: where
+    the two friction laws differ."""
+    x_em, u = steady_estimate(em, Initial(circulation_m3s=30.0 * LPM, choke_dp_pa=2.0e6,
+                                          bpp_flow_m3s=0.0))
+    return model.initial_state(x_em, u), u, x_em[model.nd_model:]
+
+
 def _single_law_model(config, smoothing_mps: float) -> PredictionModel:
     """The prediction model built with one law only, as before the switch existed."""
     em = build_estimation_model(config, smoothing_mps=smoothing_mps)
@@ -53,10 +61,7 @@ def test_the_prediction_step_takes_each_law_with_its_pump_state(config):
     switched = PredictionModel(em, ActuatorLags.from_config(config))
     step_s, substeps = config.nmpc.sample_time_s, config.nmpc.substeps
     F = switched.function(step_s, substeps, "rk4")
-    x_em, u = steady_estimate(em, Initial(circulation_m3s=30.0 * LPM, choke_dp_pa=2.0e6,
-                                          bpp_flow_m3s=0.0))
-    x = switched.initial_state(x_em, u)
-    par = x_em[switched.nd_model:]
+    x, u, par = _slow_circulation(switched, em)
     alone = {}
     for pump_on, smoothing in ((1.0, config.nmpc.prediction_friction_smoothing_mps),
                                (0.0, config.nmpc.pump_off_friction_smoothing_mps)):
@@ -76,10 +81,7 @@ def test_a_step_built_for_one_pump_state_is_the_switched_step_at_that_state(conf
     model = PredictionModel(em, ActuatorLags.from_config(config))
     step_s, substeps = config.nmpc.sample_time_s, config.nmpc.substeps
     switched = model.function(step_s, substeps, "rk4")
-    x_em, u = steady_estimate(em, Initial(circulation_m3s=30.0 * LPM, choke_dp_pa=2.0e6,
-                                          bpp_flow_m3s=0.0))
-    x = model.initial_state(x_em, u)
-    par = x_em[model.nd_model:]
+    x, u, par = _slow_circulation(model, em)
     for pump_on in (1.0, 0.0):
         fixed = model.function(step_s, substeps, "rk4", friction_pump_on=pump_on)
         assert np.array_equal(np.asarray(fixed(x, u, par, pump_on)),

@@ -34,10 +34,18 @@ machines respects the most conservative of
   trip-speed limits kept to the narrowed window,
 * an unplanned loss of circulation (drill_protection.pump_trip): the back-pressure pump
   kept at a flow the choke can hold back-pressure with, and once the choke held shut
-  while the BHP the well will have without the annular friction is under the window,
-* a drawworks that does not follow its reference (drill_protection.drawworks_watch): the
+  while the BHP the well will have without the annular friction is under the window; a
+  string pulled faster than the swab limit from that BHP (and than coming to rest) when
+  the loss is found has its block reference put at the string at once, not braked down
+  the acceleration limit,
+* a drawworks that does not follow its reference (drill_protection.actuator_watch): the
   block reference held at the measured string, at rest, so that a stuck block does not
-  catch up at the drawworks' speed limit when it lets go.
+  catch up at the drawworks' speed limit when it lets go,
+* a choke that does not follow its flow reference while circulation is lost: nothing can
+  then make good the friction the mud pump took with it but a string at rest and the
+  back-pressure pump's flow through what the choke passes, so the protective stop sets the
+  drawworks brake and the choke's BHP loop as the emergency stop does, with the
+  back-pressure pump at its maximum, until the choke moves again or circulation is back.
 
 A manual choke opening (choke panel in manual) is kept inside the choke's range; its
 rate is limited by the choke actuator's own lag. A choke-dp set-point (the choke on its
@@ -119,6 +127,8 @@ class ProcessProtection:
         self.previous_dp_setpoint: tuple[float, float] | None = None
         self.previous_speed_mps = 0.0
         self.emergency_stop = False
+        self.protective_stop = False            # circulation lost, the choke stuck: braked
+        self.circulation_lost = False           # a trip action at the last command
         self.emergency_bhp_pa = float("nan")    # BHP the stop holds [Pa]; NaN: no stop
         self.pressed_bhp_pa = float("nan")      # the measured BHP at the press [Pa]
         self.emergency_dp_start_pa = float("nan")   # the choke dp the stop calls for [Pa]
@@ -195,7 +205,8 @@ class ProcessProtection:
               surface_flows: tuple[float, float] | None = None,
               trip_action: TripAction | None = None,
               advisor_bhp_ref_pa: float = float("nan"),
-              choke_dp_pa: float = float("nan"), block_not_following: bool = False) -> Decision:
+              choke_dp_pa: float = float("nan"), block_not_following: bool = False,
+              choke_not_following: bool = False, choke_moving: bool = True) -> Decision:
         """Limit ``request`` [u_r, q_c, q_bpp, p_spp], the requested manual choke opening and
         choke-dp set-point (dp Pa, ramp Pa/s) (both None: the choke on its PI flow
         controller; a manual opening wins); ``surface_flows`` are the measured return and
@@ -203,8 +214,8 @@ class ProcessProtection:
         answer to a lost circulation (drill_protection.pump_trip), None when there is
         none; ``advisor_bhp_ref_pa`` the BHP the advisor aims at (NaN: none);
         ``choke_dp_pa`` the measured choke dp (the emergency stop's feedforward);
-        ``block_not_following`` the drawworks watch's judgement. Returns the command to send
-        and why."""
+        ``block_not_following``, ``choke_not_following`` and ``choke_moving`` the actuator
+        watches' judgements. Returns the command to send and why."""
         p = self.config.protection
         period = p.command_period_s
         request = np.asarray(request, dtype=float)
@@ -218,12 +229,22 @@ class ProcessProtection:
             manual_choke_opening = self.previous_manual_opening
         if np.isfinite(bhp_pa):
             self.last_bhp_pa = float(bhp_pa)
-        stopped = self._emergency_bhp(string_velocity_mps, circulation_m3s, choke_dp_pa)
-        not_applied = self.emergency_stop or self.automation_level != "closed_loop"
-        if self.emergency_stop:
+        self.protective_stop = trip_action is not None and not self.emergency_stop and (
+            choke_not_following or (self.protective_stop and not choke_moving))
+        protective = self.protective_stop
+        stop = self.emergency_stop or protective
+        stopped = self._emergency_bhp(stop, string_velocity_mps, circulation_m3s, choke_dp_pa)
+        not_applied = stop or self.automation_level != "closed_loop"
+        if protective:
+            clamps.append(Notice("protective_stop", "circulation lost and the choke does not "
+                                 "follow its flow reference: advisor command not applied, "
+                                 "drawworks brake set, back-pressure pump at its maximum",
+                                 stopped))
+        elif self.emergency_stop:
             clamps.append(Notice("estop_hold", f"emergency stop: advisor command not applied, "
                                  f"drawworks brake set, BHP held at {stopped / PA_PER_BAR:.1f} "
                                  "bar by the choke", stopped))
+        if stop:
             request = self.previous.copy()
             request[U_BLOCK] = position_m if np.isfinite(position_m) else self.previous[U_BLOCK]
             manual_choke_opening, choke_dp_setpoint = None, None
@@ -259,11 +280,11 @@ class ProcessProtection:
             command[U_CHOKE] = flowing if np.isfinite(flowing) else self.previous[U_CHOKE]
             clamps.append(Notice("well_control_hold", hold.reason, hold.target_bhp_pa))
             bhp_ref_pa = hold.target_bhp_pa
-        trip = None if not_applied and not self.emergency_stop else trip_action
+        trip = None if not_applied and not stop else trip_action
         friction_free = trip.friction_free_bhp_pa if trip is not None else float("nan")
         resting = abs(self.previous_speed_mps) < RESTING_REFERENCE_SPEED_MPS
         guard = self._window_guard(bhp_pa, clamps, friction_free if resting else float("nan"))
-        shut = trip is not None and trip.choke_flow_m3s is not None and not self.emergency_stop
+        shut = trip is not None and trip.choke_flow_m3s is not None and not stop
         if guard or shut:
             manual_choke_opening, choke_dp_setpoint = None, None
 
@@ -279,14 +300,27 @@ class ProcessProtection:
             self._drive_back(guard, command, surface_flows, circulation_m3s)
         if trip is not None:
             self._answer_trip(trip, guard, command, clamps, shut)
-        if self.emergency_stop and not guard:      # the BHP loop's feedforward: the flow out
-            command[U_CHOKE] = min(circulation_m3s + command[U_BPP_FLOW], self.upper[U_CHOKE])   # at rest
+        if protective and guard <= 0:
+            command[U_BPP_FLOW] = self.upper[U_BPP_FLOW]
+        if stop and not guard:      # the BHP loop's feedforward: the flow out at rest
+            command[U_CHOKE] = min(circulation_m3s + command[U_BPP_FLOW], self.upper[U_CHOKE])
 
         limits = self.speed_limits(bhp_pa, string_velocity_mps, circulation_m3s,
                                    operator_speed_limit_mps, friction_free)
         (down, why_down), (up, why_up) = limits.running_in, limits.pulling_out
+        newly_lost, self.circulation_lost = trip is not None and not self.circulation_lost, \
+            trip is not None
+        if newly_lost and not (stop or held_block) and np.isfinite(position_m) \
+                and self.previous_speed_mps > max(limits.standing_mps[1],
+                                                  RESTING_REFERENCE_SPEED_MPS) \
+                and position_m < command[U_BLOCK]:
+            held_block = True         # pulled faster than the friction that goes allows
+            command[U_BLOCK] = position_m
+            clamps.append(Notice("lost_circulation_hold", "circulation lost while pulling out "
+                                 f"faster than {limits.standing_mps[1]:.2f} m/s: the block "
+                                 f"reference held at the string, {position_m:.2f} m", position_m))
         speed = (command[U_BLOCK] - self.previous[U_BLOCK]) / period
-        if self.emergency_stop or held_block:       # to where the string is, at once
+        if stop or held_block:       # to where the string is, at once
             limited_speed = speed
         else:
             accel = p.trip_acceleration_max_mps2 * period
@@ -303,7 +337,7 @@ class ProcessProtection:
             clamps.append(Notice("drawworks_range", "block reference held inside the drawworks "
                                  "range", ref))
         command[U_BLOCK] = ref
-        self.previous_speed_mps = 0.0 if self.emergency_stop or held_block \
+        self.previous_speed_mps = 0.0 if stop or held_block \
             else (ref - self.previous[U_BLOCK]) / period
         self.previous = command.copy()
         self.previous_manual_opening = manual_choke_opening
@@ -311,13 +345,13 @@ class ProcessProtection:
         self.bhp_ref_pa = float(bhp_ref_pa)
         return Decision(command, tuple(clamps), (down, up), manual_choke_opening,
                         choke_dp_setpoint, float(bhp_ref_pa), limits.standing_mps,
-                        self.emergency_stop, stopped, self.emergency_dp_start_pa)
+                        stop, stopped, self.emergency_dp_start_pa)
 
     def observe_bhp(self, time_s: float, bhp_pa: float) -> None:
         """Take every BHP measurement (the stop's BHP is the median of the last second's)."""
         self.bhp_median.add(time_s, bhp_pa)
 
-    def _emergency_bhp(self, string_velocity_mps: float, circulation_m3s: float,
+    def _emergency_bhp(self, stop: bool, string_velocity_mps: float, circulation_m3s: float,
                        choke_dp_pa: float) -> float:
         """The BHP the choke holds under the emergency stop [Pa], NaN without one: the
         well-control answer's target while one is held, else the measured BHP when the stop
@@ -326,7 +360,7 @@ class ProcessProtection:
         it). From the press on, the choke dp the stop calls for: the measured one plus the
         surge/swab model's BHP change at the string's speed (the change that stops with the
         string), while circulating."""
-        if not self.emergency_stop:
+        if not stop:
             self.emergency_bhp_pa = self.pressed_bhp_pa = self.emergency_dp_start_pa = float("nan")
             return self.emergency_bhp_pa
         if not np.isfinite(self.pressed_bhp_pa):

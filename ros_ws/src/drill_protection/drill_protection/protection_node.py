@@ -18,10 +18,11 @@ kick or losses alarm is raised and cleared as an event and, with ``stop_trip``, 
 trip (the block reference brakes to rest within the acceleration limit) until it clears.
 Every measurement also feeds the circulation watch (drill_protection.pump_trip): a lost
 circulation (the mud pump asked for, the string-flow meter blank) is an alarm, and the
-protection answers it until circulation is back or no longer asked for. The drawworks'
-frames (/actuators/drawworks/frame) feed the drawworks watch (drill_protection.
-drawworks_watch): a block that does not follow its reference has the reference held at the
-string; in fast mode the command stamped t_k waits for the frame stamped t_k - dt.
+protection answers it until circulation is back or no longer asked for. The drawworks' and
+the choke's frames (/actuators/<name>/frame) feed the actuator watches
+(drill_protection.actuator_watch): a block that does not follow its reference has the
+reference held at the string, a choke that does not while circulation is lost sets the
+protective stop; in fast mode the command stamped t_k waits for the frames stamped t_k - dt.
 """
 from __future__ import annotations
 
@@ -68,8 +69,9 @@ class ProtectionNode(RigNode):
         self.create_subscription(RigCommand, topics.COMMAND, self._on_command, topics.RELIABLE)
         self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
                                  topics.RELIABLE)
-        self.create_subscription(ActuatorFrame, topics.actuator_frame("drawworks"),
-                                 self._on_drawworks, topics.RELIABLE)
+        for name in topics.WATCHED_ACTUATORS:
+            self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
+                                     lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
         self.create_subscription(Setpoints, topics.SETPOINTS, self._on_setpoints, topics.LATCHED)
         self.create_subscription(Bool, topics.EMERGENCY_STOP, self._on_estop, topics.LATCHED)
         self.create_subscription(String, topics.AUTOMATION_LEVEL, self._on_level, topics.LATCHED)
@@ -117,8 +119,8 @@ class ProtectionNode(RigNode):
         self.inbox.put("measurement", msg)
         self._process()
 
-    def _on_drawworks(self, msg: ActuatorFrame) -> None:
-        self.tick.observe_drawworks(to_ns(msg.header.stamp), msg.reference, msg.output)
+    def _on_frame(self, name: str, msg: ActuatorFrame) -> None:
+        self.tick.observe_frame(name, to_ns(msg.header.stamp), msg.reference, msg.output)
         self._process()
 
     def _on_command(self, msg: RigCommand) -> None:
@@ -131,9 +133,9 @@ class ProtectionNode(RigNode):
             return
         stamp = to_ns(request.header.stamp)
         if self.ctx.fast:
-            due = stamp - self.frame_ns            # the last drawworks frame before t_k
+            due = stamp - self.frame_ns            # the last frames before t_k
             if not self.inbox.has("measurement", stamp) or \
-                    (due >= 0 and not self.tick.has_drawworks_frame(due)):
+                    (due >= 0 and not self.tick.has_frames(due)):
                 return
             measurement = self.inbox.take("measurement", stamp)
         else:

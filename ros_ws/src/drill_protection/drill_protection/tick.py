@@ -19,7 +19,7 @@ from drill_core.hydraulics import WellModel
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.operator_actions import OperatorScript
 from drill_core.units import PA_PER_BAR
-from drill_protection.drawworks_watch import DrawworksWatch
+from drill_protection.actuator_watch import ActuatorWatch, StuckValveWatch
 from drill_protection.protection import Decision, ProcessProtection
 from drill_protection.watch import MeasurementWatch
 
@@ -73,7 +73,10 @@ class ProtectionTick:
                           float(op.inputs[U_PUMP_PRESSURE])])
         self.protection = ProcessProtection(config, wm, start)
         self.watch = MeasurementWatch(config, wm, self.protection)
-        self.drawworks = DrawworksWatch(config.protection.drawworks_watch)
+        self.drawworks = ActuatorWatch(config.protection.drawworks_watch)
+        self.choke = StuckValveWatch(config.protection.choke_watch, config.actuators.choke)
+        self.choke_on_flow_loop = True      # the last machine command's choke mode
+        self.return_flow_m3s = math.nan     # the last measured return flow (the choke's)
         self.script = OperatorScript(scenario.operator)
         self.formation = config.well.formation
         self.in_window = True
@@ -81,19 +84,28 @@ class ProtectionTick:
 
     def observe(self, stamp_ns: int, m) -> list[Notice]:
         """One measurement through the watch: the notices it raised."""
+        self.return_flow_m3s = float(m.return_flow_m3s)
         return self.watch.observe(stamp_ns, m)
 
-    def observe_drawworks(self, stamp_ns: int, reference_m: float, output) -> None:
-        """One drawworks frame (drill_msgs/ActuatorFrame's stamp, reference and output)."""
-        self.drawworks.frame(stamp_ns * 1e-9, reference_m, output)
+    def observe_frame(self, actuator: str, stamp_ns: int, reference: float, output) -> None:
+        """One frame of the drawworks or the choke (drill_msgs/ActuatorFrame's stamp,
+        reference and output). The choke is judged on its flow loop only (its reference is
+        then a flow; on the pressure loop a set-point): the loop's error against the last
+        measured return flow."""
+        if actuator == "drawworks":
+            self.drawworks.frame(stamp_ns * 1e-9, reference, output)
+        elif actuator == "choke":
+            error = reference - self.return_flow_m3s if self.choke_on_flow_loop else math.nan
+            self.choke.frame(stamp_ns * 1e-9, error, output)
 
-    def has_drawworks_frame(self, stamp_ns: int) -> bool:
-        """Whether the drawworks frame stamped ``stamp_ns`` has been observed."""
-        return self.drawworks.has(stamp_ns * 1e-9)
+    def has_frames(self, stamp_ns: int) -> bool:
+        """Whether the drawworks' and the choke's frames stamped ``stamp_ns`` have come."""
+        t = stamp_ns * 1e-9
+        return self.drawworks.has(t) and self.choke.has(t)
 
     def limit(self, request, m, stamp_ns: int, latched_speed_limit_mps: float) -> Decision:
-        """``request`` limited with the measurement ``m`` at ``stamp_ns`` (and the drawworks
-        frames stamped before it), under the
+        """``request`` limited with the measurement ``m`` at ``stamp_ns`` (and the drawworks'
+        and the choke's frames stamped before it), under the
         operator's trip-speed limit the advisor planned it under (it rides on the command,
         so every run applies it at the same stamp), else ``latched_speed_limit_mps`` (the
         latched setpoints'; the open-loop sequencer sends none) [m/s]."""
@@ -113,12 +125,16 @@ class ProtectionTick:
             surface_flows=(m.return_flow_m3s, m.bpp_flow_m3s),
             trip_action=self.watch.circulation.action(stamp_ns * 1e-9),
             advisor_bhp_ref_pa=request.bhp_ref_pa, choke_dp_pa=m.choke_dp_pa,
-            block_not_following=self.drawworks.not_following(stamp_ns * 1e-9))
+            block_not_following=self.drawworks.not_following(stamp_ns * 1e-9),
+            choke_not_following=self.choke.not_following(stamp_ns * 1e-9),
+            choke_moving=self.choke.moving(stamp_ns * 1e-9))
 
     def machine_command(self, decision: Decision, request) -> MachineCommand:
         """The machine command of ``decision`` on ``request`` (the window in force on it)."""
         manual = decision.manual_choke_opening
         dp_setpoint = decision.choke_dp_setpoint
+        self.choke_on_flow_loop = manual is None and dp_setpoint is None and \
+            not decision.emergency_stop
         c = decision.command
         return MachineCommand(
             block_position_ref_m=float(c[U_BLOCK]), choke_flow_ref_m3s=float(c[U_CHOKE]),

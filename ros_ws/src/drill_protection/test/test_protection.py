@@ -260,3 +260,48 @@ def test_a_block_not_following_has_its_reference_held_at_the_string_then_starts_
     d = p.apply([ahead + 1.0, CIRCULATION, 0.0, 1.06e7], 1.2, 0.0, 6.85e7, CIRCULATION, 0.5)
     step = config.protection.trip_acceleration_max_mps2 * config.protection.command_period_s ** 2
     assert d.command[0] == pytest.approx(1.2 + step)
+
+
+def test_circulation_lost_and_a_stuck_choke_set_the_protective_stop_until_it_moves(setup):
+    """The mud pump tripped (a trip action) and the choke not moving on its flow loop: the
+    brake set (the decision's emergency stop), the block reference at the string, the
+    back-pressure pump at its maximum; kept while the choke stands still, released once it
+    moves; a stuck choke with circulation is no stop."""
+    from drill_protection.pump_trip import TripAction
+    config, _ = setup
+    lost = TripAction(choke_flow_m3s=0.0, bpp_flow_min_m3s=0.01, reason="pump trip")
+    request = [3.0, CIRCULATION, 0.0, 1.06e7]
+    p = fresh(setup)
+    d = p.apply(request, 2.0, 0.5, 6.85e7, 0.0, 0.5, choke_not_following=True)
+    assert not d.emergency_stop                                  # circulating: no stop
+    d = p.apply(request, 2.1, 0.5, 6.85e7, 0.0, 0.5, trip_action=lost, choke_not_following=True,
+                choke_moving=False)
+    assert d.emergency_stop and "protective_stop" in [c.code for c in d.clamps]
+    assert d.command[0] == 2.1 and d.command[2] == config.actuators.bpp.maximum
+    d = p.apply(request, 2.1, 0.0, 6.85e7, 0.0, 0.5, trip_action=lost, choke_moving=False)
+    assert d.emergency_stop                                      # still standing: kept
+    d = p.apply(request, 2.1, 0.0, 6.85e7, 0.0, 0.5, trip_action=lost, choke_moving=True)
+    assert not d.emergency_stop and "protective_stop" not in [c.code for c in d.clamps]
+    assert not p.emergency_stop                                  # the operator's stop untouched
+
+
+def test_circulation_lost_while_pulling_faster_than_the_swab_allows_holds_the_string(setup):
+    """Pulled at 0.5 m/s when circulation is lost with the BHP without friction at the
+    window's low edge (no swab allowed): the block reference goes to the string at once, not
+    down the acceleration limit; then it starts from rest within the limits."""
+    from drill_protection.pump_trip import TripAction
+    config, _ = setup
+    p = fresh(setup)
+    for k in range(1, 8):
+        d = p.apply([0.5 * k, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
+    ahead = d.command[0]
+    low = config.pressure_window_pa[0]
+    lost = TripAction(choke_flow_m3s=0.0, bpp_flow_min_m3s=0.01, reason="pump trip",
+                      friction_free_bhp_pa=low)
+    d = p.apply([ahead + 0.5, CIRCULATION, 0.0, 1.06e7], 1.5, 0.5, 6.85e7, 0.0, 0.5,
+                trip_action=lost)
+    assert d.command[0] == 1.5 and "lost_circulation_hold" in [c.code for c in d.clamps]
+    assert d.standing_speed_limits_mps[1] == 0.0
+    d = p.apply([ahead + 1.0, CIRCULATION, 0.0, 1.06e7], 1.6, 0.0, 6.85e7, 0.0, 0.5,
+                trip_action=lost)
+    assert d.command[0] == 1.5 and "lost_circulation_hold" not in [c.code for c in d.clamps]

@@ -53,7 +53,7 @@
                                    (suite: every member of config/mismatch.yaml); --resume:
                                    the runs the table holds are not run again; --render:
                                    run nothing, write the page again from its JSON table
-  rig compare --fault-matrix [PAIRS] [--with-fault FAULT [--controller C ...]] [--render]
+  rig compare --fault-matrix [PAIRS] [--with-fault FAULT [--controller C ...]] [--render | --bounds]
                                    each actuator and sensor fault alone (pull-out, rest,
                                    run-in) and in pairs (pull-out) under every controller:
                                    time outside the pore/fracture window per cell
@@ -211,6 +211,9 @@ def main(argv=None) -> int:
                            "rows kept); with --fault-matrix, with --with-fault")
     comp.add_argument("--render", action="store_true",
                       help="run nothing: write the page again from its JSON table")
+    comp.add_argument("--bounds", action="store_true",
+                      help="with --fault-matrix: the machines' fastest answer, in process, "
+                           "for the cells every controller left (drill_studies.fault_bound)")
     args, rest = parser.parse_known_args(argv)
     try:
         if args.command == "demo":
@@ -245,6 +248,9 @@ def main(argv=None) -> int:
                 output = args.output or ROOT / "docs" / "fault-matrix.md"
                 if args.render:
                     return fault_matrix.render(output)
+                if args.bounds:
+                    from drill_studies import fault_bound
+                    return fault_bound.main(output)
                 return fault_matrix.main(output, args.fault_matrix, args.with_fault,
                                          args.controller or fault_matrix.CONTROLLERS)
             from drill_studies import compare

@@ -26,6 +26,7 @@ DOWNHOLE = "/drilling/downhole"         # drill_msgs/DownholeMeasurement, drilli
 DRILLING_TRUTH = "/drilling/truth"      # drill_msgs/DrillingTruth, drilling plant: evaluation only
 DRILLING_COMMAND = "/drilling/command"  # drill_msgs/DrillingCommand, driller -> top drive, block feed
 DRILLING_ACTUATORS = ("top_drive", "block_feed")   # drilling mode's machines (actuator_frame)
+WATCHED_ACTUATORS = ("drawworks", "choke")  # whose frames the protection reads (actuator_watch)
 
 
 def actuator_frame(name: str) -> str:

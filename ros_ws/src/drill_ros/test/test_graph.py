@@ -29,8 +29,10 @@ def test_the_nmpc_lockstep_waits_for_every_endpoint_of_the_protocol():
         "sub@/clock:1",                      # recorder
         "sub@/supervisor/command:2", "pub@/supervisor/command:1",      # protection, recorder
         "sub@/rig/command:6", "pub@/rig/command:1",            # 4 actuators, nmpc, recorder
-        "sub@/actuators/choke/frame:3",      # plant, estimator, recorder
-        *(f"sub@/actuators/{n}/frame:4" for n in ("drawworks", "bpp", "mud_pump")),  # and nmpc
+        "sub@/actuators/choke/frame:4",      # plant, estimator, protection, recorder
+        "sub@/actuators/drawworks/frame:5",  # and nmpc
+        *(f"sub@/actuators/{n}/frame:4" for n in ("bpp", "mud_pump")),  # plant, estimator,
+                                                                        # nmpc, recorder
         *(f"pub@{f}:1" for f in FRAMES),
     }
     nodes = graph.run_nodes("nmpc", fast=True)

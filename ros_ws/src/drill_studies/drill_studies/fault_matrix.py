@@ -174,12 +174,39 @@ def _cell(row: dict | None) -> str:
     return text + (f" ({', '.join(notes)})" if notes else "")
 
 
+BOUND = "bound"       # the controller of drill_studies.fault_bound's rows (in process)
+
+
+def cell_speed_mps() -> float:
+    """The cells' pull-out speed: Case 2's trip-speed limit [m/s]."""
+    return float(base_scenario()["schedule"][0]["trip_speed_limit_mps"])
+
+
+def _envelope(bounds: list[dict]) -> list[str]:
+    """The bound at each pull-out speed, per cell bounded."""
+    lines = []
+    for phase, faults in sorted({(r["phase"], tuple(r["faults"])) for r in bounds}):
+        lines += ["", f"*{phase}, {' + '.join(faults)}*: the fastest answer from each pull-out "
+                      "speed", "", "| pull-out speed | the fastest answer |", "| --- | --- |"]
+        for r in sorted((r for r in bounds if (r["phase"], tuple(r["faults"])) == (phase, faults)),
+                        key=lambda r: -r["speed_mps"]):
+            lines.append(f"| {r['speed_mps']:g} m/s | {_cell(r)} |")
+    return lines
+
+
 def markdown(rows: list[dict], made: str, window_pa: tuple[float, float]) -> str:
-    """The page; ``window_pa``: the pore and fracture pressures the cells ran in."""
+    """The page; ``window_pa``: the pore and fracture pressures the cells ran in. Rows of
+    the controller ``bound`` (drill_studies.fault_bound) make the machines' column and the
+    speed envelopes."""
+    bounds = [r for r in rows if r["controller"] == BOUND]
+    rows = [r for r in rows if r["controller"] != BOUND]
     by = {(r["phase"], tuple(r["faults"]), r["controller"]): r for r in rows}
+    speed = cell_speed_mps()
+    by.update({(r["phase"], tuple(r["faults"]), BOUND): r for r in bounds if r["speed_mps"] == speed})
     keys = sorted({(r["phase"], tuple(r["faults"])) for r in rows},
                   key=lambda k: (len(k[1]), list(PHASES).index(k[0]), [list(FAULTS).index(f) for f in k[1]]))
     controllers = [c for c in CONTROLLERS if any(r["controller"] == c for r in rows)]
+    columns = controllers + ([BOUND] if bounds else [])
     outside = [r for r in rows if r["bhp_under_pore_s"] > 0.0 or r["bhp_over_fracture_s"] > 0.0]
     lines = [
         "# Fault matrix: the pore/fracture window under actuator and sensor faults", "",
@@ -197,12 +224,23 @@ def markdown(rows: list[dict], made: str, window_pa: tuple[float, float]) -> str
         "from 0.5 L, and the kick or losses alarms raised with no formation flow behind "
         "them. The controllers are not told of a fault; the process protection sees what "
         "the sensors show.", "",
-        f"**{len(outside)} of {len(rows)} runs left the window.**", "",
-        "| phase | faults | " + " | ".join(controllers) + " |",
-        "| --- | --- | " + " | ".join("---" for _ in controllers) + " |"]
+        f"**{len(outside)} of {len(rows)} runs left the window.**", ""]
+    if bounds:
+        lines += [
+            "Where every controller left the window, the column *bound* gives the machines' "
+            "fastest answer from the fault on, in process (`python -m drill_studies.fault_bound`"
+            "): the drawworks brake set, the back-pressure pump commanded to its maximum, the "
+            "choke on its own BHP loop at the window's middle, whatever a controller would "
+            f"know; before the fault the trip runs under {bounds[0]['prefix']} and the "
+            "protection. Not a proven optimum: what is left when every machine does at once "
+            "the most it can (– : not taken).", ""]
+    lines += ["| phase | faults | " + " | ".join(columns) + " |",
+              "| --- | --- | " + " | ".join("---" for _ in columns) + " |"]
     for phase, faults in keys:
-        lines.append(f"| {phase} | {' + '.join(faults)} | "
-                     + " | ".join(_cell(by.get((phase, faults, c))) for c in controllers) + " |")
+        lines.append(f"| {phase} | {' + '.join(faults)} | " + " | ".join(
+            _cell(by.get((phase, faults, c))) if c != BOUND or (phase, faults, c) in by else "–"
+            for c in columns) + " |")
+    lines += _envelope(bounds)
     missing = [(p, f) for p, f in itertools.product(PHASES, itertools.combinations(FAULTS, 2))
                if (p, f) not in keys]
     started = sorted(t for r in rows if (t := runs.run_started(r.get("run_dir") or "")))

@@ -229,8 +229,9 @@ class Protection:
             elif notice.code not in DETECTOR_CODES:
                 self.alarms.append((t, notice))
 
-    def drawworks_frame(self, stamp_ns: int, frame: FrameOutput) -> None:
-        self.tick.observe_drawworks(stamp_ns, frame.reference, frame.output)
+    def frames(self, stamp_ns: int, frames: dict[str, FrameOutput]) -> None:
+        for name, frame in frames.items():
+            self.tick.observe_frame(name, stamp_ns, frame.reference, frame.output)
 
     def limit(self, request: SupervisorRequest, m, stamp_ns: int) -> MachineCommand:
         t = stamp_ns / NS_PER_S
@@ -245,13 +246,15 @@ class Protection:
 def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf",
         seed: int | None = None, overrides: dict | None = None,
         block_integral_from_drawworks: bool = True, protection: bool = False,
-        mismatch: Mismatch | None = None) -> dict:
+        mismatch: Mismatch | None = None, machines=None) -> dict:
     """One scenario in-process; the report's tracking figures, the time BHP spent outside
     the formation window, the BHP estimate RMSE. ``block_integral_from_drawworks`` False
     withholds the drawworks' command from the NMPC (as before it took its block-controller
     integral from there: docs/nmpc.md); ``protection`` puts the process protection between
     the controller and the actuators; ``mismatch``: the plant (and the actuators) differ
-    from the model the rest reads (drill_core.mismatch)."""
+    from the model the rest reads (drill_core.mismatch); ``machines(t, m, command)``, when
+    given, replaces each machine command before the actuators take it (an oracle's
+    answer for a bound: drill_studies.fault_bound)."""
     if controller not in CONTROLLERS:
         raise ValueError(f"controller {controller!r} is not one of {', '.join(CONTROLLERS)}")
     scenario, config = load_scenario_config(scenario_path(scenario_name), ROOT / "config",
@@ -307,6 +310,8 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
             request = SupervisorRequest.of(advised, book)
             cmd = MachineCommand.as_requested(request) if guard is None \
                 else guard.limit(request, m, stamp)
+            if machines is not None:
+                cmd = machines(t, m, cmd)
             rig.command(cmd, stamp)
             cmd_t = t
         truth = rig.sim.state
@@ -329,7 +334,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
         log["fracture_pressure_pa"].append(rig.sim.parameters[FRACTURE])
         inputs = rig.frame(m, stamp)
         if guard is not None:
-            guard.drawworks_frame(stamp, rig.frames["drawworks"])
+            guard.frames(stamp, rig.frames)
         log["choke_opening_1"].append(inputs[U_CHOKE, 0])
         log["bpp_flow_m3s"].append(inputs[U_BPP_FLOW, 0])
         log["spp_pa"].append(inputs[U_PUMP_PRESSURE, 0])

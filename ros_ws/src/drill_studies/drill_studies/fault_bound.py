@@ -1,0 +1,116 @@
+"""The machines' bound of a fault-matrix cell: what the rig's fastest answer to the fault
+gives, for the cells every controller left the window in (docs/fault-matrix.md).
+
+From the fault's time on, an oracle replaces the protection's machine command with the
+fastest answer the machines have, whatever a controller would know: the drawworks
+brake set (the block stops at the brake's deceleration and is held), the back-pressure
+pump commanded to its maximum and the choke on its own BHP loop aimed at the window's
+middle. Before the fault the cell's trip runs as under ``PREFIX`` with the protection.
+It is a bound of that answer, not a proven optimum: it says how much of a cell's time
+outside the window is left when every machine does at once the most it can.
+
+The same bound at lower pull-out speeds (the operator's trip-speed limit of the cell's
+scenario) gives the speed envelope: the fastest pull-out from which the fastest answer
+still keeps BHP inside the window.
+
+In process (drill_studies.loop_bench: the nodes' own tick classes, the estimator on the
+noisy measurements); its rows go into the fault matrix's JSON table with the controller
+``bound``.
+
+    python -m drill_studies.fault_bound            # bounds for docs/fault-matrix.json
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import sys
+import tempfile
+from pathlib import Path
+
+import yaml
+
+from drill_bringup import runs
+from drill_core.config import load_rig
+from drill_studies import fault_matrix, loop_bench
+
+PREFIX = "automated_mpd"                         # whose trip runs until the fault
+SLOWER_SPEEDS_MPS = (0.4, 0.3, 0.2, 0.1)         # the envelope's speeds below the cells' own
+
+
+def fastest_answer(fault_time_s: float, bpp_max_m3s: float, bhp_target_pa: float):
+    """The machine command from ``fault_time_s`` on: the brake, the back-pressure pump at
+    ``bpp_max_m3s``, the choke's BHP loop at ``bhp_target_pa`` (from the measured choke
+    dp); before it the command as it is."""
+    def machines(time_s: float, m, command):
+        if time_s < fault_time_s:
+            return command
+        dp = m.choke_dp_pa if math.isfinite(m.choke_dp_pa) else command.choke_dp_ref_pa
+        return dataclasses.replace(command, emergency_stop=True, emergency_bhp_pa=bhp_target_pa,
+                                   bpp_flow_m3s=bpp_max_m3s, choke_dp_ref_pa=float(dp),
+                                   choke_manual=False, choke_pressure_control=False)
+    return machines
+
+
+def figures(out: dict) -> dict:
+    """A bound run's figures under the fault matrix's names (SI)."""
+    return {"bhp_under_pore_s": out["bhp_under_pore_s"],
+            "bhp_over_fracture_s": out["bhp_over_fracture_s"],
+            "worst_underbalance_pa": out["worst_underbalance_pa"],
+            "worst_overbalance_over_fracture_pa": out["worst_over_fracture_pa"],
+            "influx_volume_m3": out["influx_volume_m3"], "loss_volume_m3": out["loss_volume_m3"],
+            "false_alarms": 0}
+
+
+def bound(phase: str, faults: tuple[str, ...], speed_mps: float) -> dict:
+    """The bound row of one cell at pull-out speed ``speed_mps``."""
+    config = load_rig(runs.ROOT / "config")
+    base = fault_matrix.base_scenario()
+    scenario = fault_matrix.cell_scenario(base, phase, faults)
+    scenario["schedule"][0]["trip_speed_limit_mps"] = speed_mps
+    low, high = config.pressure_window_pa
+    machines = fastest_answer(fault_matrix.PHASES[phase].fault_time_s,
+                              config.actuators.bpp.maximum, 0.5 * (low + high))
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"{scenario['name']}.yaml"
+        path.write_text(yaml.safe_dump(scenario, sort_keys=False))
+        out = loop_bench.run(str(path), controller=PREFIX, state="ukf", protection=True,
+                             machines=machines)
+    return {"phase": phase, "faults": list(faults), "controller": fault_matrix.BOUND, "prefix": PREFIX,
+            "speed_mps": speed_mps, "seed": scenario["seed"], "run_dir": None, **figures(out)}
+
+
+def cells_left_by_all(rows: list[dict]) -> list[tuple[str, tuple[str, ...]]]:
+    """The cells whose every controller's graph run left the window."""
+    by: dict[tuple, list[bool]] = {}
+    for r in rows:
+        if r["controller"] in fault_matrix.CONTROLLERS:
+            left = r["bhp_under_pore_s"] > 0.0 or r["bhp_over_fracture_s"] > 0.0
+            by.setdefault((r["phase"], tuple(r["faults"])), []).append(left)
+    return [cell for cell, left in by.items()
+            if len(left) == len(fault_matrix.CONTROLLERS) and all(left)]
+
+
+def main(output: Path, speeds=None) -> int:
+    """Bounds (at the cells' own pull-out speed and each of ``speeds``, default
+    SLOWER_SPEEDS_MPS) for the cells every controller left; the table's earlier bound rows
+    dropped, its page written again."""
+    speeds = (fault_matrix.cell_speed_mps(), *(SLOWER_SPEEDS_MPS if speeds is None else speeds))
+    table = output.with_suffix(".json")
+    rows = [r for r in json.loads(table.read_text()) if r["controller"] != fault_matrix.BOUND]
+    for phase, faults in cells_left_by_all(rows):
+        for speed in speeds:
+            row = bound(phase, faults, speed)
+            print(f"[fault bound] {phase} / {' + '.join(faults)} at {speed:g} m/s: under pore "
+                  f"{row['bhp_under_pore_s']:.1f} s, over fracture {row['bhp_over_fracture_s']:.1f} s",
+                  flush=True)
+            rows.append(row)
+    fault_matrix.write(rows, output)
+    return 0
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--output", type=Path, default=runs.ROOT / "docs" / "fault-matrix.md")
+    sys.exit(main(parser.parse_args().output))

@@ -1,0 +1,68 @@
+"""The machines' bound of a fault-matrix cell: the fastest answer's machine command, the
+cells it is taken for, and its column and speed envelope on the page (no run)."""
+import math
+from dataclasses import dataclass, replace
+
+from drill_studies import fault_bound as fb
+from drill_studies import fault_matrix as fm
+
+FIGURES = {"bhp_over_fracture_s": 0.0, "worst_underbalance_pa": 2.0e5,
+           "worst_overbalance_over_fracture_pa": 0.0, "bhp_worst_excursion_pa": 2.0e5,
+           "influx_volume_m3": 0.0, "loss_volume_m3": 0.0, "protection_events": 1,
+           "false_alarms": 0}
+
+
+@dataclass(frozen=True)
+class Command:
+    emergency_stop: bool = False
+    emergency_bhp_pa: float = math.nan
+    bpp_flow_m3s: float = 0.0
+    choke_dp_ref_pa: float = 0.0
+    choke_manual: bool = True
+    choke_pressure_control: bool = True
+
+
+@dataclass(frozen=True)
+class Measurement:
+    choke_dp_pa: float
+
+
+def test_the_fastest_answer_acts_from_the_fault_on_only():
+    machines = fb.fastest_answer(20.0, 0.025, 6.85e7)
+    before = Command()
+    assert machines(19.9, Measurement(2.5e6), before) is before
+    after = machines(20.0, Measurement(2.5e6), before)
+    assert after == Command(emergency_stop=True, emergency_bhp_pa=6.85e7, bpp_flow_m3s=0.025,
+                            choke_dp_ref_pa=2.5e6, choke_manual=False,
+                            choke_pressure_control=False)
+    blank = machines(21.0, Measurement(math.nan), replace(before, choke_dp_ref_pa=1.0e6))
+    assert blank.choke_dp_ref_pa == 1.0e6            # a blank gauge: the command's own
+
+
+def row(phase, faults, controller, under, **extra):
+    return {"phase": phase, "faults": list(faults), "controller": controller, "seed": 2,
+            "run_dir": None, "bhp_under_pore_s": under, **FIGURES, **extra}
+
+
+def test_only_cells_every_controller_left_are_bounded():
+    both, one = ("pull-out", ("choke stuck", "mud pump trip")), ("pull-out", ("BPP trip",))
+    rows = [row(*both, c, 5.0) for c in fm.CONTROLLERS] \
+        + [row(*one, c, 2.0 if c == "baseline" else 0.0) for c in fm.CONTROLLERS] \
+        + [row(*both, fm.BOUND, 0.0, speed_mps=0.5, prefix=fb.PREFIX)]
+    assert fb.cells_left_by_all(rows) == [both]
+
+
+def test_the_page_shows_the_bound_column_and_the_envelope():
+    cell = ("pull-out", ("choke stuck", "mud pump trip"))
+    speed = fm.cell_speed_mps()
+    rows = [row(*cell, c, 9.5) for c in fm.CONTROLLERS] + [row("rest", ("BHP dropout",), c, 0.0)
+                                                           for c in fm.CONTROLLERS]
+    rows += [row(*cell, fm.BOUND, under, speed_mps=v, prefix=fb.PREFIX)
+             for v, under in ((speed, 0.0), (0.3, 1.5))]
+    page = fm.markdown(rows, "now", (6.6e7, 7.1e7))
+    assert f"**3 of {len(rows) - 2} runs left the window.**" in page   # bounds are not runs
+    assert "| phase | faults | nmpc | automated_mpd | baseline | bound |" in page
+    assert "| pull-out | choke stuck + mud pump trip | **9.5 s under (2.0 bar)** | " \
+           "**9.5 s under (2.0 bar)** | **9.5 s under (2.0 bar)** | 0 |" in page
+    assert "| rest | BHP dropout | 0 | 0 | 0 | – |" in page
+    assert f"| {speed:g} m/s | 0 |" in page and "| 0.3 m/s | **1.5 s under (2.0 bar)** |" in page
