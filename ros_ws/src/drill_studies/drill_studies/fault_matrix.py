@@ -139,7 +139,8 @@ def run_matrix(pairs: str = "actuators", controllers=CONTROLLERS, run=batch.run_
             raise RuntimeError(f"{spec.label} failed: {row['message']}")
         figures = cell_figures(row["summary"])
         rows.append({"phase": phase, "faults": list(faults), "controller": row["controller"],
-                     "seed": row["seed"], "run_dir": row["run_dir"], "wall_s": row["wall_s"],
+                     "seed": row["seed"], "run_dir": Path(row["run_dir"]).name,   # under runs/
+                     "wall_s": row["wall_s"],
                      **figures})
         print(f"[fault matrix] {len(rows)}/{len(specs)} {phase} / {' + '.join(faults)} / "
               f"{row['controller']}: under pore {figures['bhp_under_pore_s']:.1f} s, over "
