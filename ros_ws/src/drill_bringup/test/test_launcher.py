@@ -95,8 +95,8 @@ def test_a_container_takes_what_only_it_publishes_on_its_local_bus():
     # plant's process); the frames reach the plant locally
     assert f"sub@{topics.MEASUREMENT}:7" in wait_separate
     assert f"sub@{topics.MEASUREMENT}:2" in wait_two
-    frame = topics.actuator_frame("drawworks")     # recorder, estimator, nmpc (and plant)
-    assert f"sub@{frame}:4" in wait_separate and f"sub@{frame}:2" in wait_two
+    frame = topics.actuator_frame("drawworks")     # recorder, estimator, nmpc, protection
+    assert f"sub@{frame}:5" in wait_separate and f"sub@{frame}:2" in wait_two   # (and plant)
     assert f"sub@{topics.ESTIMATE}:1" in wait_two            # the recorder; nmpc is local
     processes = {p.name: p for p in launcher.processes(two, "two")}
     local = json.loads(processes["control"].command_line(Path("/m"))[6])
