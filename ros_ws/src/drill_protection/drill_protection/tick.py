@@ -75,7 +75,7 @@ class ProtectionTick:
         self.watch = MeasurementWatch(config, wm, self.protection)
         self.drawworks = ActuatorWatch(config.protection.drawworks_watch)
         self.choke = StuckValveWatch(config.protection.choke_watch, config.actuators.choke)
-        self.choke_on_flow_loop = True      # the last machine command's choke mode
+        self.choke_on_flow_loop = True      # the last decision's choke mode
         self.return_flow_m3s = math.nan     # the last measured return flow (the choke's)
         self.script = OperatorScript(scenario.operator)
         self.formation = config.well.formation
@@ -115,7 +115,7 @@ class ProtectionTick:
         circulation = m.string_flow_m3s if m.string_flow_valid and math.isfinite(m.string_flow_m3s) \
             else 0.0
         self.watch.circulation.request(request.mud_pump_on, request.spp_pa)
-        return self.protection.apply(
+        decision = self.protection.apply(
             [request.block_position_ref_m, request.choke_flow_ref_m3s, request.bpp_flow_m3s,
              request.spp_pa], m.block_position_m, self.watch.velocity_mps, m.bhp_pa,
             max(circulation, 0.0), operator_speed_limit_mps,
@@ -128,13 +128,14 @@ class ProtectionTick:
             block_not_following=self.drawworks.not_following(stamp_ns * 1e-9),
             choke_not_following=self.choke.not_following(stamp_ns * 1e-9),
             choke_moving=self.choke.moving(stamp_ns * 1e-9))
+        self.choke_on_flow_loop = decision.manual_choke_opening is None and \
+            decision.choke_dp_setpoint is None and not decision.emergency_stop
+        return decision
 
     def machine_command(self, decision: Decision, request) -> MachineCommand:
         """The machine command of ``decision`` on ``request`` (the window in force on it)."""
         manual = decision.manual_choke_opening
         dp_setpoint = decision.choke_dp_setpoint
-        self.choke_on_flow_loop = manual is None and dp_setpoint is None and \
-            not decision.emergency_stop
         c = decision.command
         return MachineCommand(
             block_position_ref_m=float(c[U_BLOCK]), choke_flow_ref_m3s=float(c[U_CHOKE]),
