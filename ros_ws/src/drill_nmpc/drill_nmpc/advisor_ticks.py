@@ -185,12 +185,15 @@ class BaselineTick:
         self.start = start
 
     def step(self, position_m: float, bhp_pa: float, setpoints, bhp_resolved: bool,
-             applied_block_m: float) -> tuple[AdvisorCommand, bool]:
-        """The command for one sample, and False when the BHP was not finite (the choke
-        reference held)."""
+             applied_block_m: float, return_flow_m3s: float = math.nan
+             ) -> tuple[AdvisorCommand, bool]:
+        """The command for one sample from the measured block position [m], BHP [Pa] and
+        return flow [m^3/s], and False when the BHP was not finite (the choke reference
+        held)."""
         c = self.controller
         c.adopt_applied(applied_block_m)
         ok = c.step(position_m, bhp_pa, setpoints.block_position_target_m,
-                    setpoints.bhp_ref_pa if bhp_resolved else None, setpoints.controller_enabled)
+                    setpoints.bhp_ref_pa if bhp_resolved else None, setpoints.controller_enabled,
+                    return_flow_m3s)
         return AdvisorCommand(float(c.block_ref_m), float(c.choke_ref_m3s), self.start.bpp_flow_m3s,
                               self.start.spp_pa, bool(setpoints.mud_pump_on)), ok

@@ -58,7 +58,8 @@ class BaselineNode(AdvisorNode):
         self.follow_schedule(stamp)
         self.publish_events(self.book.resolve_bhp(bhp), stamp)
         sp = self.book.active
-        cmd, ok = self.tick.step(position, bhp, sp, self.book.bhp_resolved, self.applied_block_m)
+        cmd, ok = self.tick.step(position, bhp, sp, self.book.bhp_resolved, self.applied_block_m,
+                                 float(msg.return_flow_m3s))
         if not ok:
             self.status.error(f"measurement at {stamp * 1e-9:.3f} s without a finite BHP: "
                               "choke reference held")

@@ -52,3 +52,25 @@ def test_the_ramp_goes_on_from_the_reference_the_protection_applied():
     b.adopt_applied(math.nan)               # no answer: our own ramp
     b.step(0.0, 6.85e7, 8.0, 6.85e7)
     assert b.block_ref_m == pytest.approx(2.2)
+
+
+def test_the_integral_stands_while_the_choke_does_not_deliver_the_flow_asked():
+    """A choke stuck 200 L/min short of the reference: once that has stood 3 samples, while
+    the BHP stays high the integral does not wind on (the reference moves by the
+    proportional part alone); a shortfall inside 100 L/min, or one the integral would
+    reduce, integrates as before."""
+    def after(return_flows, bhp_pa=6.85e7 + 1.0e5):
+        b = Baseline(Q0, KP, TI, Q_MAX, trip_speed_mps=0.5, sample_time_s=1.0)
+        for flow in return_flows:
+            b.step(0.0, bhp_pa, 0.0, 6.85e7, return_flow_m3s=flow)
+        return b.pi.integral_pa_s
+    stuck = Q0 - 200.0 / 60000.0                   # the meter reads the stuck choke's flow
+    assert after([math.nan] + [stuck] * 9) == pytest.approx(3 * 1.0e5)   # then stands
+    assert after([math.nan] * 10) == pytest.approx(10 * 1.0e5)       # no reading: no judgement
+    following = [Q0 + KP * 1.0e5 * (1.0 + k / TI) - 50.0 / 60000.0 for k in range(10)]
+    assert after([math.nan] + following[:-1]) == pytest.approx(10 * 1.0e5)
+    # BHP low, the reference going down: a choke passing less than asked integrates, one
+    # passing more (it does not close) stands
+    assert after([stuck] * 10, bhp_pa=6.85e7 - 1.0e5) == pytest.approx(-10 * 1.0e5)
+    assert after([math.nan] + [Q0 + 200.0 / 60000.0] * 9, bhp_pa=6.85e7 - 1.0e5) \
+        == pytest.approx(-3 * 1.0e5)

@@ -316,6 +316,7 @@ class ProcessProtection:
                 and position_m < command[U_BLOCK]:
             held_block = True         # pulled faster than the friction that goes allows
             command[U_BLOCK] = position_m
+            command[U_BPP_FLOW] = self.upper[U_BPP_FLOW]
             clamps.append(Notice("lost_circulation_hold", "circulation lost while pulling out "
                                  f"faster than {limits.standing_mps[1]:.2f} m/s: the block "
                                  f"reference held at the string, {position_m:.2f} m", position_m))

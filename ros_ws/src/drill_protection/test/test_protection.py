@@ -288,7 +288,9 @@ def test_circulation_lost_and_a_stuck_choke_set_the_protective_stop_until_it_mov
 def test_circulation_lost_while_pulling_faster_than_the_swab_allows_holds_the_string(setup):
     """Pulled at 0.5 m/s when circulation is lost with the BHP without friction at the
     window's low edge (no swab allowed): the block reference goes to the string at once, not
-    down the acceleration limit; then it starts from rest within the limits."""
+    down the acceleration limit, and the back-pressure pump is commanded to its maximum for
+    the string's swab as it stops; then it starts from rest within the limits and the pump
+    goes back to the trip's floor."""
     from drill_protection.pump_trip import TripAction
     config, _ = setup
     p = fresh(setup)
@@ -301,7 +303,9 @@ def test_circulation_lost_while_pulling_faster_than_the_swab_allows_holds_the_st
     d = p.apply([ahead + 0.5, CIRCULATION, 0.0, 1.06e7], 1.5, 0.5, 6.85e7, 0.0, 0.5,
                 trip_action=lost)
     assert d.command[0] == 1.5 and "lost_circulation_hold" in [c.code for c in d.clamps]
+    assert d.command[2] == config.actuators.bpp.maximum
     assert d.standing_speed_limits_mps[1] == 0.0
     d = p.apply([ahead + 1.0, CIRCULATION, 0.0, 1.06e7], 1.6, 0.0, 6.85e7, 0.0, 0.5,
                 trip_action=lost)
     assert d.command[0] == 1.5 and "lost_circulation_hold" not in [c.code for c in d.clamps]
+    assert d.command[2] < config.actuators.bpp.maximum

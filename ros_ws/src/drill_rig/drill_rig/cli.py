@@ -213,7 +213,8 @@ def main(argv=None) -> int:
                       help="run nothing: write the page again from its JSON table")
     comp.add_argument("--bounds", action="store_true",
                       help="with --fault-matrix: the machines' fastest answer, in process, "
-                           "for the cells every controller left (drill_studies.fault_bound)")
+                           "for each run that left the window, after its controller "
+                           "(drill_studies.fault_bound)")
     args, rest = parser.parse_known_args(argv)
     try:
         if args.command == "demo":

@@ -1,13 +1,15 @@
 """The machines' bound of a fault-matrix cell: what the rig's fastest answer to the fault
-gives, for the cells every controller left the window in (docs/fault-matrix.md).
+gives, for each run of the fault matrix that left the window (docs/fault-matrix.md).
 
 From the fault's time on, an oracle replaces the protection's machine command with the
 fastest answer the machines have, whatever a controller would know: the drawworks
 brake set (the block stops at the brake's deceleration and is held), the back-pressure
 pump commanded to its maximum and the choke on its own BHP loop aimed at the window's
-middle. Before the fault the cell's trip runs as under ``PREFIX`` with the protection.
-It is a bound of that answer, not a proven optimum: it says how much of a cell's time
-outside the window is left when every machine does at once the most it can.
+middle. Before the fault the cell's trip runs under the controller that left the window
+(its *prefix*) with the protection: where the machines stand when the fault comes (how
+open a choke sticks, how fast the string moves) is that controller's. It is a bound of
+that answer, not a proven optimum: it says how much of a cell's time outside the window
+is left when every machine does at once the most it can.
 
 The same bound at lower pull-out speeds (the operator's trip-speed limit of the cell's
 scenario) gives the speed envelope: the fastest pull-out from which the fastest answer
@@ -35,7 +37,6 @@ from drill_bringup import runs
 from drill_core.config import load_rig
 from drill_studies import fault_matrix, loop_bench
 
-PREFIX = "automated_mpd"                         # whose trip runs until the fault
 SLOWER_SPEEDS_MPS = (0.4, 0.3, 0.2, 0.1)         # the envelope's speeds below the cells' own
 
 
@@ -63,8 +64,9 @@ def figures(out: dict) -> dict:
             "false_alarms": 0}
 
 
-def bound(phase: str, faults: tuple[str, ...], speed_mps: float) -> dict:
-    """The bound row of one cell at pull-out speed ``speed_mps``."""
+def bound(phase: str, faults: tuple[str, ...], speed_mps: float, prefix: str) -> dict:
+    """The bound row of one cell at pull-out speed ``speed_mps``, the trip under
+    ``prefix`` until the fault."""
     config = load_rig(runs.ROOT / "config")
     base = fault_matrix.base_scenario()
     scenario = fault_matrix.cell_scenario(base, phase, faults)
@@ -75,34 +77,31 @@ def bound(phase: str, faults: tuple[str, ...], speed_mps: float) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{scenario['name']}.yaml"
         path.write_text(yaml.safe_dump(scenario, sort_keys=False))
-        out = loop_bench.run(str(path), controller=PREFIX, state="ukf", protection=True,
+        out = loop_bench.run(str(path), controller=prefix, state="ukf", protection=True,
                              machines=machines)
-    return {"phase": phase, "faults": list(faults), "controller": fault_matrix.BOUND, "prefix": PREFIX,
+    return {"phase": phase, "faults": list(faults), "controller": fault_matrix.BOUND, "prefix": prefix,
             "speed_mps": speed_mps, "seed": scenario["seed"], "run_dir": None, **figures(out)}
 
 
-def cells_left_by_all(rows: list[dict]) -> list[tuple[str, tuple[str, ...]]]:
-    """The cells whose every controller's graph run left the window."""
-    by: dict[tuple, list[bool]] = {}
-    for r in rows:
-        if r["controller"] in fault_matrix.CONTROLLERS:
-            left = r["bhp_under_pore_s"] > 0.0 or r["bhp_over_fracture_s"] > 0.0
-            by.setdefault((r["phase"], tuple(r["faults"])), []).append(left)
-    return [cell for cell, left in by.items()
-            if len(left) == len(fault_matrix.CONTROLLERS) and all(left)]
+def runs_left(rows: list[dict]) -> list[tuple[str, tuple[str, ...], str]]:
+    """(phase, faults, controller) of each graph run that left the window."""
+    return [(r["phase"], tuple(r["faults"]), r["controller"]) for r in rows
+            if r["controller"] in fault_matrix.CONTROLLERS
+            and (r["bhp_under_pore_s"] > 0.0 or r["bhp_over_fracture_s"] > 0.0)]
 
 
 def main(output: Path, speeds=None) -> int:
     """Bounds (at the cells' own pull-out speed and each of ``speeds``, default
-    SLOWER_SPEEDS_MPS) for the cells every controller left; the table's earlier bound rows
-    dropped, its page written again."""
+    SLOWER_SPEEDS_MPS) for each run that left the window, after its own controller; the
+    table's earlier bound rows dropped, its page written again."""
     speeds = (fault_matrix.cell_speed_mps(), *(SLOWER_SPEEDS_MPS if speeds is None else speeds))
     table = output.with_suffix(".json")
     rows = [r for r in json.loads(table.read_text()) if r["controller"] != fault_matrix.BOUND]
-    for phase, faults in cells_left_by_all(rows):
+    for phase, faults, prefix in runs_left(rows):
         for speed in speeds:
-            row = bound(phase, faults, speed)
-            print(f"[fault bound] {phase} / {' + '.join(faults)} at {speed:g} m/s: under pore "
+            row = bound(phase, faults, speed, prefix)
+            print(f"[fault bound] {phase} / {' + '.join(faults)} after {prefix} at {speed:g} "
+                  f"m/s: under pore "
                   f"{row['bhp_under_pore_s']:.1f} s, over fracture {row['bhp_over_fracture_s']:.1f} s",
                   flush=True)
             rows.append(row)

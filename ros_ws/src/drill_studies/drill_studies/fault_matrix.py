@@ -183,16 +183,29 @@ def cell_speed_mps() -> float:
     return float(base_scenario()["schedule"][0]["trip_speed_limit_mps"])
 
 
+def _bound_key(r: dict) -> tuple:
+    return r["phase"], tuple(r["faults"]), r["prefix"]
+
+
 def _envelope(bounds: list[dict]) -> list[str]:
-    """The bound at each pull-out speed, per cell bounded."""
+    """The bound at each pull-out speed, per cell and controller bounded."""
     lines = []
-    for phase, faults in sorted({(r["phase"], tuple(r["faults"])) for r in bounds}):
-        lines += ["", f"*{phase}, {' + '.join(faults)}*: the fastest answer from each pull-out "
-                      "speed", "", "| pull-out speed | the fastest answer |", "| --- | --- |"]
-        for r in sorted((r for r in bounds if (r["phase"], tuple(r["faults"])) == (phase, faults)),
+    for phase, faults, prefix in sorted({_bound_key(r) for r in bounds}):
+        lines += ["", f"*{phase}, {' + '.join(faults)}, after {prefix}*: the fastest answer "
+                      "from each pull-out speed", "", "| pull-out speed | the fastest answer |",
+                  "| --- | --- |"]
+        for r in sorted((r for r in bounds if _bound_key(r) == (phase, faults, prefix)),
                         key=lambda r: -r["speed_mps"]):
             lines.append(f"| {r['speed_mps']:g} m/s | {_cell(r)} |")
     return lines
+
+
+def _bound_cell(bounds: list[dict]) -> str:
+    """The bound column of one cell: each bounded controller's fastest answer."""
+    if not bounds:
+        return "–"
+    return "; ".join(f"after {r['prefix']}: {_cell(r)}"
+                     for r in sorted(bounds, key=lambda r: CONTROLLERS.index(r["prefix"])))
 
 
 def markdown(rows: list[dict], made: str, window_pa: tuple[float, float]) -> str:
@@ -203,7 +216,10 @@ def markdown(rows: list[dict], made: str, window_pa: tuple[float, float]) -> str
     rows = [r for r in rows if r["controller"] != BOUND]
     by = {(r["phase"], tuple(r["faults"]), r["controller"]): r for r in rows}
     speed = cell_speed_mps()
-    by.update({(r["phase"], tuple(r["faults"]), BOUND): r for r in bounds if r["speed_mps"] == speed})
+    bounded: dict[tuple, list[dict]] = {}
+    for r in bounds:
+        if r["speed_mps"] == speed:
+            bounded.setdefault((r["phase"], tuple(r["faults"])), []).append(r)
     keys = sorted({(r["phase"], tuple(r["faults"])) for r in rows},
                   key=lambda k: (len(k[1]), list(PHASES).index(k[0]), [list(FAULTS).index(f) for f in k[1]]))
     controllers = [c for c in CONTROLLERS if any(r["controller"] == c for r in rows)]
@@ -228,19 +244,20 @@ def markdown(rows: list[dict], made: str, window_pa: tuple[float, float]) -> str
         f"**{len(outside)} of {len(rows)} runs left the window.**", ""]
     if bounds:
         lines += [
-            "Where every controller left the window, the column *bound* gives the machines' "
+            "Where a controller left the window, the column *bound* gives the machines' "
             "fastest answer from the fault on, in process (`python -m drill_studies.fault_bound`"
             "): the drawworks brake set, the back-pressure pump commanded to its maximum, the "
             "choke on its own BHP loop at the window's middle, whatever a controller would "
-            f"know; before the fault the trip runs under {bounds[0]['prefix']} and the "
-            "protection. Not a proven optimum: what is left when every machine does at once "
-            "the most it can (– : not taken).", ""]
+            "know; before the fault the trip runs under that controller and the protection "
+            "(*after* it: how open a choke sticks and how fast the string moves when the "
+            "fault comes are its). Not a proven optimum: what is left when every machine does "
+            "at once the most it can (– : not taken).", ""]
     lines += ["| phase | faults | " + " | ".join(columns) + " |",
               "| --- | --- | " + " | ".join("---" for _ in columns) + " |"]
     for phase, faults in keys:
         lines.append(f"| {phase} | {' + '.join(faults)} | " + " | ".join(
-            _cell(by.get((phase, faults, c))) if c != BOUND or (phase, faults, c) in by else "–"
-            for c in columns) + " |")
+            _cell(by.get((phase, faults, c))) if c != BOUND
+            else _bound_cell(bounded.get((phase, faults), [])) for c in columns) + " |")
     lines += _envelope(bounds)
     missing = [(p, f) for p, f in itertools.product(PHASES, itertools.combinations(FAULTS, 2))
                if (p, f) not in keys]

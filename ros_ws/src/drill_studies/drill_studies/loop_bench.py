@@ -304,7 +304,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
                                     inputs, t, bool(m.string_flow_valid), sp.mud_pump_on)
             elif baseline is not None:
                 advised, _ = baseline.step(m.block_position_m, m.bhp_pa, sp, book.bhp_resolved,
-                                           applied)
+                                           applied, m.return_flow_m3s)
             else:
                 advised, _ = mpd.step(view, sp, book.bhp_resolved, limits, applied)
             request = SupervisorRequest.of(advised, book)

@@ -1,5 +1,5 @@
 """The machines' bound of a fault-matrix cell: the fastest answer's machine command, the
-cells it is taken for, and its column and speed envelope on the page (no run)."""
+runs it is taken for, and its column and speed envelope on the page (no run)."""
 import math
 from dataclasses import dataclass, replace
 
@@ -44,12 +44,12 @@ def row(phase, faults, controller, under, **extra):
             "run_dir": None, "bhp_under_pore_s": under, **FIGURES, **extra}
 
 
-def test_only_cells_every_controller_left_are_bounded():
+def test_each_run_that_left_the_window_is_bounded_after_its_own_controller():
     both, one = ("pull-out", ("choke stuck", "mud pump trip")), ("pull-out", ("BPP trip",))
     rows = [row(*both, c, 5.0) for c in fm.CONTROLLERS] \
         + [row(*one, c, 2.0 if c == "baseline" else 0.0) for c in fm.CONTROLLERS] \
-        + [row(*both, fm.BOUND, 0.0, speed_mps=0.5, prefix=fb.PREFIX)]
-    assert fb.cells_left_by_all(rows) == [both]
+        + [row(*both, fm.BOUND, 1.0, speed_mps=0.5, prefix="nmpc")]
+    assert fb.runs_left(rows) == [(*both, c) for c in fm.CONTROLLERS] + [(*one, "baseline")]
 
 
 def test_the_page_shows_the_bound_column_and_the_envelope():
@@ -57,12 +57,16 @@ def test_the_page_shows_the_bound_column_and_the_envelope():
     speed = fm.cell_speed_mps()
     rows = [row(*cell, c, 9.5) for c in fm.CONTROLLERS] + [row("rest", ("BHP dropout",), c, 0.0)
                                                            for c in fm.CONTROLLERS]
-    rows += [row(*cell, fm.BOUND, under, speed_mps=v, prefix=fb.PREFIX)
+    rows += [row(*cell, fm.BOUND, under, speed_mps=v, prefix="automated_mpd")
              for v, under in ((speed, 0.0), (0.3, 1.5))]
+    rows += [row(*cell, fm.BOUND, 0.5, speed_mps=speed, prefix="baseline")]
     page = fm.markdown(rows, "now", (6.6e7, 7.1e7))
-    assert f"**3 of {len(rows) - 2} runs left the window.**" in page   # bounds are not runs
+    assert f"**3 of {len(rows) - 3} runs left the window.**" in page   # bounds are not runs
     assert "| phase | faults | nmpc | automated_mpd | baseline | bound |" in page
     assert "| pull-out | choke stuck + mud pump trip | **9.5 s under (2.0 bar)** | " \
-           "**9.5 s under (2.0 bar)** | **9.5 s under (2.0 bar)** | 0 |" in page
+           "**9.5 s under (2.0 bar)** | **9.5 s under (2.0 bar)** | after automated_mpd: 0; " \
+           "after baseline: **0.5 s under (2.0 bar)** |" in page
     assert "| rest | BHP dropout | 0 | 0 | 0 | – |" in page
+    assert "*pull-out, choke stuck + mud pump trip, after automated_mpd*" in page
     assert f"| {speed:g} m/s | 0 |" in page and "| 0.3 m/s | **1.5 s under (2.0 bar)** |" in page
+    assert "*pull-out, choke stuck + mud pump trip, after baseline*" in page
