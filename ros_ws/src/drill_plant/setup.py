@@ -14,6 +14,7 @@ setup(
     entry_points={"console_scripts": [   # ros2 run drill_plant <node module> (drill_ros.graph)
         "actuator_node = drill_plant.actuator_node:main",
         "plant_node = drill_plant.plant_node:main",
+        "floor_node = drill_plant.floor_node:main",
     ]},
     zip_safe=True,
     description="Truth plant (stochastic wellbore hydraulics + hoisting) and actuator nodes.",

@@ -90,14 +90,16 @@ class ProcessSpec:
 def graph(scenario_controller: str, common: dict, mcap_path: Path, fast: bool,
           layout: str = "separate", kind: str = "tripping",
           extras: dict[str, dict] | None = None,
-          node_params: dict[str, dict] | None = None) -> list[NodeSpec]:
+          node_params: dict[str, dict] | None = None,
+          multi_stand: bool = False) -> list[NodeSpec]:
     """The node set of a run of a ``kind`` scenario (drill_ros.graph), recorder first
     and plant last; the plant waits for the lockstep's endpoints of exactly this set in
     this process layout (a container takes some topics on its local bus, not in the
     middleware). ``extras``: optional nodes (graph OPTIONAL) to add, name -> parameters;
-    ``node_params``: more parameters of nodes of the set, name -> parameters."""
+    ``node_params``: more parameters of nodes of the set, name -> parameters;
+    ``multi_stand``: the scenario trips stands (the rig floor's node)."""
     extras = extras or {}
-    declared = graph_decl.run_nodes(scenario_controller, fast, kind, tuple(extras))
+    declared = graph_decl.run_nodes(scenario_controller, fast, kind, tuple(extras), multi_stand)
     local = graph_decl.local_subscriptions(layout, declared)
     own = {"recorder": {"output": str(mcap_path)}, "console": {"port": CONSOLE_PORT},
            **{name: {"actuator": name}

@@ -19,8 +19,8 @@ from drill_core.config import ConfigError
 from drill_core.mismatch import resolve, truth_config, write_truth_file
 from drill_core.rig_root import rig_root
 from drill_ros import graph as graph_decl
-from drill_core.scenario import (load_scenario, load_scenario_config, scenario_kind,
-                                 scenario_truth, without_truth)
+from drill_core.scenario import (MULTI_STAND_CONTROLLERS, load_scenario, load_scenario_config,
+                                 scenario_kind, scenario_truth, without_truth)
 
 ROOT = rig_root()
 
@@ -153,6 +153,13 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
         scenario, _ = load_scenario(path)
         own_controller = scenario.controller
     controller = controller or own_controller
+    multi_stand = kind == "tripping" and scenario.trip is not None
+    if multi_stand and controller not in MULTI_STAND_CONTROLLERS:
+        raise ConfigError(f"--controller {controller}: {path.name} trips stands (trip:), which "
+                          f"runs under {', '.join(MULTI_STAND_CONTROLLERS)} only")
+    if multi_stand and realtime:
+        raise ConfigError(f"--realtime: {path.name} trips stands (trip:), which runs in fast "
+                          "mode only")
     if mismatch is not None and kind != "tripping":
         raise ConfigError(f"--mismatch {mismatch}: {path.name} is a {kind} scenario; a "
                           "mismatch changes a tripping run's well (docs/mismatch.md)")
@@ -169,7 +176,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     staged = path if truth is None else run_dir / "scenario.yaml"
     common = {"config_dir": str(run_dir / report.RUN_CONFIG), "scenario": str(staged), "mode": mode}
     nodes = launcher.graph(controller, common, mcap_path, fast=not realtime, layout=layout,
-                           kind=kind, extras=extras, node_params=node_params)
+                           kind=kind, extras=extras, node_params=node_params,
+                           multi_stand=multi_stand)
     if truth is not None:
         for node in nodes:
             if graph_decl.BY_NAME[node.name].truth_side:

@@ -61,7 +61,8 @@ _PROTECTION = {
     "lost_circulation_hold": EventCode("clamp", "m", "circulation lost while the string is "
                                                     "pulled faster than the swab limit without "
                                                     "friction: the block reference held at the "
-                                                    "string; value: the reference"),
+                                                    "string, the back-pressure pump commanded "
+                                                    "to its maximum; value: the reference"),
     "drawworks_not_following": EventCode("clamp", "m", "the block did not follow its reference "
                                                       "(a stuck drawworks): the reference held at "
                                                       "the string; value: the reference"),

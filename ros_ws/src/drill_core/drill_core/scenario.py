@@ -21,6 +21,7 @@ from drill_core.mismatch import Mismatch, resolve
 from drill_core.operator_actions import OperatorAction
 from drill_core.open_loop import OpenLoopPlan, start_command
 from drill_core.schema import FieldError, build, param
+from drill_core.tripping.programme import TripProgramme
 
 _NAN = float("nan")
 SCENARIO_KINDS = ("tripping", "drilling")    # a scenario file's ``kind`` (absent: tripping)
@@ -71,6 +72,7 @@ class SetpointChange:
                 if v is not None and not (isinstance(v, float) and math.isnan(v))}
 
 
+MULTI_STAND_CONTROLLERS = ("baseline", "automated_mpd")   # those that plan a multi-stand trip
 CLOSED_LOOP_FIELDS = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
                       "choke_dp_band_upper_pa",
                       "trip_speed_limit_mps", "controller_enabled")
@@ -94,6 +96,10 @@ class Scenario:
     operator: tuple[OperatorAction, ...] = param(
         default=(), doc="emergency stop, release, automation level at a time "
                         "(drill_core.operator_actions)")
+    trip: TripProgramme | None = param(
+        default=None, doc="a multi-stand trip (drill_core.tripping): the rig floor sets and "
+                          "pulls the slips, makes the connections and ramps the mud pump; the "
+                          "schedule's block targets are then the floor's, not the file's")
 
     def validate(self) -> None:
         times = [c.time_s for c in self.schedule]
@@ -111,6 +117,16 @@ class Scenario:
                     else f"only used with controller open_loop, not {self.controller}"))
         if open_loop:
             OpenLoopPlan(self.schedule, start_command(self.initial))
+        if self.trip is not None and self.controller not in MULTI_STAND_CONTROLLERS:
+            raise FieldError("trip", f"a multi-stand trip runs under "
+                                     f"{', '.join(MULTI_STAND_CONTROLLERS)}, not {self.controller}")
+        if self.trip is not None:
+            targets = [i for i, c in enumerate(self.schedule)
+                       if math.isfinite(c.block_position_target_m)]
+            if targets:
+                raise FieldError(f"schedule[{targets[0]}].block_position_target_m",
+                                 "a multi-stand trip's block targets are the rig floor's: "
+                                 "leave it out")
         for key, timed in (("events", self.events), ("operator", self.operator)):
             for i, entry in enumerate(timed):
                 if entry.time_s >= self.duration_s:

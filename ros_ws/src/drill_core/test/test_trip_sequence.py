@@ -8,9 +8,9 @@ from drill_core.config import load_rig
 from drill_core.rig_root import config_dir
 from drill_core.tripping.hoist import buoyed_weight_n, hoist_forces
 from drill_core.tripping.programme import TripProgramme
-from drill_core.tripping.sequence import (CONNECTION, DONE, MOVING, PICK_UP, PUMP_DOWN,
-                                          PUMP_UP, SET_SLIPS, StandSequencer,
-                                          position_after_connection)
+from drill_core.tripping.sequence import (ARRIVAL_TOLERANCE_M, CONNECTION, DONE, MOVING,
+                                          PICK_UP, PUMP_DOWN, PUMP_UP, SET_SLIPS,
+                                          StandSequencer, position_after_connection)
 from drill_core.tripping.stands import StandVolumes, tripped_geometry
 from drill_core.tripping.trip_sheet import TripSheet, stands_per_hour
 from drill_core.tripping.trip_tank import TripTank
@@ -120,7 +120,7 @@ def test_pulling_out_walks_each_stand_through_its_phases(well):
         assert durations(log, phase) == [pytest.approx(seconds, abs=1.5 * DT_S)] * 2
     assert log[-1][1].stands_pulled == 2
     # the bit ends two stands up, at rest within the arrival tolerance
-    assert geometry.bit_above_bhp_node_m + x == pytest.approx(2 * STAND_M, abs=0.05)
+    assert geometry.bit_above_bhp_node_m + x == pytest.approx(2 * STAND_M, abs=ARRIVAL_TOLERANCE_M)
 
 
 def test_the_pump_ramps_linearly_to_off_through_each_connection(well):
@@ -163,7 +163,7 @@ def test_running_in_makes_up_before_each_stand_and_the_tank_gets_the_steel_back(
     cycle = [PUMP_DOWN, CONNECTION, PUMP_UP, PICK_UP, MOVING, SET_SLIPS]
     assert phases_in_order(log) == [(s, p) for s in (1, 2) for p in cycle] + [(2, DONE)]
     assert log[-1][1].stands_pulled == 3
-    assert geometry.bit_above_bhp_node_m + x == pytest.approx(3 * STAND_M, abs=0.05)
+    assert geometry.bit_above_bhp_node_m + x == pytest.approx(3 * STAND_M, abs=ARRIVAL_TOLERANCE_M)
     steel = StandVolumes.of(geometry, STAND_M).steel_m3
     for row in sheet.rows:
         assert row.expected_fill_m3 == -steel
@@ -182,3 +182,22 @@ def test_a_connection_waits_for_the_block_at_the_new_top(well):
     assert late.phase == CONNECTION and late.stands_pulled == 1 and not late.latched
     ready = sequencer.step(300.1, STAND_M, 0.0, 0.0, block_ready=True)
     assert ready.phase == PUMP_UP and ready.stands_pulled == 0 and ready.latched
+
+
+@pytest.mark.parametrize("change, key, words", [
+    ({"controller": "nmpc"}, "trip", "automated_mpd, not nmpc"),
+    ({"schedule": [{"time_s": 0.0, "bhp_ref_pa": 6.85e7, "block_position_target_m": 28.0}]},
+     "schedule[0].block_position_target_m", "the rig floor's"),
+    ({"trip": {"direction": "up", "stands": 2}}, "trip.direction", "out, in"),
+])
+def test_a_scenarios_trip_programme_is_refused_where_it_cannot_run(tmp_path, change, key, words):
+    import yaml
+
+    from drill_core.config import ConfigError
+    from drill_core.scenario import load_scenario
+    data = yaml.safe_load((config_dir() / "scenarios" / "trip_out.yaml").read_text())
+    path = tmp_path / "trip.yaml"
+    path.write_text(yaml.safe_dump({**data, **change}))
+    with pytest.raises(ConfigError) as info:
+        load_scenario(path)
+    assert key in str(info.value) and words in str(info.value), str(info.value)

@@ -29,12 +29,13 @@ import math
 import time
 
 import numpy as np
-from drill_msgs.msg import ActuatorFrame, RigMeasurement, StateEstimate
+from drill_msgs.msg import ActuatorFrame, RigFloor, RigMeasurement, StateEstimate
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 
 from drill_ros import topics
 from drill_ros.context import load_context
+from drill_ros.floor import floor_command
 from drill_ros.inbox import StampedInbox
 from drill_ros.node import RigNode
 from drill_ros.runner import run
@@ -61,7 +62,11 @@ class EstimatorNode(RigNode):
         self.exit_code = 0
         self.status = StatusReporter(self, ctx.mode)
 
-        self.frames = StampedInbox(topics.ACTUATORS)           # fast mode
+        self.multi_stand = ctx.scenario.trip is not None
+        # the frames stamped t_{k-1} a sample t_k waits for, and on a multi-stand trip the
+        # rig floor's command for that frame (its slips; the stands it racked)
+        self.awaited = (*topics.ACTUATORS, "floor") if self.multi_stand else topics.ACTUATORS
+        self.frames = StampedInbox(self.awaited)               # fast mode
         self.latest: dict[str, ActuatorFrame] = {}             # realtime mode
         self.pending: dict[int, RigMeasurement] = {}           # fast mode, by stamp
         self.previous_ns: int | None = None                    # stamp of the last measurement used
@@ -73,6 +78,9 @@ class EstimatorNode(RigNode):
         for name in topics.ACTUATORS:
             self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
                                      lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
+        if self.multi_stand:
+            self.create_subscription(RigFloor, topics.FLOOR,
+                                     lambda msg: self._on_frame("floor", msg), topics.RELIABLE)
         # a wall-clock heartbeat: without it a node that only reacts to messages blocks in
         # the middle-ware wait and a Python-level SIGTERM handler never gets to run
         self.create_timer(0.25, lambda: None, clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -105,15 +113,15 @@ class EstimatorNode(RigNode):
         while self.pending:
             stamp = min(self.pending)
             if self.previous_ns is not None:
-                lost = [n for n in topics.ACTUATORS if self.frames.passed(n, self.previous_ns)]
+                lost = [n for n in self.awaited if self.frames.passed(n, self.previous_ns)]
                 if not self.frames.ready(self.previous_ns,
-                                         [n for n in topics.ACTUATORS if n not in lost]):
+                                         [n for n in self.awaited if n not in lost]):
                     return
                 if lost:
                     self.status.error(f"frames stamped {self.previous_ns} ns of {', '.join(lost)} "
                                       "lost (a later one came first): their inputs held")
                 frames = {name: self.frames.take(name, self.previous_ns)
-                          for name in topics.ACTUATORS if name not in lost}
+                          for name in self.awaited if name not in lost}
             else:
                 frames = {}
             self._process(self.pending.pop(stamp), frames)
@@ -137,7 +145,14 @@ class EstimatorNode(RigNode):
         if self.previous_ns is not None and not self.ctx.fast:
             steps = int(np.clip(round((stamp - self.previous_ns) / self.step_ns), 1, 10 * self.steps))
         initialised = self.ukf.initialised
-        tick = self.tick.step(stamp * 1e-9, msg, frames, steps)
+        floor = frames.pop("floor", None)
+        held = False
+        if floor is not None:
+            command = floor_command(floor)
+            if command.racked_to_m is not None:
+                self.tick.rack(command.racked_from_m, command.racked_to_m)
+            held = command.string_held
+        tick = self.tick.step(stamp * 1e-9, msg, frames, steps, held)
         self.frozen = tick.frozen
         for problem in tick.problems:
             self.status.error(problem)

@@ -9,17 +9,21 @@ answer carries the BHP window and reference in force; when a kick or losses answ
 narrowed the window past the advisor's reference, the book takes the protection's target
 (drill_protection.well_control) before the sample's schedule entries; its trip-speed
 limits and the block reference it applied are kept for the subclass to plan with
-(``speed_limits_mps``, ``applied_block_m``). Realtime: the latest machine command."""
+(``speed_limits_mps``, ``applied_block_m``). Realtime: the latest machine command. On a
+multi-stand trip (the scenario's ``trip:``) a sample also waits for the rig floor's command
+stamped with it (``floor_at``)."""
 from __future__ import annotations
 
 from collections import deque
 from dataclasses import asdict
 
-from drill_msgs.msg import OperatorEvent, RigCommand, Setpoints
+from drill_msgs.msg import OperatorEvent, RigCommand, RigFloor, Setpoints
 
 from drill_ros import topics
 from drill_ros.context import load_context
 from drill_ros.events import event_message
+from drill_ros.floor import floor_command
+from drill_ros.inbox import StampedInbox
 from drill_ros.node import RigNode
 from drill_ros.sampling import SampleGate
 from drill_ros.stamps import from_ns, seconds_to_ns, to_ns
@@ -57,6 +61,19 @@ class AdvisorNode(RigNode):
         self.applied_block_m = float("nan")
         self.create_subscription(RigCommand, topics.MACHINE_COMMAND, self._on_machine_command,
                                  topics.RELIABLE)
+        self.trip = scenario.trip                      # a multi-stand trip: the rig floor's
+        self.floor = StampedInbox(("floor",))
+        if self.trip is not None:
+            self.create_subscription(RigFloor, topics.FLOOR, self._on_floor, topics.RELIABLE)
+
+    def _on_floor(self, msg: RigFloor) -> None:
+        self.floor.put("floor", msg)
+        self.try_pending()
+
+    def floor_at(self, stamp_ns: int):
+        """The rig floor's command stamped ``stamp_ns`` (drill_core.tripping.rig_floor;
+        None: no multi-stand trip)."""
+        return None if self.trip is None else floor_command(self.floor.take("floor", stamp_ns))
 
     def act(self, msg, stamp_ns: int) -> None:
         """Run the sample stamped ``stamp_ns`` whose input is ``msg`` (the subclass's)."""
@@ -81,7 +98,8 @@ class AdvisorNode(RigNode):
         answer = self._protection_answer()
         if self.ctx.fast and self.sent_bhp_ref_pa and answer is None:
             return False
-        if not self.inputs_ready(stamp):
+        if not self.inputs_ready(stamp) or \
+                (self.trip is not None and not self.floor.has("floor", stamp)):
             return False
         self.pending.popleft()
         if answer is not None:

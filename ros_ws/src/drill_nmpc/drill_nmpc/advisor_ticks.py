@@ -6,13 +6,14 @@ bench (drill_studies.loop_bench) steps the same classes."""
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from drill_core.config import RigConfig
 from drill_core.estimation_model import EstimationModel
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_PUMP_PRESSURE
+from drill_core.tripping.sequence import CONNECTION_PHASES, MOVING
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView, MpdCommand
 from drill_nmpc.baseline import Baseline
 from drill_nmpc.inputs import choke_command, choke_input
@@ -23,6 +24,8 @@ from drill_nmpc.supervisor import Supervisor
 
 BASELINE_KP_M3S_PER_PA = 5.0e-9     # the PI baseline's default gains: 30 L/min per bar
 BASELINE_TI_S = 5.0
+BASELINE_BRAKING_MPS2 = 0.05        # a multi-stand trip: the ramp's deceleration onto a stand's end
+CONNECTION_BPP_FLOW_M3S = 0.01      # the advisors' back-pressure pump through a connection (600 L/min)
 
 
 @dataclass
@@ -145,18 +148,33 @@ class NmpcTick:
 class AutomatedMpdTick:
     """Automated MPD as its node runs it: the last command held while the estimate is not
     finite or the BHP reference not resolved, the block reference at the estimated string
-    until a trip profile starts."""
+    until a trip profile starts. On a multi-stand trip (``trip``, the scenario's programme)
+    the managed-pressure connection: each stand's move planned to its end, and the
+    back-pressure pump at CONNECTION_BPP_FLOW_M3S while the mud pump is under its rate, the
+    choke's set-point holding the BHP reference on the friction the model has left."""
 
-    def __init__(self, config: RigConfig, em: EstimationModel, start: StartInputs):
+    def __init__(self, config: RigConfig, em: EstimationModel, start: StartInputs, trip=None):
         self.controller = AutomatedMpd(config, em, start.bpp_flow_m3s, start.spp_pa)
         self.held = AdvisorCommand(0.0, start.choke_flow_m3s, start.bpp_flow_m3s, start.spp_pa,
                                    start.circulating)
+        self.start = start
+        self.stand_length_m = math.nan if trip is None else trip.stand_length_m
 
     def step(self, view: EstimateView, setpoints, bhp_resolved: bool,
-             speed_limits_mps: tuple[float, float],
-             applied_block_m: float) -> tuple[AdvisorCommand, MpdCommand | None]:
+             speed_limits_mps: tuple[float, float], applied_block_m: float,
+             floor=None) -> tuple[AdvisorCommand, MpdCommand | None]:
         """The command for one sample and the controller's output (None: the last command
-        held, the estimate not finite or the BHP reference not resolved)."""
+        held, the estimate not finite or the BHP reference not resolved). On a multi-stand
+        trip ``floor`` is the rig floor's command at the sample
+        (drill_core.tripping.rig_floor): the profile goes to the stand's end while it
+        moves and stays on the estimated string while the floor has it."""
+        if floor is not None:
+            setpoints = replace(setpoints, block_position_target_m=(
+                floor.advisor_target_m(view.string_position_m, self.stand_length_m)))
+            if floor.step.phase != MOVING:
+                applied_block_m = view.string_position_m
+            self.controller.bpp = CONNECTION_BPP_FLOW_M3S \
+                if floor.step.phase in CONNECTION_PHASES else self.start.bpp_flow_m3s
         if self.controller.profile is None and math.isfinite(view.string_position_m):
             self.held.block_position_ref_m = view.string_position_m
         if not bhp_resolved or not all(math.isfinite(v) for v in
@@ -175,25 +193,41 @@ class AutomatedMpdTick:
 class BaselineTick:
     """The PI baseline as its node runs it: a fixed-speed block ramp and the PI choke on
     the measured BHP (its reference once resolved), the bpp and the stand-pipe pressure
-    at the start point."""
+    at the start point. On a multi-stand trip (``trip``, the scenario's programme) the
+    conventional connection: the ramp slows onto each stand's end, and the back-pressure
+    pump runs at CONNECTION_BPP_FLOW_M3S while the mud pump is under its rate, giving
+    the PI choke a flow to hold BHP with."""
 
     def __init__(self, config: RigConfig, trip_speed_mps: float, start: StartInputs,
-                 kp_m3s_per_pa: float = BASELINE_KP_M3S_PER_PA, ti_s: float = BASELINE_TI_S):
+                 kp_m3s_per_pa: float = BASELINE_KP_M3S_PER_PA, ti_s: float = BASELINE_TI_S,
+                 trip=None):
         self.controller = Baseline(start.choke_flow_m3s, kp_m3s_per_pa, ti_s,
                                    config.nmpc.input_max.choke_flow_m3s, trip_speed_mps,
-                                   config.nmpc.sample_time_s)
+                                   config.nmpc.sample_time_s,
+                                   math.inf if trip is None else BASELINE_BRAKING_MPS2)
         self.start = start
+        self.stand_length_m = math.nan if trip is None else trip.stand_length_m
 
     def step(self, position_m: float, bhp_pa: float, setpoints, bhp_resolved: bool,
-             applied_block_m: float, return_flow_m3s: float = math.nan
+             applied_block_m: float, return_flow_m3s: float = math.nan, floor=None
              ) -> tuple[AdvisorCommand, bool]:
         """The command for one sample from the measured block position [m], BHP [Pa] and
         return flow [m^3/s], and False when the BHP was not finite (the choke reference
-        held)."""
+        held). On a multi-stand trip ``floor`` is the rig floor's command at the sample
+        (drill_core.tripping.rig_floor): the ramp goes to the stand's end while it moves
+        and waits at the string while the floor has it (the slips, a connection)."""
         c = self.controller
         c.adopt_applied(applied_block_m)
-        ok = c.step(position_m, bhp_pa, setpoints.block_position_target_m,
+        target_m = setpoints.block_position_target_m
+        bpp_m3s = self.start.bpp_flow_m3s
+        if floor is not None:
+            target_m = floor.advisor_target_m(position_m, self.stand_length_m)
+            if floor.step.phase != MOVING and math.isfinite(position_m):
+                c.block_ref_m = position_m
+            if floor.step.phase in CONNECTION_PHASES:
+                bpp_m3s = CONNECTION_BPP_FLOW_M3S
+        ok = c.step(position_m, bhp_pa, target_m,
                     setpoints.bhp_ref_pa if bhp_resolved else None, setpoints.controller_enabled,
                     return_flow_m3s)
-        return AdvisorCommand(float(c.block_ref_m), float(c.choke_ref_m3s), self.start.bpp_flow_m3s,
+        return AdvisorCommand(float(c.block_ref_m), float(c.choke_ref_m3s), bpp_m3s,
                               self.start.spp_pa, bool(setpoints.mud_pump_on)), ok

@@ -37,7 +37,7 @@ class AutomatedMpdNode(AdvisorNode):
     def __init__(self, **node_options):
         super().__init__("automated_mpd", **node_options)
         self.em = build_estimation_model(self.ctx.config)
-        self.tick = AutomatedMpdTick(self.ctx.config, self.em, self.start)
+        self.tick = AutomatedMpdTick(self.ctx.config, self.em, self.start, self.ctx.scenario.trip)
         self.create_subscription(StateEstimate, topics.ESTIMATE, self._on_estimate, topics.RELIABLE)
 
     def _view(self, msg: StateEstimate) -> EstimateView:
@@ -60,8 +60,9 @@ class AutomatedMpdNode(AdvisorNode):
         self.follow_schedule(stamp)
         self.publish_events(self.book.resolve_bhp(view.bhp_pa), stamp)
         sp = self.book.active
+        floor = self.floor_at(stamp)
         cmd, c = self.tick.step(view, sp, self.book.bhp_resolved, self.speed_limits_mps,
-                                self.applied_block_m)
+                                self.applied_block_m, floor)
         self.publish_command(cmd, stamp)     # the fast-mode lockstep waits for a command
         if c is None:
             self.status.error(f"estimate at {stamp * 1e-9:.3f} s is not finite: last command held")

@@ -2,7 +2,9 @@
 drill_nmpc.baseline_node): a fixed-speed trip and a PI choke on the measured BHP.
 
 Each sample the block reference moves toward the target at the fixed trip speed (a ramp
-of speed * t_s per sample, stopping on the target) and the choke-flow reference is
+of speed * t_s per sample, stopping on the target; on a multi-stand trip slowing down to it
+at ``braking_mps2``, so that each stand comes to rest on its end for the slips) and the
+choke-flow reference is
 q_c0 + k_p e + (k_p / T_i) * integral(e), e = BHP_measured - BHP_ref (BHP too high: open
 the choke, let more out), clipped to [0, q_max] with anti-windup: the integral stands while
 the reference is at a limit, and while the measured return flow has missed the reference
@@ -49,9 +51,10 @@ class Baseline:
     """The baseline's state between samples: the block ramp and the PI choke."""
 
     def __init__(self, q0_m3s: float, kp_m3s_per_pa: float, ti_s: float, q_max_m3s: float,
-                 trip_speed_mps: float, sample_time_s: float):
+                 trip_speed_mps: float, sample_time_s: float, braking_mps2: float = math.inf):
         self.pi = BaselinePi(q0_m3s, kp_m3s_per_pa, ti_s, q_max_m3s)
         self.speed_mps, self.ts = trip_speed_mps, sample_time_s
+        self.braking_mps2 = braking_mps2     # the ramp's deceleration onto the target [m/s^2]
         self.block_ref_m: float | None = None
         self.choke_ref_m3s = q0_m3s
 
@@ -75,8 +78,10 @@ class Baseline:
             if math.isfinite(position_m):
                 self.block_ref_m = position_m
             return True
-        step = self.speed_mps * self.ts
-        self.block_ref_m += max(-step, min(step, target_m - self.block_ref_m))
+        gap = target_m - self.block_ref_m
+        speed = min(self.speed_mps, math.sqrt(2.0 * self.braking_mps2 * abs(gap)))
+        step = speed * self.ts
+        self.block_ref_m += max(-step, min(step, gap))
         if not (math.isfinite(bhp_pa) and bhp_ref_pa is not None):
             return False
         self.choke_ref_m3s = self.pi.update(bhp_pa - bhp_ref_pa, self.ts,

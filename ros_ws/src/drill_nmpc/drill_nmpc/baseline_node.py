@@ -44,7 +44,7 @@ class BaselineNode(AdvisorNode):
         kp = self.declare_parameter("kp_m3s_per_pa", BASELINE_KP_M3S_PER_PA).value
         ti = self.declare_parameter("ti_s", BASELINE_TI_S).value
         self.tick = BaselineTick(self.ctx.config, float(self.ctx.scenario.baseline_trip_speed_mps),
-                                 self.start, float(kp), float(ti))
+                                 self.start, float(kp), float(ti), self.ctx.scenario.trip)
         self.create_subscription(RigMeasurement, topics.MEASUREMENT, self._on_measurement,
                                  topics.RELIABLE)
 
@@ -58,8 +58,9 @@ class BaselineNode(AdvisorNode):
         self.follow_schedule(stamp)
         self.publish_events(self.book.resolve_bhp(bhp), stamp)
         sp = self.book.active
+        floor = self.floor_at(stamp)
         cmd, ok = self.tick.step(position, bhp, sp, self.book.bhp_resolved, self.applied_block_m,
-                                 float(msg.return_flow_m3s))
+                                 float(msg.return_flow_m3s), floor)
         if not ok:
             self.status.error(f"measurement at {stamp * 1e-9:.3f} s without a finite BHP: "
                               "choke reference held")

@@ -1,9 +1,16 @@
 """The PI baseline's control law (drill_nmpc.baseline): the fixed-speed ramp to the target,
-the PI choke on the BHP error with anti-windup, a missing BHP holding the choke."""
+the PI choke on the BHP error with anti-windup, a missing BHP holding the choke, and its
+tick on a multi-stand trip (drill_nmpc.advisor_ticks)."""
 import math
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
+from drill_core.tripping.programme import TripProgramme
+from drill_core.tripping.rig_floor import FloorCommand
+from drill_core.tripping.sequence import CONNECTION, MOVING, SET_SLIPS, TripStep
+from drill_nmpc.advisor_ticks import CONNECTION_BPP_FLOW_M3S, BaselineTick, StartInputs
 from drill_nmpc.baseline import Baseline
 
 Q0, KP, TI, Q_MAX = 0.01, 5.0e-9, 5.0, 0.05
@@ -74,3 +81,28 @@ def test_the_integral_stands_while_the_choke_does_not_deliver_the_flow_asked():
     assert after([stuck] * 10, bhp_pa=6.85e7 - 1.0e5) == pytest.approx(-10 * 1.0e5)
     assert after([math.nan] + [Q0 + 200.0 / 60000.0] * 9, bhp_pa=6.85e7 - 1.0e5) \
         == pytest.approx(-3 * 1.0e5)
+
+
+def test_on_a_multi_stand_trip_the_ramp_follows_the_floor_and_the_pump_carries_the_connection(cfg):
+    """Moving, the ramp goes to the stand's end in the present string's frame and slows
+    onto it; while the floor has the string the reference waits at the string, and through
+    the connection's pump ramps the back-pressure pump runs."""
+    def floor(phase, pulled):
+        return FloorCommand(TripStep(phase, 2, phase != MOVING, True, 1.0, 56.0, pulled),
+                            math.nan, None, None)
+    tick = BaselineTick(cfg, 0.5, StartInputs(Q0, 2.0e6, 0.0, 1.0e7, True), trip=TripProgramme(
+        direction="out", stands=3))
+    sp = SimpleNamespace(block_position_target_m=math.nan, bhp_ref_pa=6.85e7,
+                         controller_enabled=True, mud_pump_on=True)
+    refs = []
+    for _ in range(80):
+        cmd, _ = tick.step(refs[-1] if refs else 0.0, 6.85e7, sp, True, math.nan,
+                           floor=floor(MOVING, 1))
+        refs.append(cmd.block_position_ref_m)
+        assert cmd.bpp_flow_m3s == 0.0
+    assert refs[-1] == pytest.approx(28.0)                    # 56 m bit height, a stand pulled
+    assert max(np.diff(refs)) == pytest.approx(0.5) and np.diff(refs)[-3] < 0.5  # slowing
+    cmd, _ = tick.step(27.6, 6.85e7, sp, True, math.nan, floor=floor(SET_SLIPS, 1))
+    assert cmd.block_position_ref_m == pytest.approx(27.6)   # waits at the string
+    cmd, _ = tick.step(27.6, 6.85e7, sp, True, math.nan, floor=floor(CONNECTION, 1))
+    assert cmd.bpp_flow_m3s == CONNECTION_BPP_FLOW_M3S

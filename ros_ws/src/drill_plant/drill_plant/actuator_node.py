@@ -15,17 +15,21 @@ and is held) and the choke holds the BHP at ``emergency_bhp_pa`` on its BHP loop
 commands stop for longer than the watchdog timeout it holds a safe state (block held where
 it is, choke opening and pumps held) and says so on its status topic. A scenario's actuator faults
 (drill_core.events) act here: ``stuck`` freezes the output, ``trip`` stops a pump whatever
-it is commanded; the frame names the fault acting.
+it is commanded; the frame names the fault acting. On a multi-stand trip the drawworks and
+the mud pump also wait for the rig floor's command stamped t_k (/rig/floor): the block on
+its encoder while the string is in the slips, the pump's ramps around a connection.
 """
 from __future__ import annotations
 
 import sys
 
 import numpy as np
-from drill_msgs.msg import ActuatorFrame, RigCommand, RigMeasurement
+from drill_msgs.msg import ActuatorFrame, RigCommand, RigFloor, RigMeasurement
 
 from drill_ros import topics
 from drill_ros.context import load_context
+from drill_ros.floor import floor_command
+from drill_ros.graph import FLOOR_ACTUATORS
 from drill_ros.inbox import StampedInbox
 from drill_ros.node import RigNode
 from drill_ros.runner import run
@@ -49,7 +53,8 @@ class ActuatorNode(RigNode):
                                  ctx.scenario.events)
         self.step_s = ctx.config.plant.step_s
         self.clock = ScenarioClock()             # the faults' times
-        self.inbox = StampedInbox(("measurement", "command"))
+        self.follows_floor = ctx.scenario.trip is not None and self.actuator in FLOOR_ACTUATORS
+        self.inbox = StampedInbox(("measurement", "command", "floor"))
         self.status = StatusReporter(self, ctx.mode)
         self.pub = self.create_publisher(ActuatorFrame, topics.actuator_frame(self.actuator),
                                          topics.RELIABLE)
@@ -57,6 +62,8 @@ class ActuatorNode(RigNode):
                                  topics.RELIABLE)
         self.create_subscription(RigCommand, topics.MACHINE_COMMAND, self._on_command,
                                  topics.RELIABLE)
+        if self.follows_floor:
+            self.create_subscription(RigFloor, topics.FLOOR, self._on_floor, topics.RELIABLE)
 
     def get_name(self) -> str:  # status topic and logs carry the actuator's name
         return getattr(self, "actuator", None) or super().get_name()
@@ -67,6 +74,10 @@ class ActuatorNode(RigNode):
             self._process_pending()
         else:
             self.tick.command(msg, to_ns(msg.header.stamp), self.get_clock().now().nanoseconds)
+
+    def _on_floor(self, msg: RigFloor) -> None:
+        self.inbox.put("floor", msg)
+        self._process_pending()
 
     def _on_measurement(self, msg: RigMeasurement) -> None:
         self.inbox.put("measurement", msg)
@@ -83,16 +94,20 @@ class ActuatorNode(RigNode):
         due = self.command_period_ns > 0 and stamp % self.command_period_ns == 0
         if due and not self.inbox.has("command", stamp):
             return
+        if self.follows_floor and not self.inbox.has("floor", stamp):
+            return
         self.inbox.take("measurement", stamp)
         if due:
             command = self.inbox.take("command", stamp)
             self.tick.command(command, to_ns(command.header.stamp), stamp)
-        self._act(msg, stamp)
+        floor = self.inbox.take("floor", stamp) if self.follows_floor else None
+        self._act(msg, stamp, floor)
 
-    def _act(self, measurement: RigMeasurement, now_ns: int) -> None:
+    def _act(self, measurement: RigMeasurement, now_ns: int, floor: RigFloor | None = None) -> None:
         stamp = to_ns(measurement.header.stamp)
         self.clock.start(stamp)
-        step = self.tick.step(measurement, stamp, now_ns, self.clock.seconds(stamp))
+        step = self.tick.step(measurement, stamp, now_ns, self.clock.seconds(stamp),
+                              None if floor is None else floor_command(floor))
         if step.fell_silent:
             self.status.error("command stream silent: holding the safe state")
         out = step.output

@@ -1,7 +1,9 @@
 """One actuator's per-frame logic as a plain tick class (no rclpy): the command in force,
 the command watchdog and its safe state, the emergency stop's brake and BHP loop, the
-choke's manual, pressure and flow modes, and the scenario's actuator faults (``stuck``
-freezes the output, ``trip`` stops a pump whatever it is commanded). The actuator node
+choke's manual, pressure and flow modes, the scenario's actuator faults (``stuck``
+freezes the output, ``trip`` stops a pump whatever it is commanded), and on a multi-stand
+trip the rig floor's share (the block on its encoder while the string is in the slips,
+the mud pump's ramps around a connection). The actuator node
 moves messages in and out; the in-process loop bench (drill_studies.loop_bench) steps
 the same class.
 
@@ -10,12 +12,14 @@ with drill_msgs/RigMeasurement's.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from drill_core.config import RigConfig
 from drill_core.events import of_owner
 from drill_core.hydraulics import WellModel
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
+from drill_core.tripping.sequence import DONE, MOVING
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump, Watchdog
 
 UNITS = {"drawworks": "m", "choke": "1", "bpp": "m^3/s", "mud_pump": "Pa"}   # of each output
@@ -80,9 +84,11 @@ class ActuatorTick:
         """The scenario fault acting at scenario time ``time_s`` ('' none)."""
         return next((e.kind for e in self.faults if e.active(time_s)), "")
 
-    def step(self, m, stamp_ns: int, now_ns: int, time_s: float) -> ActuatorStep:
+    def step(self, m, stamp_ns: int, now_ns: int, time_s: float, floor=None) -> ActuatorStep:
         """The output over the frame from the measurement ``m`` stamped ``stamp_ns``; the
-        watchdog judged at ``now_ns``, the scenario's faults at ``time_s``."""
+        watchdog judged at ``now_ns``, the scenario's faults at ``time_s``; ``floor`` the
+        rig floor's command for the frame (drill_core.tripping.rig_floor; None: no
+        multi-stand trip)."""
         tripped = self.watchdog.tripped(now_ns)
         fell_silent = False
         if tripped and self.safe_hold is None:
@@ -91,11 +97,14 @@ class ActuatorTick:
         elif not tripped:
             self.safe_hold = None
         target = self.safe_hold if tripped else command_value(self.name, self.command_in_force)
+        if floor is not None and self.name == "mud_pump":
+            target *= floor.step.pump_factor
         fault = self.fault(time_s)
         if fault == "stuck":
             out = FrameOutput(target, target, self.model.lag.hold(self.steps))
         else:
-            out = self._frame(0.0 if fault == "trip" else target, m, stamp_ns, hold=tripped)
+            out = self._frame(0.0 if fault == "trip" else target, m, stamp_ns, hold=tripped,
+                              floor=floor)
         return ActuatorStep(out, fault, tripped, fell_silent)
 
     def _safe_command(self, m) -> float:
@@ -105,12 +114,16 @@ class ActuatorTick:
             return self.held_command
         return command_value(self.name, self.command_in_force)
 
-    def _frame(self, target: float, m, stamp_ns: int, hold: bool) -> FrameOutput:
+    def _frame(self, target: float, m, stamp_ns: int, hold: bool, floor=None) -> FrameOutput:
         cmd, step_s, steps = self.command_in_force, self.step_s, self.steps
         stop = cmd is not None and cmd.emergency_stop      # even if then silent
         if self.name == "drawworks":
             if stop:
                 return self.model.brake(step_s, steps)
+            if floor is not None and floor.step.phase != MOVING:    # the string in the slips
+                done = floor.step.phase == DONE or not math.isfinite(floor.block_target_m)
+                return self.model.drive_block(self.model.lag.value if done
+                                              else floor.block_target_m, step_s, steps)
             return self.model.frame(target, m.block_position_m, step_s, steps)
         if self.name != "choke":
             return self.model.frame(target, step_s, steps)

@@ -121,11 +121,13 @@ class Drawworks:
     def drive_block(self, target_m: float, step_s: float, steps: int) -> FrameOutput:
         """One frame with the block on its own encoder (the string in the slips, the
         elevator off or slack: the string's position says nothing of the block): the lag
-        driven to ``target_m`` [m]; the next frame on the string's loop takes over from
-        where the block is without a jump, as after the brake."""
+        driven to ``target_m`` [m]; the frame's reference is NaN (no block reference is
+        followed); the next frame on the string's loop takes over from where the block is
+        without a jump, as after the brake."""
         self.off_loop = True
         self.command_m = self.lag.limit(target_m)
-        return FrameOutput(self.command_m, target_m, self.lag.advance(self.command_m, step_s, steps))
+        return FrameOutput(self.command_m, math.nan,
+                           self.lag.advance(self.command_m, step_s, steps))
 
     def frame(self, reference_m: float, measured_position_m: float, step_s: float,
               steps: int) -> FrameOutput:

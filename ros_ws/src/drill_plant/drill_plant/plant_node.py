@@ -2,8 +2,8 @@
 the per-frame rules are its tick (drill_plant.plant_tick), the node moves messages.
 
 fast mode (lockstep on simulated time): publish /clock, measurement and truth stamped
-t_k, then wait for the four actuator frames stamped t_k, integrate the frame and go
-on with t_{k+1}. Before t_0 it waits until the graph named in ``wait_for`` is
+t_k, then wait for the four actuator frames stamped t_k (and on a multi-stand trip the
+rig floor's command stamped t_k), integrate the frame and go on with t_{k+1}. Before t_0 it waits until the graph named in ``wait_for`` is
 connected, so no message is published into the void. realtime mode: a wall timer at
 the sensor rate integrates each frame with the latest actuator frames.
 The node exits (code 0) once every node has acted on the last sample of the scenario
@@ -18,13 +18,14 @@ import sys
 import time
 
 import numpy as np
-from drill_msgs.msg import ActuatorFrame, OperatorEvent, PlantTruth, RigMeasurement
+from drill_msgs.msg import ActuatorFrame, OperatorEvent, PlantTruth, RigFloor, RigMeasurement
 from rosgraph_msgs.msg import Clock
 
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_ros import progress, topics
 from drill_ros.context import load_context
 from drill_ros.events import event_message
+from drill_ros.floor import floor_command
 from drill_ros.inbox import StampedInbox
 from drill_ros.lockstep import LockstepStart, flush
 from drill_ros.node import RigNode
@@ -56,7 +57,8 @@ class PlantNode(RigNode):
         self.last_k = int(round(ctx.scenario.duration_s / ctx.config.plant.sensor_period_s))
         self.progress = progress.PlantProgress(ctx.config.plant.sensor_period_s, ctx.scenario.duration_s)
         self.k = 0
-        self.frames = StampedInbox(topics.ACTUATORS)
+        self.inputs = (*topics.ACTUATORS, "floor") if self.tick.multi_stand else topics.ACTUATORS
+        self.frames = StampedInbox(self.inputs)
         self.status = StatusReporter(self, ctx.mode)
 
         self.pub_measurement = self.create_publisher(RigMeasurement, topics.MEASUREMENT, topics.RELIABLE)
@@ -66,6 +68,9 @@ class PlantNode(RigNode):
         for name in topics.ACTUATORS:
             self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
                                      lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
+        if self.tick.multi_stand:
+            self.create_subscription(RigFloor, topics.FLOOR,
+                                     lambda msg: self._on_frame("floor", msg), topics.RELIABLE)
         if ctx.fast:
             self.lockstep = LockstepStart(self, self.wait_for, self._publish_sample,
                                           lambda: self.k, self.stall_timeout_s, self._stalled)
@@ -78,7 +83,7 @@ class PlantNode(RigNode):
     def _stalled(self) -> None:
         """Fail loudly: the lockstep stopped advancing (a lost or missing input)."""
         stamp = self.k * self.frame_ns
-        missing = [n for n in topics.ACTUATORS if not self.frames.has(n, stamp)]
+        missing = [n for n in self.inputs if not self.frames.has(n, stamp)]
         self.status.error(f"lockstep stalled at t = {stamp * 1e-9:.1f} s for "
                           f"{self.stall_timeout_s:.0f} s; no frame from {', '.join(missing)}",
                           fatal=True)
@@ -95,7 +100,7 @@ class PlantNode(RigNode):
         stamp = self.k * self.frame_ns
         if not self.frames.ready(stamp):
             return
-        frames = {name: self.frames.take(name, stamp) for name in topics.ACTUATORS}
+        frames = {name: self.frames.take(name, stamp) for name in self.inputs}
         if self.k < self.last_k:
             self._advance(frames)
             return
@@ -122,6 +127,9 @@ class PlantNode(RigNode):
     def _advance(self, frames) -> None:
         """One frame on the actuators' frames (in realtime a held input array stands in
         for one not yet received)."""
+        floor = frames.pop("floor", None)
+        if floor is not None:
+            self.tick.floor(floor_command(floor))
         outputs = {name: (f.output, f.command) if isinstance(f, ActuatorFrame) else (f, f[-1])
                    for name, f in frames.items()}
         try:

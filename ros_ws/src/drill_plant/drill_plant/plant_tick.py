@@ -2,7 +2,9 @@
 (drill_plant.simulator) in the world of the scenario's events (drill_core.events) -
 formation and choke-plugging events change its parameters when they start, sensor faults
 change the published samples, every event is announced when it starts and when it ends -
-advanced frame by frame on the actuators' outputs, a bad frame held at the last input.
+advanced frame by frame on the actuators' outputs, a bad frame held at the last input; on a
+multi-stand trip the rig floor's slips, elevator and racked stands act on it from the
+frame the floor decided them for, and the trip tank is lined up from the start.
 The plant node moves messages in and out; the in-process loop bench
 (drill_studies.loop_bench) steps the same class.
 """
@@ -31,6 +33,9 @@ class PlantTick:
         self.events = scenario.events
         self.sensor_faults = SensorFaults(self.events, seed)
         self._announced: set[tuple[int, str]] = set()     # (event index, "starts" | "ends")
+        self.multi_stand = scenario.trip is not None
+        if self.multi_stand:
+            self.sim.line_up_trip_tank(True)
 
     def sample(self, time_s: float) -> tuple[list[Notice], Measurement]:
         """The scenario events' edges due by ``time_s`` [s] (a parameter event acts as it
@@ -45,6 +50,13 @@ class PlantTick:
                     self.sim.set_parameter(EVENT_PARAMETERS[event.kind], event.value)
                 notices.append(scenario_notice(event, edge == "ends"))
         return notices, self.sensor_faults.apply(time_s, self.sim.measure(self.circulating))
+
+    def floor(self, command) -> None:
+        """The rig floor's command for the coming frame (drill_core.tripping.rig_floor
+        FloorCommand): the stands racked at it, the elevator and the slips."""
+        if command.racked_to_m is not None:
+            self.sim.rack_string(command.racked_to_m)
+        self.sim.set_hoisting(command.step.latched, command.step.slips_set)
 
     def advance(self, frames: dict) -> list[str]:
         """The plant over one frame; ``frames`` maps each actuator (drill_core.events.ACTUATORS)

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -18,7 +17,7 @@ from drill_core.scenario import load_scenario
 from drill_plant.actuator_tick import ActuatorTick
 from drill_plant.plant_model import EVENT_PARAMETERS, PARAMETER_NAMES
 from drill_plant.plant_tick import PlantTick
-from drill_protection.tick import MachineCommand
+from tick_inputs import command, measurement
 
 FRAME_NS = 100_000_000          # the sensor period's stamps (0.1 s frames)
 
@@ -31,22 +30,6 @@ def scenario():
 @pytest.fixture(scope="module")
 def op(wm, scenario):
     return initial_operating_point(wm, scenario.initial)
-
-
-def command(op, **fields) -> MachineCommand:
-    base = dict(block_position_ref_m=0.0, choke_flow_ref_m3s=float(op.choke_flow_m3s),
-                bpp_flow_m3s=0.0, spp_pa=2.0e7, mud_pump_on=True, choke_manual=False,
-                choke_opening_ref=0.0, choke_pressure_control=False, choke_dp_ref_pa=0.0,
-                choke_dp_ref_rate_pa_s=0.0, bhp_ref_pa=math.nan, bhp_window_low_pa=math.nan,
-                bhp_window_high_pa=math.nan, trip_speed_limit_in_mps=math.nan,
-                trip_speed_limit_out_mps=math.nan, emergency_stop=False,
-                emergency_bhp_pa=math.nan)
-    return MachineCommand(**{**base, **fields})
-
-
-def measurement(op):
-    return SimpleNamespace(block_position_m=0.0, choke_dp_pa=2.0e6,
-                           bhp_pa=6.85e7, return_flow_m3s=float(op.choke_flow_m3s))
 
 
 def run_frames(tick, op, frames: int, cmd=None, first: int = 0):

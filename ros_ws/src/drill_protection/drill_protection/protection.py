@@ -319,7 +319,8 @@ class ProcessProtection:
             command[U_BPP_FLOW] = self.upper[U_BPP_FLOW]
             clamps.append(Notice("lost_circulation_hold", "circulation lost while pulling out "
                                  f"faster than {limits.standing_mps[1]:.2f} m/s: the block "
-                                 f"reference held at the string, {position_m:.2f} m", position_m))
+                                 f"reference held at the string, {position_m:.2f} m, the "
+                                 "back-pressure pump to its maximum", position_m))
         speed = (command[U_BLOCK] - self.previous[U_BLOCK]) / period
         if stop or held_block:       # to where the string is, at once
             limited_speed = speed

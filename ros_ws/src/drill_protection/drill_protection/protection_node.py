@@ -30,13 +30,15 @@ import math
 import sys
 from dataclasses import asdict
 
-from drill_msgs.msg import ActuatorFrame, OperatorEvent, RigCommand, RigMeasurement, Setpoints
+from drill_msgs.msg import (ActuatorFrame, OperatorEvent, RigCommand, RigFloor, RigMeasurement,
+                            Setpoints)
 from std_msgs.msg import Bool, String
 
 from drill_core.event_codes import Notice
 from drill_ros import topics
 from drill_ros.context import load_context
 from drill_ros.events import event_message
+from drill_ros.floor import floor_command
 from drill_ros.inbox import StampedInbox
 from drill_ros.node import RigNode
 from drill_ros.runner import run
@@ -58,6 +60,11 @@ class ProtectionNode(RigNode):
         self.clock = ScenarioClock()             # the operator actions' times
         self.last_request: RigCommand | None = None
         self.inbox = StampedInbox(("command", "measurement"))
+        # a multi-stand trip: a measurement t_k is read once the rig floor's command
+        # stamped t_{k-1} (the frame before it) has come (fast mode)
+        self.multi_stand = ctx.scenario.trip is not None
+        self.measurements: dict[int, RigMeasurement] = {}    # waiting for their floor
+        self.floors: dict[int, RigFloor] = {}
         self.frame_ns = seconds_to_ns(ctx.config.plant.sensor_period_s)
         self.clamp_count = 0
         self.status = StatusReporter(self, ctx.mode)
@@ -72,6 +79,8 @@ class ProtectionNode(RigNode):
         for name in topics.WATCHED_ACTUATORS:
             self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
                                      lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
+        if self.multi_stand:
+            self.create_subscription(RigFloor, topics.FLOOR, self._on_floor, topics.RELIABLE)
         self.create_subscription(Setpoints, topics.SETPOINTS, self._on_setpoints, topics.LATCHED)
         self.create_subscription(Bool, topics.EMERGENCY_STOP, self._on_estop, topics.LATCHED)
         self.create_subscription(String, topics.AUTOMATION_LEVEL, self._on_level, topics.LATCHED)
@@ -112,6 +121,29 @@ class ProtectionNode(RigNode):
         self.pub_estop.publish(Bool(data=bool(self.protection.emergency_stop)))
 
     def _on_measurement(self, msg: RigMeasurement) -> None:
+        if not self.multi_stand:
+            self._observe(msg)
+            return
+        self.measurements[to_ns(msg.header.stamp)] = msg
+        self._drain()
+
+    def _on_floor(self, msg: RigFloor) -> None:
+        self.floors[to_ns(msg.header.stamp)] = msg
+        self._drain()
+
+    def _drain(self) -> None:
+        """The waiting measurements in stamp order, each once the floor's command for the
+        frame before it has come."""
+        while self.measurements:
+            stamp = min(self.measurements)
+            before = stamp - self.frame_ns
+            if stamp > 0:
+                if before not in self.floors:
+                    return
+                self.tick.floor(floor_command(self.floors.pop(before)))
+            self._observe(self.measurements.pop(stamp))
+
+    def _observe(self, msg: RigMeasurement) -> None:
         stamp = to_ns(msg.header.stamp)
         self.clock.start(stamp)
         for notice in self.tick.observe(stamp, msg):

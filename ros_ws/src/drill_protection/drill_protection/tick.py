@@ -18,6 +18,7 @@ from drill_core.event_codes import Notice
 from drill_core.hydraulics import WellModel
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.operator_actions import OperatorScript
+from drill_core.tripping.sequence import CONNECTION_PHASES, position_after_connection
 from drill_core.units import PA_PER_BAR
 from drill_protection.actuator_watch import ActuatorWatch, StuckValveWatch
 from drill_protection.protection import Decision, ProcessProtection
@@ -72,20 +73,33 @@ class ProtectionTick:
         start = np.array([0.0, float(op.choke_flow_m3s), float(scenario.initial.bpp_flow_m3s),
                           float(op.inputs[U_PUMP_PRESSURE])])
         self.protection = ProcessProtection(config, wm, start)
-        self.watch = MeasurementWatch(config, wm, self.protection)
+        self.watch = MeasurementWatch(config, wm, self.protection,
+                                      trip_tank=scenario.trip is not None)
         self.drawworks = ActuatorWatch(config.protection.drawworks_watch)
         self.choke = StuckValveWatch(config.protection.choke_watch, config.actuators.choke)
         self.choke_on_flow_loop = True      # the last decision's choke mode
         self.return_flow_m3s = math.nan     # the last measured return flow (the choke's)
         self.script = OperatorScript(scenario.operator)
+        self.floor_phase = ""               # the rig floor's phase (a multi-stand trip)
         self.formation = config.well.formation
         self.in_window = True
         self.window_exits = 0
 
+    def floor(self, command) -> None:
+        """The rig floor's command for the frame before the next measurement
+        (drill_core.tripping.rig_floor): at a connection the string's position counts from
+        its new top, so the block reference and the positions the protection keeps move with
+        it; the phase says whether the mud pump is stopped by the floor (not a loss)."""
+        if command.racked_to_m is not None:
+            shift_m = position_after_connection(0.0, command.racked_from_m, command.racked_to_m)
+            self.protection.previous[U_BLOCK] += shift_m
+            self.watch.recount_positions(shift_m)
+        self.floor_phase = command.step.phase
+
     def observe(self, stamp_ns: int, m) -> list[Notice]:
         """One measurement through the watch: the notices it raised."""
         self.return_flow_m3s = float(m.return_flow_m3s)
-        return self.watch.observe(stamp_ns, m)
+        return self.watch.observe(stamp_ns, m, balance=self.floor_phase not in CONNECTION_PHASES)
 
     def observe_frame(self, actuator: str, stamp_ns: int, reference: float, output) -> None:
         """One frame of the drawworks or the choke (drill_msgs/ActuatorFrame's stamp,
@@ -114,7 +128,9 @@ class ProtectionTick:
             else latched_speed_limit_mps
         circulation = m.string_flow_m3s if m.string_flow_valid and math.isfinite(m.string_flow_m3s) \
             else 0.0
-        self.watch.circulation.request(request.mud_pump_on, request.spp_pa)
+        pump_stopped_by_floor = self.floor_phase in CONNECTION_PHASES
+        self.watch.circulation.request(request.mud_pump_on and not pump_stopped_by_floor,
+                                       request.spp_pa)
         decision = self.protection.apply(
             [request.block_position_ref_m, request.choke_flow_ref_m3s, request.bpp_flow_m3s,
              request.spp_pa], m.block_position_m, self.watch.velocity_mps, m.bhp_pa,

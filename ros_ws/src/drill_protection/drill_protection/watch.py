@@ -33,8 +33,12 @@ def _flows(reading) -> str:
 class MeasurementWatch:
     """Feeds ``protection`` from each measurement; counts the alarms it raised."""
 
-    def __init__(self, config: RigConfig, wm: hy.WellModel, protection: ProcessProtection):
+    def __init__(self, config: RigConfig, wm: hy.WellModel, protection: ProcessProtection,
+                 trip_tank: bool = False):
+        """``trip_tank``: the well's returns go to the trip tank (a multi-stand trip), whose
+        level the detector reads as the pit."""
         p = config.protection
+        self.trip_tank = trip_tank
         self.protection = protection
         self.detector = detector_for(config, wm.geometry)
         self.window = WindowResponse(p.well_control, config.pressure_window_pa)
@@ -44,14 +48,23 @@ class MeasurementWatch:
         self.positions: deque = deque()         # (stamp ns, block position m), the last second
         self.alarm_count = 0
 
-    def observe(self, stamp_ns: int, m) -> list[Notice]:
-        """Take one measurement (drill_msgs/RigMeasurement fields); the events it raised."""
+    def recount_positions(self, shift_m: float) -> None:
+        """The string's position now counts from another origin (a connection racked a
+        stand): the positions kept for the velocity move with it [m]."""
+        self.positions = deque((stamp, position + shift_m) for stamp, position in self.positions)
+
+    def observe(self, stamp_ns: int, m, balance: bool = True) -> list[Notice]:
+        """Take one measurement (drill_msgs/RigMeasurement fields); the events it raised.
+        ``balance`` False: the flows are not balanced now (the rig floor ramps the mud pump
+        for a connection), so the detector starts its balance again once they are."""
         time_s = stamp_ns * 1e-9
         notices: list[Notice] = []
         before = self.detector.alarm
+        circulating = m.string_flow_valid and balance
         reading = self.detector.update(FlowSample(
-            time_s, m.return_flow_m3s, m.string_flow_m3s if m.string_flow_valid else math.nan,
-            m.bpp_flow_m3s, m.block_position_m, m.choke_dp_pa, m.bhp_pa, m.pit_volume_m3))
+            time_s, m.return_flow_m3s, m.string_flow_m3s if circulating else math.nan,
+            m.bpp_flow_m3s, m.block_position_m, m.choke_dp_pa, m.bhp_pa,
+            m.trip_tank_volume_m3 if self.trip_tank else m.pit_volume_m3))
         if reading.raised:
             self.alarm_count += 1
             notices.append(Notice(f"{reading.alarm}_detected", f"{reading.alarm} detected: "

@@ -309,3 +309,52 @@ def test_circulation_lost_while_pulling_faster_than_the_swab_allows_holds_the_st
                 trip_action=lost)
     assert d.command[0] == 1.5 and "lost_circulation_hold" not in [c.code for c in d.clamps]
     assert d.command[2] < config.actuators.bpp.maximum
+
+
+def test_on_a_multi_stand_trip_a_racked_stand_moves_the_references_and_a_connection_is_no_loss(
+        cfg, wm):
+    """A connection racks a stand: the block reference and the positions the velocity is
+    read from count from the new top (no 28 m jump read as a run-in at 28 m/s); the floor
+    stopping the mud pump for it is not a lost circulation, the same pump stopped with the
+    floor moving the string is."""
+    from types import SimpleNamespace
+
+    from drill_core.operating_point import initial_operating_point
+    from drill_core.rig_root import config_dir
+    from drill_core.scenario import load_scenario
+    from drill_core.tripping.rig_floor import FloorCommand
+    from drill_core.tripping.sequence import CONNECTION, MOVING, PUMP_UP, TripStep
+    from drill_protection.tick import ProtectionTick
+    from tick_inputs import command
+
+    scenario = load_scenario(config_dir() / "scenarios" / "trip_out.yaml")[0]
+    op = initial_operating_point(wm, scenario.initial)
+
+    def floor(phase, racked=(None, None)):
+        return FloorCommand(TripStep(phase, 1, phase != MOVING, phase == MOVING, 0.0, 28.0, 1),
+                            0.0, *racked)
+
+    def m(position_m, flowing):
+        return SimpleNamespace(block_position_m=position_m, choke_dp_pa=2.0e6, bhp_pa=6.85e7,
+                               string_flow_m3s=CIRCULATION if flowing else math.nan,
+                               string_flow_valid=flowing, return_flow_m3s=CIRCULATION,
+                               pit_volume_m3=50.0, bpp_flow_m3s=0.0, trip_tank_volume_m3=6.0)
+
+    def pump_stopped(phase):
+        """The codes the protection raises when the pump stops in the floor's ``phase``."""
+        tick = ProtectionTick(cfg, wm, scenario, op)
+        assert tick.watch.trip_tank                   # the detector reads the trip tank
+        for k in range(10):
+            tick.observe(k * 100_000_000, m(28.05, True))
+        tick.floor(floor(phase))
+        tick.limit(command(op, block_position_ref_m=28.05), m(28.05, True), 1_000_000_000, 0.5)
+        return tick, [n.code for k in range(11, 20)
+                      for n in tick.observe(k * 100_000_000, m(28.05, False))]
+    assert "circulation_lost" in pump_stopped(MOVING)[1]
+    tick, codes = pump_stopped(CONNECTION)
+    assert "circulation_lost" not in codes
+    previous = tick.protection.previous[0]
+    tick.floor(floor(PUMP_UP, (0.0, 28.0)))
+    assert tick.protection.previous[0] == pytest.approx(previous - 28.0)
+    tick.observe(2_000_000_000, m(0.05, False))
+    assert tick.watch.velocity_mps == pytest.approx(0.0, abs=1e-6)

@@ -52,6 +52,7 @@ TOPICS = (
     Topic(topics.TRUTH, "drill_msgs/PlantTruth", "reliable", "evaluation only"),
     Topic(topics.RIG_EVENTS, "drill_msgs/OperatorEvent", "event log",
           "scenario events (faults, formation): evaluation and console only"),
+    Topic(topics.FLOOR, "drill_msgs/RigFloor", "reliable", "a multi-stand trip only"),
     *(Topic(frame, "drill_msgs/ActuatorFrame", "reliable") for frame in FRAMES),
     Topic(topics.COMMAND, "drill_msgs/RigCommand", "reliable", "advisor's command"),
     Topic(topics.MACHINE_COMMAND, "drill_msgs/RigCommand", "reliable",
@@ -102,6 +103,7 @@ class Node:
     plant: bool = False              # the run's clock: starts the lockstep once the graph is
                                      # connected (wait_for) and ends the run
     optional: bool = False           # in a run only when asked for (run_nodes' ``extras``)
+    multi_stand: bool = False        # in a run only when its scenario trips stands (``trip:``)
     truth_side: bool = False         # given the plant's mismatch (drill_core.mismatch): the
                                      # plant, the actuators and the recorder, never an advisor,
                                      # the estimator or the protection
@@ -114,9 +116,13 @@ class Node:
         return topic in self.subscribes or EVERY_TOPIC in self.subscribes
 
 
+FLOOR_ACTUATORS = ("drawworks", "mud_pump")   # the actuators the rig floor drives
+
+
 def _actuator(name: str) -> Node:
+    floor = (topics.FLOOR,) if name in FLOOR_ACTUATORS else ()
     return Node(name, "drill_plant.actuator_node", "ActuatorNode", (topics.actuator_frame(name),),
-                (topics.MEASUREMENT, topics.MACHINE_COMMAND), truth_side=True)
+                (topics.MEASUREMENT, topics.MACHINE_COMMAND, *floor), truth_side=True)
 
 
 def _drilling_actuator(name: str) -> Node:
@@ -129,8 +135,10 @@ NODES = (
     Node("recorder", "drill_bag.recorder", "Recorder", (), (EVERY_TOPIC,), reads_clock=True,
          kinds=SCENARIO_KINDS, truth_side=True),
     *(_actuator(name) for name in topics.ACTUATORS),
+    Node("rig_floor", "drill_plant.floor_node", "FloorNode", (topics.FLOOR,),
+         (topics.MEASUREMENT, topics.actuator_frame("drawworks")), multi_stand=True),
     Node("estimator", "drill_estimator.estimator_node", "EstimatorNode", (topics.ESTIMATE,),
-         (topics.MEASUREMENT, *FRAMES)),
+         (topics.MEASUREMENT, *FRAMES, topics.FLOOR)),
     Node("nmpc", "drill_nmpc.nmpc_node", "NmpcNode",
          (topics.COMMAND, topics.NMPC_STATUS, topics.SETPOINTS, topics.OPERATOR_EVENTS),
          (topics.ESTIMATE, *(topics.actuator_frame(n) for n in ("drawworks", "bpp", "mud_pump")),
@@ -138,10 +146,10 @@ NODES = (
          controller="nmpc"),
     Node("automated_mpd", "drill_nmpc.automated_mpd_node", "AutomatedMpdNode",
          (topics.COMMAND, topics.SETPOINTS, topics.OPERATOR_EVENTS),
-         (topics.ESTIMATE, topics.MACHINE_COMMAND), controller="automated_mpd"),
+         (topics.ESTIMATE, topics.MACHINE_COMMAND, topics.FLOOR), controller="automated_mpd"),
     Node("baseline", "drill_nmpc.baseline_node", "BaselineNode",
          (topics.COMMAND, topics.SETPOINTS, topics.OPERATOR_EVENTS),
-         (topics.MEASUREMENT, topics.MACHINE_COMMAND), controller="baseline"),
+         (topics.MEASUREMENT, topics.MACHINE_COMMAND, topics.FLOOR), controller="baseline"),
     Node("sequencer", "drill_nmpc.sequencer_node", "SequencerNode", (topics.COMMAND,), (topics.MEASUREMENT,),
          controller="open_loop"),
     Node("protection", "drill_protection.protection_node", "ProtectionNode",
@@ -149,7 +157,7 @@ NODES = (
           topics.ESTOP_IN_FORCE),
          (topics.COMMAND, topics.MEASUREMENT,
           *(topics.actuator_frame(n) for n in topics.WATCHED_ACTUATORS), topics.SETPOINTS,
-          topics.EMERGENCY_STOP, topics.AUTOMATION_LEVEL)),
+          topics.EMERGENCY_STOP, topics.AUTOMATION_LEVEL, topics.FLOOR)),
     Node("console", "drill_hmi.console", "ConsoleNode",
          (topics.OPERATOR_EVENTS, topics.AUTOMATION_LEVEL, topics.EMERGENCY_STOP),
          (topics.MEASUREMENT, topics.TRUTH, topics.ESTIMATE, topics.NMPC_STATUS, topics.SETPOINTS,
@@ -170,8 +178,8 @@ NODES = (
          (topics.MEASUREMENT, *(topics.actuator_frame(n) for n in ("mud_pump", "choke"))),
          optional=True),
     Node("plant", "drill_plant.plant_node", "PlantNode",
-         (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, CLOCK), FRAMES, plant=True,
-         truth_side=True),
+         (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, CLOCK), (*FRAMES, topics.FLOOR),
+         plant=True, truth_side=True),
     Node("driller", "drill_string.ros.driller_node", "DrillerNode", (topics.DRILLING_COMMAND,),
          (topics.SURFACE,), kinds=("drilling",)),
     *(_drilling_actuator(name) for name in topics.DRILLING_ACTUATORS),
@@ -185,7 +193,7 @@ OPTIONAL = tuple(n.name for n in NODES if n.optional)
 # The plant starts frame 0 once these are matched: everything the lockstep passes on, and
 # the scenario events the recorder must not miss.
 LOCKSTEP_TOPICS = (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, topics.ESTIMATE, CLOCK,
-                   topics.COMMAND, topics.MACHINE_COMMAND, *FRAMES, topics.SURFACE,
+                   topics.COMMAND, topics.MACHINE_COMMAND, *FRAMES, topics.FLOOR, topics.SURFACE,
                    topics.DOWNHOLE, topics.DRILLING_TRUTH, topics.DRILLING_COMMAND,
                    *DRILLING_FRAMES)
 
@@ -196,7 +204,7 @@ LOCKSTEP_TOPICS = (topics.MEASUREMENT, topics.TRUTH, topics.RIG_EVENTS, topics.E
 # A drilling run groups its nodes the same way: the drives with the actuators, the
 # drilling plant with the plant, the driller with the advisors.
 _ACTUATORS = (*topics.ACTUATORS, *topics.DRILLING_ACTUATORS)
-_PLANT = ("plant", "drilling_plant", *_ACTUATORS)
+_PLANT = ("plant", "drilling_plant", "rig_floor", *_ACTUATORS)
 LAYOUTS = {
     "separate": {},
     "actuators": {"actuators": _ACTUATORS},
@@ -313,12 +321,13 @@ def _middleware_readers(topic: str, nodes: list[Node], local: dict) -> int:
 
 
 def run_nodes(controller: str, fast: bool, kind: str = "tripping",
-              extras: tuple[str, ...] = ()) -> list[Node]:
+              extras: tuple[str, ...] = (), multi_stand: bool = False) -> list[Node]:
     """The nodes of a run of a ``kind`` scenario under ``controller``, recorder first and
     plant last. Tripping: the actuators, the estimator, the controller's advisor with the
-    process protection, the console in realtime mode. Drilling (controller ``none``): the
-    driller, the top drive, the block feed and the drilling plant. ``extras``: the
-    optional nodes (OPTIONAL) this run holds too."""
+    process protection, the console in realtime mode, and the rig floor when the scenario
+    trips stands (``multi_stand``). Drilling (controller ``none``): the driller, the top
+    drive, the block feed and the drilling plant. ``extras``: the optional nodes
+    (OPTIONAL) this run holds too."""
     if kind not in SCENARIO_KINDS:
         raise ValueError(f"scenario kind {kind!r} is not one of {', '.join(SCENARIO_KINDS)}")
     if controller not in CONTROLLERS + ("none",):
@@ -337,6 +346,8 @@ def run_nodes(controller: str, fast: bool, kind: str = "tripping",
         if node.name == "protection" and not advisor:
             continue
         if (node.realtime_only and fast) or (node.optional and node.name not in extras):
+            continue
+        if node.multi_stand and not multi_stand:
             continue
         out.append(node)
     return out

@@ -20,6 +20,7 @@ SET_SETPOINTS = "/set_setpoints"        # drill_msgs/srv/SetSetpoints, validatin
 OPERATOR_EVENTS = "/operator/events"    # drill_msgs/OperatorEvent
 DIAGNOSTICS = "/diagnostics"            # diagnostic_msgs/DiagnosticArray, every node: its health (drill_ros.diagnostics)
 RIG_EVENTS = "/rig/events"              # drill_msgs/OperatorEvent, plant: scenario events (faults)
+FLOOR = "/rig/floor"                    # drill_msgs/RigFloor, rig floor (a multi-stand trip) -> plant, drawworks, mud pump, estimator, advisor, protection
 # drilling mode (drill_string): its own node set
 SURFACE = "/drilling/surface"           # drill_msgs/SurfaceMeasurement, drilling plant -> driller, drives
 DOWNHOLE = "/drilling/downhole"         # drill_msgs/DownholeMeasurement, drilling plant (wired pipe)

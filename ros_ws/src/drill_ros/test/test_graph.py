@@ -115,3 +115,15 @@ def test_every_reliable_first_message_waits_for_its_readers_but_latched_ones_do_
     assert topics.SETPOINTS not in gates["nmpc"] and graph.latched(topics.SETPOINTS)
     # the recorder does not wait for itself to read its own status
     assert topics.status("recorder") not in gates["recorder"]
+
+
+def test_a_multi_stand_trip_adds_the_rig_floor_and_everyone_waits_for_it():
+    plain = graph.run_nodes("baseline", fast=True)
+    trip = graph.run_nodes("baseline", fast=True, multi_stand=True)
+    assert "rig_floor" not in [n.name for n in plain]
+    assert set(n.name for n in trip) == set(n.name for n in plain) | {"rig_floor"}
+    endpoints = graph.lockstep_endpoints(trip, fast=True)
+    # plant, drawworks, mud pump, estimator, baseline, protection, recorder
+    assert "sub@/rig/floor:7" in endpoints and "pub@/rig/floor:1" in endpoints
+    assert not any("/rig/floor" in e for e in graph.lockstep_endpoints(plain, fast=True))
+    assert "rig_floor" in [n.name for n in dict(graph.process_groups("two", trip))["plant"]]

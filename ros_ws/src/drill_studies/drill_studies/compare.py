@@ -518,10 +518,9 @@ def main(cases, output: Path, seeds: int = len(SEED_OFFSETS),
     fresh = run_all([i for i in items if _key(i) not in done])
     rows = kept + fresh
     output.parent.mkdir(parents=True, exist_ok=True)
-    if old:      # keep the rows of the cases and controllers (on this kind of plant) not run now
-        rows = [r for r in old
-                if r["case"] not in cases or r["controller"] not in controllers
-                or bool(r.get("mismatch")) != (mismatch is not None)] + rows
+    if old:      # keep every row the plan did not run now (other cases, controllers, seeds,
+        planned = {_key(i) for i in items}                  # plants)
+        rows = [r for r in old if _key(r) not in planned] + rows
     table.write_text(json.dumps([{k: v for k, v in r.items()} for r in rows], indent=1))
     picture = _picture(output)
     if any(r["case"] == "case2" for r in fresh) and mismatch is None:   # from runs made now

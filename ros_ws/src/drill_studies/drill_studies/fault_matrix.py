@@ -265,7 +265,7 @@ def markdown(rows: list[dict], made: str, window_pa: tuple[float, float]) -> str
     if started:
         lines += ["", f"The runs were made from {started[0]:%Y-%m-%d %H:%M} to "
                       f"{started[-1]:%Y-%m-%d %H:%M} (their run directories' stamps; a "
-                      "`--with-fault` re-run replaces its cells' rows)."]
+                      "re-run of a part (`--with-fault`, `--controller`) replaces its cells' rows)."]
     lines += ["", f"Pairs not run: {len(missing)} of the "
               f"{len(PHASES) * len(list(itertools.combinations(FAULTS, 2)))} (phase, pair) cells "
               "(`--fault-matrix all` runs every pair in the pull-out; pairs in the other "
@@ -286,13 +286,14 @@ def write(rows: list[dict], output: Path, made: str | None = None) -> None:
 
 def main(output: Path, pairs: str = "actuators", with_fault: str | None = None,
          controllers=CONTROLLERS, run=batch.run_one) -> int:
-    """Run the matrix and write its page; with ``with_fault`` only the cells with that
-    fault under ``controllers``, the table's other rows kept."""
+    """Run the matrix under ``controllers`` (with ``with_fault``: only the cells with that
+    fault) and write its page; a part of the matrix keeps the table's other rows."""
     if with_fault is not None and with_fault not in FAULTS:
         raise ValueError(f"fault {with_fault!r}: expected one of {', '.join(FAULTS)}")
     rows = run_matrix(pairs, controllers, run, with_fault)
     table = output.with_suffix(".json")
-    if with_fault is not None and table.exists():
+    part = with_fault is not None or set(controllers) != set(CONTROLLERS)
+    if part and table.exists():
         key = lambda r: (r["phase"], tuple(r["faults"]), r["controller"])
         fresh = {key(r) for r in rows}
         rows = [r for r in json.loads(table.read_text()) if key(r) not in fresh] + rows

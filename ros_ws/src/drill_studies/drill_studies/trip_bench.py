@@ -1,18 +1,20 @@
-"""An in-process multi-stand trip of the truth plant (no ROS): the rig floor
-(drill_core.tripping.rig_floor) driving the drawworks and the mud pump
-(drill_plant.actuators), the plant (drill_plant.simulator) slipping, racking and filling
-from the trip tank, the trip sheet, and the estimator tick (drill_estimator.tick) told
-what the floor does, or not (``floor_aware``).
+"""An in-process multi-stand trip of the truth plant (no ROS): the rig floor's tick
+(drill_plant.floor_tick, as the floor node runs it: the block's encoder from the
+drawworks' frames) driving the drawworks and the mud pump (drill_plant.actuators), the
+plant (drill_plant.simulator) slipping, racking and filling from the trip tank, the trip
+sheet, and the estimator tick (drill_estimator.tick) told what the floor does, or not
+(``floor_aware``).
 
 The controller (``controller``): ``held_choke``, the choke held at its opening (nothing
 holds the BHP through a connection) and each stand's move on a block reference at a fixed
 speed, braking at BRAKING_MPS2; or ``baseline``, the PI baseline's tick
-(drill_nmpc.advisor_ticks.BaselineTick) once a second on the measured BHP and position,
-its choke-flow reference through the choke's flow loop (drill_plant.actuators.Choke), its
-fixed-speed ramp for the moves (re-started from the measured string while the floor has
-the block), the back-pressure pump idle. A test bed for the floor, the plant and the
-estimator and a first look at a controller through connections, not a substitute for the
-node graph (no process protection, no DDS). ``automated_mpd``: its tick
+(drill_nmpc.advisor_ticks.BaselineTick, given the floor's command as its node gives it)
+once a second on the measured BHP and position, its choke-flow reference through the
+choke's flow loop (drill_plant.actuators.Choke), its back-pressure pump command (run
+through the connections) through the pump's lag. A test bed for the floor, the plant and
+the estimator and a first look at a controller through connections, not a substitute for
+the node graph (no process protection, no DDS: ``rig run trip_out``). ``automated_mpd``:
+its tick
 (drill_nmpc.advisor_ticks.AutomatedMpdTick) once a second on the UKF's estimate, its
 choke on the choke's pressure loop, its profile for the moves (re-started from the
 measured string while the floor has the block), its model the full string's.
@@ -48,6 +50,7 @@ from drill_core.estimation_model import build_estimation_model
 from drill_nmpc.advisor_ticks import AutomatedMpdTick, BaselineTick, StartInputs
 from drill_plant import plant_model as pm
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
+from drill_plant.floor_tick import FloorTick
 from drill_plant.simulator import PlantSimulator
 
 CIRCULATION_M3S = 1000.0 / 60000.0
@@ -89,15 +92,17 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     steps, step_s = sim.steps_per_frame, config.plant.step_s
     frame_s = steps * step_s
     remaining = list(programmes)
-    floor = RigFloor(config.well, remaining.pop(0), 0.0)
     drawworks = Drawworks(config.actuators, wm.geometry.static_stretch_m, start.inputs[0])
+    floor_tick = FloorTick(config.well, remaining.pop(0), float(start.inputs[0]), step_s)
+    floor = floor_tick.floor
     spp_pa = start.inputs[3]
     mud_pump = Pump(config.actuators.mud_pump, spp_pa)
     estimator = EstimatorTick(config)
     choke = Choke(config.actuators, wm, float(start.inputs[1]))
     start_inputs = StartInputs(start.choke_flow_m3s, CHOKE_DP_PA, 0.0, spp_pa, True)
-    baseline = BaselineTick(config, trip_speed_mps, start_inputs) \
+    baseline = BaselineTick(config, trip_speed_mps, start_inputs, trip=floor.programme) \
         if controller == "baseline" else None
+    bpp = Pump(config.actuators.bpp, 0.0)
     mpd = AutomatedMpdTick(config, build_estimation_model(config), start_inputs) \
         if controller == "automated_mpd" else None
     advised_at_frame = 0
@@ -112,15 +117,16 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     for k in range(int(round(max_s / frame_s))):
         t = k * frame_s
         m = sim.measure(sim.inputs[3] > 0.0)
-        command = floor.step(t, m.hook_load_n, m.block_position_m, drawworks.lag.value,
-                             drawworks.lag.rate_per_s)
+        if "drawworks" in frames:
+            floor_tick.drawworks_frame(frames["drawworks"].output)
+        command = floor_tick.step(t, m.hook_load_n, m.block_position_m)
         if command.step.phase == DONE and remaining:
             alarms += sheets[-1].observe(t, command.step, m.bhp_pa, BHP_REF_PA,
                                          m.trip_tank_volume_m3)
-            floor = RigFloor(config.well, remaining.pop(0), t, floor.stands_pulled)
+            floor = floor_tick.floor = RigFloor(config.well, remaining.pop(0), t,
+                                                floor.stands_pulled)
             sheets.append(TripSheet(floor.programme, volumes, BHP_BAND_PA))
-            command = floor.step(t, m.hook_load_n, m.block_position_m, drawworks.lag.value,
-                                 drawworks.lag.rate_per_s)
+            command = floor_tick.step(t, m.hook_load_n, m.block_position_m)
         step = command.step
         estimator.step(t, m, frames, steps, string_held and floor_aware)
         if command.racked_to_m is not None and floor_aware:
@@ -138,14 +144,12 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
         if command.racked_to_m is not None:
             sim.rack_string(command.racked_to_m)
         sim.set_hoisting(step.latched, step.slips_set)
-        string_held = step.slips_set and step.phase != MOVING
+        string_held = command.string_held
         target = step.bit_height_target_m - floor.pulled_m
         if baseline is not None and k % per_command == 0:
-            if step.phase != MOVING:
-                baseline.controller.block_ref_m = m.block_position_m
-            advice, _ = baseline.step(m.block_position_m, m.bhp_pa, _setpoints(
-                target if step.phase == MOVING else m.block_position_m, trip_speed_mps),
-                True, math.nan)
+            advice, _ = baseline.step(m.block_position_m, m.bhp_pa,
+                                      _setpoints(math.nan, trip_speed_mps), True, math.nan,
+                                      m.return_flow_m3s, command)
         if mpd is not None and k % per_command == 0 and estimator.ukf.initialised:
             hold = math.nan if step.phase == MOVING else m.block_position_m
             advice, _ = mpd.step(ukf_view(estimator.ukf, bool(m.string_flow_valid)),
@@ -176,10 +180,12 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
                                          (k - advised_at_frame) * frame_s,
                                          advice.choke_flow_ref_m3s, m.choke_dp_pa, step_s,
                                          steps)
-        inputs[0], inputs[1], inputs[3] = block.output, valve.output, pump.output
+        back = FrameOutput(u[2], u[2], inputs[2]) if baseline is None or advice is None \
+            else bpp.frame(advice.bpp_flow_m3s, step_s, steps)
+        inputs[0], inputs[1], inputs[2], inputs[3] = block.output, valve.output, back.output, \
+            pump.output
         sim.advance(inputs)
-        frames = {"drawworks": block, "mud_pump": pump, "choke": valve,
-                  "bpp": FrameOutput(u[2], u[2], inputs[2])}
+        frames = {"drawworks": block, "mud_pump": pump, "choke": valve, "bpp": back}
     tank_end_m3 = float(np.mean([sim.measure(True).trip_tank_volume_m3 for _ in range(50)]))
     names = ("time_s", "stand", "moving", "line_tension_n", "string_velocity_mps",
              "bit_height_m", "bhp_pa", "bhp_estimate_pa")

@@ -131,6 +131,21 @@ def test_a_compare_under_one_controller_keeps_the_other_controllers_rows(tmp_pat
     assert sorted((r["controller"], r["summary"]["bhp_rmse_pa"]) for r in rows) == \
         [("baseline", 1.5e5), ("nmpc", 0.4e5)]
 
+def test_a_compare_on_some_plants_keeps_the_other_plants_rows(tmp_path, monkeypatch):
+    output = tmp_path / "results.md"
+    old = [{**_row("case2", "baseline", 2, _summary(1.6, 60.0)), "mismatch": member}
+           for member in ("thin_report", "washout")]
+    output.with_suffix(".json").write_text(json.dumps(old))
+    monkeypatch.setattr(compare, "run_all",
+                        lambda items: [{**_row(c, k, s, _summary(1.5, 60.0)), "mismatch": m}
+                                       for c, k, s, m in items])
+    monkeypatch.setattr(compare, "suite_members", lambda spec: spec.split(","))
+    compare.main(["case2"], output, seeds=1, controllers=("baseline",), mismatch="thin_report")
+    rows = json.loads(output.with_suffix(".json").read_text())
+    assert sorted((r["mismatch"], r["summary"]["bhp_rmse_pa"]) for r in rows) == \
+        [("thin_report", 1.5e5), ("washout", 1.6e5)]
+
+
 def test_a_resumed_compare_runs_only_the_planned_runs_the_table_does_not_hold(tmp_path,
                                                                              monkeypatch):
     output = tmp_path / "results.md"

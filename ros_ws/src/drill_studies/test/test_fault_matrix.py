@@ -95,6 +95,10 @@ def test_a_partial_run_replaces_its_cells_rows_and_keeps_the_others(checkout):
     assert len(after) == len(before)
     rerun = after[-len(fm.PHASES):]             # the re-run cells' rows, last
     assert all("mud pump trip" in r["faults"] and r["controller"] == "automated_mpd" for r in rerun)
+    fm.main(output, "none", controllers=("baseline",), run=fake_run)   # one controller's
+    again = json.loads(output.with_suffix(".json").read_text())
+    assert len(again) == len(before)
+    assert all(r["controller"] == "baseline" for r in again[-len(again) // 3:])
     with pytest.raises(ValueError, match="fault 'pump trip'"):
         fm.main(output, "none", "pump trip", run=fake_run)
 

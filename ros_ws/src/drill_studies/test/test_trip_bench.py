@@ -11,6 +11,7 @@ import pytest
 from drill_core.config import load_rig
 from drill_core.rig_root import config_dir
 from drill_core.tripping.programme import TripProgramme
+from drill_core.tripping.sequence import ARRIVAL_TOLERANCE_M
 from drill_core.tripping.trip_sheet import stands_per_hour
 from drill_studies.trip_bench import run_trip
 
@@ -40,7 +41,7 @@ def trip():
 def test_two_stands_come_out_and_the_string_is_two_stands_shorter(trip):
     assert trip.floor.stands_pulled == 2
     assert trip.sim.wm.geometry.bit_above_bhp_node_m == 2 * STAND_M
-    assert trip.log["bit_height_m"][-1] == pytest.approx(2 * STAND_M, abs=0.1)
+    assert trip.log["bit_height_m"][-1] == pytest.approx(2 * STAND_M, abs=ARRIVAL_TOLERANCE_M)
     assert [row.stand for row in trip.sheets[0].rows] == [1, 2]
 
 
@@ -104,7 +105,7 @@ def test_a_stand_out_and_back_in_leaves_the_tank_short_of_only_the_influx():
     steel = out.volumes.steel_m3
     assert [len(out.rows), len(back.rows)] == [1, 1] and run.floor.stands_pulled == 0
     assert run.sim.wm.geometry.bit_above_bhp_node_m == 0.0
-    assert abs(run.log["bit_height_m"][-1]) < 0.1
+    assert abs(run.log["bit_height_m"][-1]) < ARRIVAL_TOLERANCE_M
     assert back.rows[0].expected_fill_m3 == pytest.approx(-steel)
     influx = run.sim.truth().influx_volume_m3
     assert influx > 0.05 and run.drawn_m3 == pytest.approx(-influx, abs=0.01)

@@ -38,6 +38,19 @@ class FloorCommand:
     racked_from_m: float | None  # the string tripped on this tick from this length pulled ...
     racked_to_m: float | None    # ... to this one [m]
 
+    def advisor_target_m(self, string_position_m: float, stand_length_m: float) -> float:
+        """The block target an advisor plans to, in the present string's frame [m]: the
+        stand's end while it moves, else where the string is (the floor has it)."""
+        if self.step.phase != MOVING:
+            return string_position_m
+        return self.step.bit_height_target_m - self.step.stands_pulled * stand_length_m
+
+    @property
+    def string_held(self) -> bool:
+        """The slips hold the still string over the frame and the block moves on its own
+        (the estimator's model then holds the string at rest on the line)."""
+        return self.step.slips_set and self.step.phase != MOVING
+
 
 class RigFloor:
     """``step`` once per sensor sample with the floor's measurements."""

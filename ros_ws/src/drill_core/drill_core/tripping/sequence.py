@@ -24,7 +24,9 @@ STAND_PHASES = {
     "in": (PUMP_DOWN, CONNECTION, PUMP_UP, PICK_UP, MOVING, SET_SLIPS),
 }
 IN_SLIPS = frozenset({SET_SLIPS, PUMP_DOWN, CONNECTION, PUMP_UP, DONE})
-ARRIVAL_TOLERANCE_M = 0.05       # the stand's move counts as done this close ...
+CONNECTION_PHASES = (PUMP_DOWN, CONNECTION, PUMP_UP)   # the mud pump under its rate
+ARRIVAL_TOLERANCE_M = 0.5        # the stand's move counts as done this close (the stick-up the
+                                 # floor works at; a trip leg's, drill_analysis.report) ...
 AT_REST_MPS = 0.01               # ... with the string this slow
 SLACK_N = 1.0e3                  # the elevator is unlatched once the line carries less
 

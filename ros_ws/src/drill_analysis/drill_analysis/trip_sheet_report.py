@@ -1,0 +1,78 @@
+"""The trip sheet of a recorded multi-stand trip (drill_core.tripping.trip_sheet), made
+from the rig floor's commands, the measurements and the setpoints in the recording: per
+stand slips to slips, out of the slips, peak surge and swab, time outside the BHP band,
+expected against measured hole fill and their running difference; the stands per hour,
+connections included. The rig's own document, so from the measured BHP and trip tank."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+from drill_bag import mcap_io
+from drill_core.config import Well
+from drill_core.tripping.programme import TripProgramme
+from drill_core.tripping.stands import StandVolumes
+from drill_core.tripping.trip_sheet import TripSheet, stands_per_hour
+from drill_core.units import L_PER_M3, PA_PER_BAR
+from drill_core.well import build_geometry
+from drill_ros import topic_names as topics
+from drill_ros.floor import floor_command
+
+
+def _stamp_ns(msg) -> int:
+    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+
+
+def trip_sheet(mcap_path: Path, well: Well) -> dict | None:
+    """The trip sheet's rows and figures (SI), None when the recording holds no rig floor."""
+    floors, measurements, setpoints = {}, {}, []
+    for rec, msg in mcap_io.decoded_messages(mcap_path, [topics.FLOOR, topics.MEASUREMENT,
+                                                         topics.SETPOINTS]):
+        if rec.topic == topics.FLOOR:
+            floors[_stamp_ns(msg)] = msg
+        elif rec.topic == topics.MEASUREMENT:
+            measurements[_stamp_ns(msg)] = msg
+        else:
+            setpoints.append((_stamp_ns(msg), msg.bhp_ref_pa, msg.bhp_band_pa))
+    if not floors:
+        return None
+    first = floors[min(floors)]
+    programme = TripProgramme(direction=first.direction, stands=max(1, max(
+        f.stand for f in floors.values())), stand_length_m=first.stand_length_m)
+    volumes = StandVolumes.of(build_geometry(well), programme.stand_length_m)
+    setpoints.sort()
+    band = setpoints[0][2] if setpoints else math.nan
+    sheet = TripSheet(programme, volumes, band)
+    alarms, ref = [], math.nan
+    for stamp in sorted(set(floors) & set(measurements)):
+        while setpoints and setpoints[0][0] <= stamp:
+            _, ref, band = setpoints.pop(0)
+            sheet.band_pa = band
+        m, step = measurements[stamp], floor_command(floors[stamp]).step
+        alarms += sheet.observe(stamp * 1e-9, step, m.bhp_pa, ref, m.trip_tank_volume_m3)
+    rows = sheet.rows
+    return {"trip_sheet": [dataclasses.asdict(r) for r in rows],
+            "stands_tripped": len(rows),
+            "stands_per_hour": stands_per_hour(rows),
+            "trip_tank_discrepancy_m3": sheet.cumulative_gain_m3,
+            "trip_sheet_alarms": [n.code for n in alarms]}
+
+
+def format_sheet(figures: dict) -> list[str]:
+    """The trip sheet as the printed table's lines (display units: s, bar, L)."""
+    lines = [f"  trip sheet                    {figures['stands_tripped']} stands, "
+             f"{figures['stands_per_hour']:.1f} stands/h (connections included), trip tank "
+             f"{figures['trip_tank_discrepancy_m3'] * L_PER_M3:+.0f} L against the steel",
+             "    stand  slips to slips  out of slips  surge / swab [bar]  outside band  "
+             "fill expected / measured [L]  gain, running [L]"]
+    for r in figures["trip_sheet"]:
+        lines.append(
+            f"    {r['stand']:5d}  {r['end_s'] - r['start_s']:12.0f} s  {r['out_of_slips_s']:10.0f} s  "
+            f"{r['peak_surge_pa'] / PA_PER_BAR:8.2f} / {r['peak_swab_pa'] / PA_PER_BAR:5.2f}  "
+            f"{r['outside_band_s']:10.0f} s  {r['expected_fill_m3'] * L_PER_M3:12.0f} / "
+            f"{r['measured_fill_m3'] * L_PER_M3:5.0f}  "
+            f"{r['gain_m3'] * L_PER_M3:+8.0f}, {r['cumulative_gain_m3'] * L_PER_M3:+.0f}")
+    if figures["trip_sheet_alarms"]:
+        lines.append(f"    alarms: {', '.join(figures['trip_sheet_alarms'])}")
+    return lines

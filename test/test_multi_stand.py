@@ -1,0 +1,81 @@
+"""Integration over DDS: a multi-stand trip through the whole graph in fast mode
+(test/scenarios/trip_out_2.yaml, two stands pulled under the PI baseline and under
+automated MPD, one connection between them and one after the last). The rig floor's node walks each stand through its
+phases; the slips take the string's weight off the hook; the mud pump stops for each
+connection while the back-pressure pump runs; the plant racks each stand and the string's
+position counts from the new top; BHP stays inside the pore/fracture window; the trip sheet
+in the run's summary books each stand's hole fill against the steel a hand calculation
+gives."""
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drill_bag import mcap_io
+from drill_core.tripping.sequence import STAND_PHASES
+from drill_rig import cli
+from drill_ros import topics
+
+pytestmark = [pytest.mark.dds, pytest.mark.slow]
+SCENARIO = Path(__file__).resolve().parent / "scenarios" / "trip_out_2.yaml"
+STEEL_PER_STAND_M3 = 3.746e-3 * 28.0   # the top section's steel area (smeared joints) x 28 m
+BLOCK_WEIGHT_N = 3.5e5                  # config/well.yaml: the hook load off the string
+
+
+@pytest.fixture(scope="module", params=("baseline", "automated_mpd"))
+def run(tmp_path_factory, request):
+    code, run_dir = cli.run_scenario(SCENARIO, runs_dir=tmp_path_factory.mktemp("trip_out_2"),
+                                     domain_id=61, timeout_s=600, quiet=True,
+                                     controller=request.param)
+    assert code == 0, (run_dir / "launch.json").read_text()
+    mcap = next(run_dir.glob("*.mcap"))
+    floor, measurement, truth = {}, {}, {}
+    wanted = {topics.FLOOR: floor, topics.MEASUREMENT: measurement, topics.TRUTH: truth}
+    for rec, msg in mcap_io.decoded_messages(mcap, list(wanted)):
+        wanted[rec.topic][msg.header.stamp.sec * 10 + msg.header.stamp.nanosec // 100_000_000] = msg
+    summary = json.loads((run_dir / "summary.json").read_text())
+    return floor, measurement, truth, summary
+
+
+def test_each_stand_goes_through_its_phases_and_is_racked(run):
+    floor, _, truth, _ = run
+    phases = [floor[k].phase for k in sorted(floor)]
+    walked = [p for i, p in enumerate(phases) if i == 0 or p != phases[i - 1]]
+    out = list(STAND_PHASES["out"])
+    assert walked == ["moving", *out[2:], *out, "done"]     # it starts on the move
+    assert floor[max(floor)].stands_pulled == 2
+    racked = [k for k in sorted(floor) if np.isfinite(floor[k].racked_to_m)]
+    assert [floor[k].racked_to_m for k in racked] == [28.0, 56.0]
+    for k in racked:      # the string's position counts from the new top: a stand less
+        assert truth[k + 1].string_position_m == pytest.approx(
+            truth[k].string_position_m - 28.0, abs=0.01)
+
+
+def test_the_slips_carry_the_string_and_the_pump_stops_for_the_connections(run):
+    floor, measurement, truth, _ = run
+    connection = [k for k in sorted(floor) if floor[k].phase == "connection"]
+    assert connection
+    hook = np.array([measurement[k].hook_load_n for k in connection])
+    assert np.all(np.abs(hook - BLOCK_WEIGHT_N) < 5.0e4)        # unlatched: the block alone
+    moving = [k for k in sorted(floor) if floor[k].phase == "moving"]
+    assert np.median([measurement[k].hook_load_n for k in moving]) > BLOCK_WEIGHT_N + 8.0e5
+    late = [k for k in connection if floor[k - 300].phase == "connection"]   # 30 s in
+    assert late and all(truth[k].spp_pa < 1.0e4 for k in late)
+    assert all(truth[k].bpp_flow_m3s > 0.005 for k in late)    # the back-pressure pump runs
+    assert all(abs(truth[k].string_velocity_mps) < 1e-3 for k in connection)
+
+
+def test_bhp_stays_inside_the_window_and_the_trip_sheet_books_the_steel(run):
+    *_, summary = run
+    assert summary["bhp_under_pore_s"] == 0.0 and summary["bhp_over_fracture_s"] == 0.0
+    sheet = summary["trip_sheet"]
+    assert [r["stand"] for r in sheet] == [1, 2] and summary["stands_tripped"] == 2
+    for row in sheet:
+        assert row["expected_fill_m3"] == pytest.approx(STEEL_PER_STAND_M3, rel=0.01)
+        assert row["measured_fill_m3"] == pytest.approx(STEEL_PER_STAND_M3, abs=0.05)
+        assert 0.0 < row["out_of_slips_s"] < row["end_s"] - row["start_s"]
+    assert summary["trip_tank_discrepancy_m3"] == pytest.approx(
+        sum(r["gain_m3"] for r in sheet))
+    span_h = (sheet[-1]["end_s"] - sheet[0]["start_s"]) / 3600.0
+    assert summary["stands_per_hour"] == pytest.approx(2 / span_h)
