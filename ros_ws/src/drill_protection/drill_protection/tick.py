@@ -19,6 +19,8 @@ from drill_core.hydraulics import WellModel
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.operator_actions import OperatorScript
 from drill_core.tripping.sequence import CONNECTION_PHASES, position_after_connection
+from drill_core.tripping.stands import StandVolumes
+from drill_core.tripping.trip_sheet import TripSheet
 from drill_core.units import PA_PER_BAR
 from drill_protection.actuator_watch import ActuatorWatch, StuckValveWatch
 from drill_protection.protection import Decision, ProcessProtection
@@ -81,6 +83,10 @@ class ProtectionTick:
         self.return_flow_m3s = math.nan     # the last measured return flow (the choke's)
         self.script = OperatorScript(scenario.operator)
         self.floor_phase = ""               # the rig floor's phase (a multi-stand trip)
+        self.floor_step = None              # ... and its last step (drill_core.tripping.sequence)
+        # a multi-stand trip's sheet, kept live for its trip-tank alarm (the band unused)
+        self.trip_sheet = None if scenario.trip is None else TripSheet(
+            scenario.trip, StandVolumes.of(wm.geometry, scenario.trip.stand_length_m), math.inf)
         self.formation = config.well.formation
         self.in_window = True
         self.window_exits = 0
@@ -94,12 +100,20 @@ class ProtectionTick:
             shift_m = position_after_connection(0.0, command.racked_from_m, command.racked_to_m)
             self.protection.previous[U_BLOCK] += shift_m
             self.watch.recount_positions(shift_m)
-        self.floor_phase = command.step.phase
+        self.floor_phase, self.floor_step = command.step.phase, command.step
 
     def observe(self, stamp_ns: int, m) -> list[Notice]:
-        """One measurement through the watch: the notices it raised."""
+        """One measurement through the watch (and on a multi-stand trip through the trip
+        sheet, whose trip tank against the steel tripped raises its own alarm): the notices
+        it raised."""
         self.return_flow_m3s = float(m.return_flow_m3s)
-        return self.watch.observe(stamp_ns, m, balance=self.floor_phase not in CONNECTION_PHASES)
+        notices = self.watch.observe(stamp_ns, m, balance=self.floor_phase not in CONNECTION_PHASES)
+        if self.trip_sheet is not None and self.floor_step is not None:
+            alarms = self.trip_sheet.observe(stamp_ns * 1e-9, self.floor_step, m.bhp_pa,
+                                             math.nan, m.trip_tank_volume_m3)
+            self.watch.alarm_count += len(alarms)
+            notices += alarms
+        return notices
 
     def observe_frame(self, actuator: str, stamp_ns: int, reference: float, output) -> None:
         """One frame of the drawworks or the choke (drill_msgs/ActuatorFrame's stamp,

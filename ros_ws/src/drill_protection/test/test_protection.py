@@ -358,3 +358,35 @@ def test_on_a_multi_stand_trip_a_racked_stand_moves_the_references_and_a_connect
     assert tick.protection.previous[0] == pytest.approx(previous - 28.0)
     tick.observe(2_000_000_000, m(0.05, False))
     assert tick.watch.velocity_mps == pytest.approx(0.0, abs=1e-6)
+
+
+def test_on_a_multi_stand_trip_the_trip_tank_against_the_steel_raises_the_swabbed_kick(cfg, wm):
+    """Stand after stand the trip tank gives the hole 60 L less than the stand's steel (the
+    formation gives the rest): once the running gain passes the programme's limit (0.1 m^3)
+    at a stand's end the protection raises trip_tank_gain, once."""
+    from types import SimpleNamespace
+
+    from drill_core.operating_point import initial_operating_point
+    from drill_core.rig_root import config_dir
+    from drill_core.scenario import load_scenario
+    from drill_core.tripping.rig_floor import FloorCommand
+    from drill_core.tripping.sequence import MOVING, SET_SLIPS, TripStep
+    from drill_protection.tick import ProtectionTick
+
+    scenario = load_scenario(config_dir() / "scenarios" / "trip_out_swabbed_kick.yaml")[0]
+    tick = ProtectionTick(cfg, wm, scenario, initial_operating_point(wm, scenario.initial))
+    steel_m3 = tick.trip_sheet.volumes.steel_m3
+    tank_m3, raised = 6.0, []
+    for stand in (1, 2, 3, 4):
+        for k, phase in enumerate((MOVING, SET_SLIPS)):
+            tick.floor(FloorCommand(TripStep(phase, stand, phase != MOVING, True, 1.0,
+                                             28.0 * stand, stand - 1), 0.0, None, None))
+            t_ns = (100 * stand + 50 * k) * 1_000_000_000
+            m = SimpleNamespace(block_position_m=0.0, choke_dp_pa=2.0e6, bhp_pa=6.85e7,
+                                string_flow_m3s=CIRCULATION, string_flow_valid=True,
+                                return_flow_m3s=CIRCULATION, pit_volume_m3=50.0,
+                                bpp_flow_m3s=0.0, trip_tank_volume_m3=tank_m3)
+            raised += [(stand, n.code) for n in tick.observe(t_ns, m)
+                       if n.code.startswith("trip_tank")]
+        tank_m3 -= steel_m3 - 0.06               # the hole took 60 L less than the steel
+    assert raised == [(3, "trip_tank_gain")]     # 120 L over the limit at stand 2's end
