@@ -23,7 +23,6 @@ class FloorTick:
         self.step_s = step_s
         self.block_m = initial_block_m       # the encoder at the next step's time [m]
         self.block_speed_mps = 0.0           # [m/s]
-        self.last: FloorCommand | None = None
 
     def drawworks_frame(self, output) -> None:
         """The drawworks' output samples over the last frame [m]: the encoder at its end
@@ -37,6 +36,5 @@ class FloorTick:
     def step(self, time_s: float, hook_load_n: float, string_position_m: float) -> FloorCommand:
         """The floor after the measurement at ``time_s`` [s]: hook load [N], the string's
         position in the present string's frame [m]."""
-        self.last = self.floor.step(time_s, hook_load_n, string_position_m, self.block_m,
-                                    self.block_speed_mps)
-        return self.last
+        return self.floor.step(time_s, hook_load_n, string_position_m, self.block_m,
+                               self.block_speed_mps)
