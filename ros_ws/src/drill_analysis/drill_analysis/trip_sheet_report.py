@@ -18,10 +18,7 @@ from drill_core.units import L_PER_M3, PA_PER_BAR
 from drill_core.well import build_geometry
 from drill_ros import topic_names as topics
 from drill_ros.floor import floor_command
-
-
-def _stamp_ns(msg) -> int:
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+from drill_ros.stamps import to_ns
 
 
 def trip_sheet(mcap_path: Path, well: Well) -> dict | None:
@@ -30,11 +27,11 @@ def trip_sheet(mcap_path: Path, well: Well) -> dict | None:
     for rec, msg in mcap_io.decoded_messages(mcap_path, [topics.FLOOR, topics.MEASUREMENT,
                                                          topics.SETPOINTS]):
         if rec.topic == topics.FLOOR:
-            floors[_stamp_ns(msg)] = msg
+            floors[to_ns(msg.header.stamp)] = msg
         elif rec.topic == topics.MEASUREMENT:
-            measurements[_stamp_ns(msg)] = msg
+            measurements[to_ns(msg.header.stamp)] = msg
         else:
-            setpoints.append((_stamp_ns(msg), msg.bhp_ref_pa, msg.bhp_band_pa))
+            setpoints.append((to_ns(msg.header.stamp), msg.bhp_ref_pa, msg.bhp_band_pa))
     if not floors:
         return None
     first = floors[min(floors)]

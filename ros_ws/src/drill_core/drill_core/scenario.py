@@ -117,10 +117,11 @@ class Scenario:
                     else f"only used with controller open_loop, not {self.controller}"))
         if open_loop:
             OpenLoopPlan(self.schedule, start_command(self.initial))
-        if self.trip is not None and self.controller not in MULTI_STAND_CONTROLLERS:
-            raise FieldError("trip", f"a multi-stand trip runs under "
-                                     f"{', '.join(MULTI_STAND_CONTROLLERS)}, not {self.controller}")
         if self.trip is not None:
+            if self.controller not in MULTI_STAND_CONTROLLERS:
+                raise FieldError("trip", f"a multi-stand trip runs under "
+                                         f"{', '.join(MULTI_STAND_CONTROLLERS)}, not "
+                                         f"{self.controller}")
             targets = [i for i, c in enumerate(self.schedule)
                        if math.isfinite(c.block_position_target_m)]
             if targets:

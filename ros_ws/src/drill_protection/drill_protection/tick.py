@@ -82,8 +82,7 @@ class ProtectionTick:
         self.choke_on_flow_loop = True      # the last decision's choke mode
         self.return_flow_m3s = math.nan     # the last measured return flow (the choke's)
         self.script = OperatorScript(scenario.operator)
-        self.floor_phase = ""               # the rig floor's phase (a multi-stand trip)
-        self.floor_step = None              # ... and its last step (drill_core.tripping.sequence)
+        self.floor_step = None              # the rig floor's last step (a multi-stand trip)
         # a multi-stand trip's sheet, kept live for its trip-tank alarm (the band unused)
         self.trip_sheet = None if scenario.trip is None else TripSheet(
             scenario.trip, StandVolumes.of(wm.geometry, scenario.trip.stand_length_m), math.inf)
@@ -100,14 +99,20 @@ class ProtectionTick:
             shift_m = position_after_connection(0.0, command.racked_from_m, command.racked_to_m)
             self.protection.previous[U_BLOCK] += shift_m
             self.watch.recount_positions(shift_m)
-        self.floor_phase, self.floor_step = command.step.phase, command.step
+        self.floor_step = command.step
+
+    @property
+    def in_connection(self) -> bool:
+        """The rig floor has the mud pump under its rate for a connection (not a loss; the
+        flows not balanced)."""
+        return self.floor_step is not None and self.floor_step.phase in CONNECTION_PHASES
 
     def observe(self, stamp_ns: int, m) -> list[Notice]:
         """One measurement through the watch (and on a multi-stand trip through the trip
         sheet, whose trip tank against the steel tripped raises its own alarm): the notices
         it raised."""
         self.return_flow_m3s = float(m.return_flow_m3s)
-        notices = self.watch.observe(stamp_ns, m, balance=self.floor_phase not in CONNECTION_PHASES)
+        notices = self.watch.observe(stamp_ns, m, balance=not self.in_connection)
         if self.trip_sheet is not None and self.floor_step is not None:
             alarms = self.trip_sheet.observe(stamp_ns * 1e-9, self.floor_step, m.bhp_pa,
                                              math.nan, m.trip_tank_volume_m3)
@@ -142,8 +147,7 @@ class ProtectionTick:
             else latched_speed_limit_mps
         circulation = m.string_flow_m3s if m.string_flow_valid and math.isfinite(m.string_flow_m3s) \
             else 0.0
-        pump_stopped_by_floor = self.floor_phase in CONNECTION_PHASES
-        self.watch.circulation.request(request.mud_pump_on and not pump_stopped_by_floor,
+        self.watch.circulation.request(request.mud_pump_on and not self.in_connection,
                                        request.spp_pa)
         decision = self.protection.apply(
             [request.block_position_ref_m, request.choke_flow_ref_m3s, request.bpp_flow_m3s,
