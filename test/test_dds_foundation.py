@@ -32,6 +32,8 @@ HELPERS = Path(__file__).resolve().parent / "processes"
 DOMAIN_PUBSUB = 71
 DOMAIN_SERVICE = 72
 TIMEOUT_S = 20.0           # each child gives up after this; the test waits a little longer
+EXIT_TIMEOUT_S = 60.0      # a child's exit includes DDS teardown, which under load has taken
+                           # over 10 s: this deadline only catches a hang
 
 
 def _helper_module(name: str):
@@ -92,7 +94,7 @@ class Child:
         self.proc.stdin.write(text)
         self.proc.stdin.flush()
 
-    def finish(self, timeout: float = 10.0) -> int:
+    def finish(self, timeout: float = EXIT_TIMEOUT_S) -> int:
         """Close stdin and wait for the exit code (killing the process on timeout)."""
         try:
             self.proc.stdin.close()
