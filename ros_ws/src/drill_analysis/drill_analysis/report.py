@@ -481,7 +481,7 @@ def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | Non
         summary["plant_mismatch"] = json.loads(recorded["truth"]) if recorded else None
         plots = plot(series, out_dir / "plots", units)
         table = format_table(name, summary, baseline, units)
-        sheet = trip_sheet_report.trip_sheet(mcap_path, load_rig(run_config_dir(out_dir)).well)
+        sheet = trip_sheet_report.trip_sheet(mcap_path, load_rig(run_config_dir(out_dir)))
         if sheet is not None:                   # a multi-stand trip
             summary.update(sheet)
             table += "\n" + "\n".join(trip_sheet_report.format_sheet(sheet))

@@ -10,19 +10,20 @@ import math
 from pathlib import Path
 
 from drill_bag import mcap_io
-from drill_core.config import Well
-from drill_core.tripping.programme import TripProgramme
+from drill_core.config import RigConfig
 from drill_core.tripping.stands import StandVolumes
 from drill_core.tripping.trip_sheet import TripSheet, stands_per_hour
 from drill_core.units import L_PER_M3, PA_PER_BAR
 from drill_core.well import build_geometry
 from drill_ros import topic_names as topics
-from drill_ros.floor import floor_command
-from drill_ros.stamps import to_ns
+from drill_ros.floor import floor_command, floor_programme
+from drill_ros.stamps import seconds_to_ns, to_ns
 
 
-def trip_sheet(mcap_path: Path, well: Well) -> dict | None:
-    """The trip sheet's rows and figures (SI), None when the recording holds no rig floor."""
+def trip_sheet(mcap_path: Path, config: RigConfig) -> dict | None:
+    """The trip sheet's rows and figures (SI), None when the recording holds no rig floor.
+    Each measurement t_k is read with the floor's command for the frame before it, t_k-1
+    (the one the plant ran under up to t_k), as the protection keeps its live sheet."""
     floors, measurements, setpoints = {}, {}, []
     for rec, msg in mcap_io.decoded_messages(mcap_path, [topics.FLOOR, topics.MEASUREMENT,
                                                          topics.SETPOINTS]):
@@ -34,19 +35,20 @@ def trip_sheet(mcap_path: Path, well: Well) -> dict | None:
             setpoints.append((to_ns(msg.header.stamp), msg.bhp_ref_pa, msg.bhp_band_pa))
     if not floors:
         return None
-    first = floors[min(floors)]
-    programme = TripProgramme(direction=first.direction, stands=max(1, max(
-        f.stand for f in floors.values())), stand_length_m=first.stand_length_m)
-    volumes = StandVolumes.of(build_geometry(well), programme.stand_length_m)
+    programme = floor_programme(floors[min(floors)])
+    volumes = StandVolumes.of(build_geometry(config.well), programme.stand_length_m)
+    frame_ns = seconds_to_ns(config.plant.sensor_period_s)
     setpoints.sort()
     band = setpoints[0][2] if setpoints else math.nan
     sheet = TripSheet(programme, volumes, band)
     alarms, ref = [], math.nan
-    for stamp in sorted(set(floors) & set(measurements)):
+    for stamp in sorted(measurements):
+        if stamp - frame_ns not in floors:
+            continue
         while setpoints and setpoints[0][0] <= stamp:
             _, ref, band = setpoints.pop(0)
             sheet.band_pa = band
-        m, step = measurements[stamp], floor_command(floors[stamp]).step
+        m, step = measurements[stamp], floor_command(floors[stamp - frame_ns]).step
         alarms += sheet.observe(stamp * 1e-9, step, m.bhp_pa, ref, m.trip_tank_volume_m3)
     rows = sheet.rows
     return {"trip_sheet": [dataclasses.asdict(r) for r in rows],

@@ -621,6 +621,10 @@ class AutomatedMpd:
                                         doc="integral time of the BHP trim on the estimated error")
     trim_limit_pa: float = param("Pa", 0.0, 1.0e7, doc="largest |trim| of the choke-dp set-point")
     choke_dp_min_pa: float = param("Pa", 0.0, 1.0e7, doc="lowest choke-dp set-point")
+    held_bhp_gain: float = param(
+        "1", 0.0, 20.0, default=0.0,
+        doc="while the mud pump stands for a connection, the set-point also adds this times "
+            "the estimated BHP error (0: none, as recordings made before it ran)")
 
 
 # ----------------------------------------------------------------------- the whole

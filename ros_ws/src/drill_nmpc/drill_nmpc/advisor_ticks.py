@@ -13,7 +13,7 @@ import numpy as np
 from drill_core.config import RigConfig
 from drill_core.estimation_model import EstimationModel
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_PUMP_PRESSURE
-from drill_core.tripping.sequence import CONNECTION_PHASES, MOVING
+from drill_core.tripping.sequence import CONNECTION, CONNECTION_PHASES, MOVING
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView, MpdCommand
 from drill_nmpc.baseline import Baseline
 from drill_nmpc.inputs import choke_command, choke_input
@@ -150,8 +150,10 @@ class AutomatedMpdTick:
     finite or the BHP reference not resolved, the block reference at the estimated string
     until a trip profile starts. On a multi-stand trip (``trip``, the scenario's programme)
     the managed-pressure connection: each stand's move planned to its end, and the
-    back-pressure pump at CONNECTION_BPP_FLOW_M3S while the mud pump is under its rate, the
-    choke's set-point holding the BHP reference on the friction the model has left."""
+    back-pressure pump at CONNECTION_BPP_FLOW_M3S while the floor has the string (from the
+    slips' setting, so that the pump's lag has passed before the mud pump ramps down), the
+    choke's set-point holding the BHP reference on the friction the estimate has left
+    (drill_nmpc.automated_mpd: ``string_held``, ``mud_at_rest``)."""
 
     def __init__(self, config: RigConfig, em: EstimationModel, start: StartInputs, trip=None):
         self.controller = AutomatedMpd(config, em, start.bpp_flow_m3s, start.spp_pa)
@@ -171,10 +173,12 @@ class AutomatedMpdTick:
         if floor is not None:
             setpoints = replace(setpoints, block_position_target_m=(
                 floor.advisor_target_m(view.string_position_m, self.stand_length_m)))
-            if floor.step.phase != MOVING:
+            held = floor.step.phase != MOVING
+            if held:
                 applied_block_m = view.string_position_m
-            self.controller.bpp = CONNECTION_BPP_FLOW_M3S \
-                if floor.step.phase in CONNECTION_PHASES else self.start.bpp_flow_m3s
+            self.controller.string_held = held
+            self.controller.mud_at_rest = floor.step.phase == CONNECTION
+            self.controller.bpp = CONNECTION_BPP_FLOW_M3S if held else self.start.bpp_flow_m3s
         if self.controller.profile is None and math.isfinite(view.string_position_m):
             self.held.block_position_ref_m = view.string_position_m
         if not bhp_resolved or not all(math.isfinite(v) for v in

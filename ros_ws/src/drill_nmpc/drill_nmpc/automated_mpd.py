@@ -14,6 +14,13 @@ Each sample (t_s) the controller
    the integral of the estimated BHP error (UKF), which takes up the model's bias; the
    friction in it is that of the estimated bit flow, low-passed against the hoisting
    oscillation while the string-flow meter reads and taken as it is when it reads nothing;
+   while the rig floor has the string (``string_held``: the slips, a connection's pump
+   ramps) the bit flow is the estimate's flow up the bottom of the annulus, unfiltered (the
+   string at rest carries no hoisting oscillation, and the string's top flow runs ahead of
+   the bit's as the pump ramps), the trim stands, and while the mud pump stands
+   (``mud_at_rest``) the set-point adds ``held_bhp_gain`` times the estimated BHP error:
+   a yield-stress mud at rest passes a pressure change down the annulus only as it flows,
+   so the BHP follows the choke slowly and the set-point overdrives it in proportion;
 3. sends the set-point at t_k with its rate toward the value at t_k+1, so the choke
    controller ramps it between samples, and the steady choke flow of that motion (plus the
    mud stored by the rising pressure) as the valve's flow feedforward.
@@ -45,6 +52,7 @@ class EstimateView:
     friction_factor: tuple[float, ...]     # theta_2..theta_n of the estimation model
     density_offset_kgm3: float = 0.0       # the estimate's density offset (0: not estimated)
     string_flow_observable: bool = True    # the string-flow meter reads a flow (False: no circulation)
+    bottom_annulus_flow_m3s: float = math.nan  # the estimate's flow up the bottom annulus path q_n [m^3/s]
 
 
 @dataclass(frozen=True)
@@ -82,6 +90,8 @@ class AutomatedMpd:
         self.bit_flow_m3s = math.nan    # low-passed bit flow of the estimates
         self.trim_pa = 0.0
         self.applied_block_m = math.nan  # the block reference the protection applied last
+        self.string_held = False        # the rig floor has the string (slips, a connection)
+        self.mud_at_rest = False        # the mud pump stands for a connection
 
     def string_speeds(self, reference_speeds: list[float], offsets_s) -> list[float]:
         """The string speed the plan gives at ``offsets_s`` after this sample: the reference
@@ -136,24 +146,33 @@ class AutomatedMpd:
             self.profile = MotionProfile(est.string_position_m)
             self.string_speed_mps = 0.0
         theta = est.friction_factor
-        bit_flow = self.model.bit_flow_m3s(est.string_flow_m3s, est.string_velocity_mps)
+        held = self.string_held and math.isfinite(est.bottom_annulus_flow_m3s)
+        # held: not below nothing - mud flowing down the annulus at rest is mud the choke's
+        # own rise compresses, and a set-point chasing the friction it makes runs away
+        bit_flow = max(est.bottom_annulus_flow_m3s, 0.0) if held \
+            else self.model.bit_flow_m3s(est.string_flow_m3s, est.string_velocity_mps)
         if math.isfinite(bit_flow):
-            # unfiltered while the meter reads nothing (a pump trip): the friction goes with
-            # the pump, and a filtered flow would keep a set-point for friction that is gone
+            # unfiltered while the meter reads nothing (a pump trip) or the string rests in
+            # the slips (no hoisting oscillation; the pump ramps): the friction goes with the
+            # pump, and a filtered flow would keep a set-point for friction that is gone
             keep = math.exp(-self.sample_s / self.cfg.flow_filter_time_constant_s) \
-                if est.string_flow_observable else 0.0
+                if est.string_flow_observable and not held else 0.0
             self.bit_flow_m3s = bit_flow if not math.isfinite(self.bit_flow_m3s) \
                 else keep * self.bit_flow_m3s + (1.0 - keep) * bit_flow
         q = self.bit_flow_m3s if math.isfinite(self.bit_flow_m3s) else 0.0
-        if math.isfinite(est.bhp_pa):
+        if math.isfinite(est.bhp_pa) and not held:
             step = self.sample_s / self.cfg.trim_time_constant_s * (bhp_ref_pa - est.bhp_pa)
             self.trim_pa = min(max(self.trim_pa + step, -self.cfg.trim_limit_pa),
                                self.cfg.trim_limit_pa)
         density = est.density_offset_kgm3
 
+        overdrive = self.cfg.held_bhp_gain * (bhp_ref_pa - est.bhp_pa) \
+            if self.mud_at_rest and math.isfinite(est.bhp_pa) else 0.0
+
         def setpoint(speed_mps: float) -> float:
             return self.model.choke_dp_for_bhp(bhp_ref_pa, theta, q, speed_mps,
-                                               self.downstream_pa, density) + self.trim_pa
+                                               self.downstream_pa, density) + self.trim_pa \
+                + overdrive
 
         dp_low, dp_high = sp.following_rest(setpoint(0.0), self.cfg.choke_dp_min_pa) \
             .choke_dp_limits(self.cfg.choke_dp_min_pa)

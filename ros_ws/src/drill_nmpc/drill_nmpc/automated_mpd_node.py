@@ -48,7 +48,8 @@ class AutomatedMpdNode(AdvisorNode):
                             friction_factor=tuple(float(v) for v in msg.friction_parameter),
                             density_offset_kgm3=float(dict(zip(msg.state_names, mean)).get(
                                 DENSITY_OFFSET, 0.0)),
-                            string_flow_observable=bool(msg.string_flow_observable))
+                            string_flow_observable=bool(msg.string_flow_observable),
+                            bottom_annulus_flow_m3s=float(mean[self.em.flow(self.em.n)]))
 
     def _on_estimate(self, msg: StateEstimate) -> None:
         stamp = to_ns(msg.header.stamp)

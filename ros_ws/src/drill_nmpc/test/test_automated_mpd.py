@@ -1,4 +1,5 @@
-"""Automated MPD core: the trip's motion profile and the model-based choke-dp set-point."""
+"""Automated MPD core: the trip's motion profile, the model-based choke-dp set-point and
+its managed-pressure connection on a multi-stand trip."""
 import dataclasses
 import math
 
@@ -11,6 +12,11 @@ from drill_core.operating_point import operating_point
 from drill_core.rig_root import config_dir
 from drill_core.scenario import ActiveSetpoints
 from drill_core.surge_swab import SurgeSwabModel
+from drill_core.tripping.programme import TripProgramme
+from drill_core.tripping.rig_floor import FloorCommand
+from drill_core.tripping.sequence import (CONNECTION, MOVING, PICK_UP, PUMP_DOWN, PUMP_UP,
+                                          SET_SLIPS, TripStep)
+from drill_nmpc.advisor_ticks import CONNECTION_BPP_FLOW_M3S, AutomatedMpdTick, StartInputs
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView
 from drill_nmpc.motion_profile import MotionProfile
 from drill_nmpc.setpoint_book import HELD_TRIP_PLAN_SPEED_MPS, within_speed_limits
@@ -198,3 +204,67 @@ def test_the_plan_keeps_to_the_protections_standing_trip_speed_limits(rig, em):
     for _ in range(10):
         c = mpd.step(_estimate(em, 6.85e7), held, 6.85e7)
     assert c.block_position_ref_m <= 10 * HELD_TRIP_PLAN_SPEED_MPS + 1e-12
+
+
+def _held(em, bhp_pa, bottom_flow_m3s):
+    """An estimate with the string in the slips: its top draining backwards (a broken
+    connection), the annulus's bottom flow ``bottom_flow_m3s``."""
+    return dataclasses.replace(_estimate(em, bhp_pa), string_flow_m3s=-80.0 / 60000.0,
+                               string_flow_observable=False,
+                               bottom_annulus_flow_m3s=bottom_flow_m3s)
+
+
+def test_in_the_slips_the_set_point_takes_the_bottom_flow_at_once_and_not_below_nothing(rig, em):
+    """While the floor has the string the friction is that of the annulus's bottom flow,
+    unfiltered, not of the string's top flow; a flow down the annulus counts as none."""
+    model = SurgeSwabModel(em)
+    sp = _setpoints(upper=6.63e7)
+    for bottom, friction_flow in ((300.0 / 60000.0, 300.0 / 60000.0), (-40.0 / 60000.0, 0.0)):
+        mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
+        mpd.step(_estimate(em, 6.85e7), sp, 6.85e7)              # circulating, moving
+        mpd.string_held = True
+        c = mpd.step(_held(em, 6.85e7, bottom), sp, 6.85e7)
+        assert c.choke_dp_ref_pa == pytest.approx(model.choke_dp_for_bhp(
+            6.85e7, (1.0,) * 3, friction_flow, 0.0, 0.0), abs=1.0)
+    free = AutomatedMpd(rig, em, 0.0, 1.06e7)                   # not held: the top flow's
+    free.step(_estimate(em, 6.85e7), sp, 6.85e7)
+    drained = free.step(_held(em, 6.85e7, 0.0), sp, 6.85e7).choke_dp_ref_pa
+    assert drained > model.choke_dp_for_bhp(6.85e7, (1.0,) * 3, 0.0, 0.0, 0.0) + 5.0e5
+
+
+def test_in_the_slips_the_trim_stands_and_a_connection_overdrives_the_bhp_error(rig, em):
+    """Held, a BHP estimated 5 bar low leaves the trim where it was; with the mud pump
+    stopped for a connection the set-point rises by held_bhp_gain times the error."""
+    sp = _setpoints(upper=6.63e7)
+    low = 6.85e7 - 5.0e5
+    mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
+    trim = mpd.step(_estimate(em, low), sp, 6.85e7).trim_pa
+    assert trim > 0.0
+    mpd.string_held = True
+    pumping = mpd.step(_held(em, low, 0.0), sp, 6.85e7)
+    assert pumping.trim_pa == trim
+    mpd.mud_at_rest = True
+    at_rest = mpd.step(_held(em, low, 0.0), sp, 6.85e7)
+    assert at_rest.trim_pa == trim
+    assert at_rest.choke_dp_ref_pa - pumping.choke_dp_ref_pa == pytest.approx(
+        rig.automated_mpd.held_bhp_gain * 5.0e5)
+
+
+def test_the_tick_runs_the_back_pressure_pump_while_the_floor_has_the_string(rig, em):
+    """From the slips' setting on, not from the pump's ramp: the pump's lag has passed
+    before the mud pump ramps down; the connection itself is the mud at rest."""
+    tick = AutomatedMpdTick(rig, em, StartInputs(FLOW, 2.0e6, 0.0, 1.06e7, True),
+                            trip=TripProgramme(direction="out", stands=3))
+    sp = _setpoints(upper=6.63e7)
+    seen = {}
+    for phase in (MOVING, SET_SLIPS, PUMP_DOWN, CONNECTION, PUMP_UP, PICK_UP, MOVING):
+        floor = FloorCommand(TripStep(phase, 2, phase != MOVING, True, 1.0, 56.0, 1),
+                             math.nan, None, None)
+        cmd, _ = tick.step(_estimate(em, 6.85e7, position=27.6), sp, True, (0.5, 0.5),
+                           math.nan, floor)
+        seen[phase] = (cmd.bpp_flow_m3s, tick.controller.string_held,
+                       tick.controller.mud_at_rest)
+    assert seen[MOVING] == (0.0, False, False)
+    for phase in (SET_SLIPS, PUMP_DOWN, PUMP_UP, PICK_UP):
+        assert seen[phase] == (CONNECTION_BPP_FLOW_M3S, True, False)
+    assert seen[CONNECTION] == (CONNECTION_BPP_FLOW_M3S, True, True)

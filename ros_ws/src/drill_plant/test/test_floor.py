@@ -19,7 +19,7 @@ from drill_core.tripping.sequence import CONNECTION, DONE, MOVING, PUMP_DOWN, Tr
 from drill_plant.actuator_tick import ActuatorTick
 from drill_plant.floor_tick import FloorTick
 from drill_plant.plant_tick import PlantTick
-from drill_ros.floor import floor_command, floor_message
+from drill_ros.floor import floor_command, floor_message, floor_programme
 from builtin_interfaces.msg import Time
 
 from tick_inputs import command, measurement
@@ -99,3 +99,12 @@ def test_the_floors_command_goes_through_its_message_unchanged():
         assert back.racked_from_m == sent.racked_from_m
         assert (math.isnan(back.block_target_m) and math.isnan(sent.block_target_m)) \
             or back.block_target_m == sent.block_target_m
+
+
+def test_the_floors_message_carries_what_the_trip_sheet_needs_of_its_programme():
+    """A recording's trip sheet is the live one: the same stands and alarm limit."""
+    programme = TripProgramme(direction="in", stands=4, stand_length_m=27.0,
+                              discrepancy_alarm_m3=0.1, connection_s=60.0)
+    back = floor_programme(floor_message(floor(MOVING), programme, Time(sec=3)))
+    assert (back.direction, back.stands, back.stand_length_m, back.discrepancy_alarm_m3) == \
+        ("in", 4, 27.0, 0.1)

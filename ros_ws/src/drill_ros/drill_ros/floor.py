@@ -20,6 +20,8 @@ def floor_message(command: FloorCommand, programme: TripProgramme, stamp: Time) 
     """The floor's ``command`` on the trip ``programme`` stamped ``stamp``."""
     s = command.step
     msg = RigFloor(direction=programme.direction, stand_length_m=programme.stand_length_m,
+                   stands=int(programme.stands),
+                   discrepancy_alarm_m3=float(programme.discrepancy_alarm_m3),
                    phase=s.phase, stand=int(s.stand), stands_pulled=int(s.stands_pulled),
                    slips_set=bool(s.slips_set), latched=bool(s.latched),
                    pump_factor=float(s.pump_factor),
@@ -29,6 +31,14 @@ def floor_message(command: FloorCommand, programme: TripProgramme, stamp: Time) 
                    racked_to_m=_none_as_nan(command.racked_to_m))
     msg.header.stamp = stamp
     return msg
+
+
+def floor_programme(msg: RigFloor) -> TripProgramme:
+    """What of the trip's programme a message carries: its direction, stands, their length
+    and the trip sheet's alarm limit (the rest at the programme's defaults)."""
+    return TripProgramme(direction=msg.direction, stands=int(msg.stands),
+                         stand_length_m=float(msg.stand_length_m),
+                         discrepancy_alarm_m3=float(msg.discrepancy_alarm_m3))
 
 
 def floor_command(msg: RigFloor) -> FloorCommand:

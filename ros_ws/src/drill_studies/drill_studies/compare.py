@@ -3,7 +3,9 @@
 Every run goes through the whole process graph in fast mode (reproducible: same scenario
 files and seeds, same numbers). The trip cases (Cases 1-3: one stand out and back in) run
 under the case's NMPC, automated MPD and the PI baseline, each on the case's seed and two
-more; Case 4 (set-point steps) under its NMPC. The figures come from each run's
+more; Case 4 (set-point steps) under its NMPC; the multi-stand trip (trip_out: ten stands
+through their connections) under the controllers that plan one
+(drill_studies.multi_stand_section). The figures come from each run's
 summary.json (report.summarise) and go to a Markdown file, in bar at this display edge,
 as mean and worst over the seeds, with the paper's Table 7 beside them and the issue's
 targets checked per run. One trip per controller is plotted side by side.
@@ -25,9 +27,10 @@ import numpy as np
 
 from drill_analysis import report
 from drill_bringup import runs
-from drill_studies import batch
+from drill_studies import batch, multi_stand_section
+from drill_studies.multi_stand_section import MULTI_STAND_CASES
 from drill_core.mismatch import load_suite, resolve
-from drill_core.scenario import load_scenario
+from drill_core.scenario import MULTI_STAND_CONTROLLERS, load_scenario
 from drill_core.units import L_PER_M3, PA_PER_BAR
 
 TRIP_CASES = ("case1", "case2", "case3")
@@ -65,8 +68,11 @@ def plan(cases, controllers, seeds: int) -> list[tuple[str, str, int]]:
     for case in cases:
         scenario, _ = load_scenario(runs.scenario_path(case))
         every = case in TRIP_CASES or case in FAULT_CASES
+        chosen = controllers if every else (scenario.controller,)
+        if case in MULTI_STAND_CASES:
+            chosen = [c for c in controllers if c in MULTI_STAND_CONTROLLERS]
         for offset in SEED_OFFSETS[:seeds]:
-            for controller in (controllers if every else (scenario.controller,)):
+            for controller in chosen:
                 out.append((case, controller, scenario.seed + offset))
     return out
 
@@ -247,6 +253,7 @@ def markdown(rows: list[dict], plot_name: str | None, made: str = "") -> str:
                       f"excursion {_stat([f['bhp_worst_excursion_pa'] for f in fs], PA_PER_BAR, 2)}"
                       " bar (mean / worst over seeds)."]
     lines += fault_section(by)
+    lines += multi_stand_section.section(by, CONTROLLERS)
     lines += mismatch_section(mismatched)
     if plot_name:
         lines += ["", f"![One Case 2 trip per controller]({plot_name})"]
@@ -509,7 +516,7 @@ def main(cases, output: Path, seeds: int = len(SEED_OFFSETS),
         cases = cases or TRIP_CASES
         items = plan_mismatch(cases, controllers, seeds, suite_members(mismatch))
     else:
-        cases = cases or (*TRIP_CASES, *STEP_CASES, *FAULT_CASES)
+        cases = cases or (*TRIP_CASES, *STEP_CASES, *FAULT_CASES, *MULTI_STAND_CASES)
         items = plan(cases, controllers, seeds)
     done = {_key(r): r for r in old} if resume else {}
     kept = [done[_key(i)] for i in items if _key(i) in done]

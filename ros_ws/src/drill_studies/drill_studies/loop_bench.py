@@ -153,7 +153,8 @@ class TruthState:
                             string_flow_m3s=float(x[lay.string_flow]),
                             friction_factor=tuple(float(v) for v in theta),
                             density_offset_kgm3=float(self.em.density_offset_of(x_hat)),
-                            string_flow_observable=bool(m.string_flow_valid)), x_hat
+                            string_flow_observable=bool(m.string_flow_valid),
+                            bottom_annulus_flow_m3s=float(x[lay.flow(self.em.n)])), x_hat
 
 
 class UkfState:
@@ -177,7 +178,8 @@ def ukf_view(ukf, string_flow_observable: bool) -> EstimateView:
                         string_flow_m3s=float(x[ukf.em.string_flow]),
                         friction_factor=tuple(float(v) for v in ukf.theta),
                         density_offset_kgm3=float(ukf.em.density_offset_of(x)),
-                        string_flow_observable=string_flow_observable)
+                        string_flow_observable=string_flow_observable,
+                        bottom_annulus_flow_m3s=float(x[ukf.em.flow(ukf.em.n)]))
 
 
 class NmpcController:

@@ -14,10 +14,9 @@ choke's flow loop (drill_plant.actuators.Choke), its back-pressure pump command 
 through the connections) through the pump's lag. A test bed for the floor, the plant and
 the estimator and a first look at a controller through connections, not a substitute for
 the node graph (no process protection, no DDS: ``rig run trip_out``). ``automated_mpd``:
-its tick
-(drill_nmpc.advisor_ticks.AutomatedMpdTick) once a second on the UKF's estimate, its
-choke on the choke's pressure loop, its profile for the moves (re-started from the
-measured string while the floor has the block), its model the full string's.
+its tick (drill_nmpc.advisor_ticks.AutomatedMpdTick) once a second on the UKF's estimate,
+given the floor's command as its node gives it, its choke on the choke's pressure loop,
+its back-pressure pump command through the pump's lag, its model the full string's.
 
     python -m drill_studies.trip_bench [--stands 2] [--round-trip] [--controller baseline]
                                        [--connection-s 90] [--settle-s 180] [--seed 12]
@@ -103,8 +102,8 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     baseline = BaselineTick(config, trip_speed_mps, start_inputs, trip=floor.programme) \
         if controller == "baseline" else None
     bpp = Pump(config.actuators.bpp, 0.0)
-    mpd = AutomatedMpdTick(config, build_estimation_model(config), start_inputs) \
-        if controller == "automated_mpd" else None
+    mpd = AutomatedMpdTick(config, build_estimation_model(config), start_inputs,
+                           trip=floor.programme) if controller == "automated_mpd" else None
     advised_at_frame = 0
     per_command = int(round(config.nmpc.sample_time_s / frame_s))
     advice = None
@@ -151,11 +150,9 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
                                       _setpoints(math.nan, trip_speed_mps), True, math.nan,
                                       m.return_flow_m3s, command)
         if mpd is not None and k % per_command == 0 and estimator.ukf.initialised:
-            hold = math.nan if step.phase == MOVING else m.block_position_m
             advice, _ = mpd.step(ukf_view(estimator.ukf, bool(m.string_flow_valid)),
-                                 _setpoints(target if step.phase == MOVING
-                                            else m.block_position_m, trip_speed_mps),
-                                 True, (trip_speed_mps, trip_speed_mps), hold)
+                                 _setpoints(math.nan, trip_speed_mps), True,
+                                 (trip_speed_mps, trip_speed_mps), math.nan, command)
             advised_at_frame = k
         if step.phase == MOVING and advice is not None and controller != "held_choke":
             block = drawworks.frame(advice.block_position_ref_m, m.block_position_m, step_s,
@@ -180,7 +177,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
                                          (k - advised_at_frame) * frame_s,
                                          advice.choke_flow_ref_m3s, m.choke_dp_pa, step_s,
                                          steps)
-        back = FrameOutput(u[2], u[2], inputs[2]) if baseline is None or advice is None \
+        back = FrameOutput(u[2], u[2], inputs[2]) if advice is None \
             else bpp.frame(advice.bpp_flow_m3s, step_s, steps)
         inputs[0], inputs[1], inputs[2], inputs[3] = block.output, valve.output, back.output, \
             pump.output
@@ -194,9 +191,11 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
 
 
 def _setpoints(block_target_m: float, trip_speed_mps: float) -> ActiveSetpoints:
-    """Case 2's setpoints with the stand's block target (the string's frame)."""
+    """trip_out's setpoints (Case 2's, the choke dp free to rise to the BHP band's bottom)
+    with the stand's block target (the string's frame)."""
     return ActiveSetpoints(bhp_ref_pa=BHP_REF_PA, bhp_band_pa=BHP_BAND_PA,
                            choke_dp_ref_pa=CHOKE_DP_PA, choke_dp_band_pa=5.0e5,
+                           choke_dp_band_upper_pa=6.63e7,
                            block_position_target_m=block_target_m,
                            trip_speed_limit_mps=trip_speed_mps, controller_enabled=True,
                            mud_pump_on=True)

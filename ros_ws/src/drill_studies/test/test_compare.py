@@ -249,3 +249,34 @@ def test_the_committed_results_page_is_its_json_rendered():
     rows = json.loads(page.with_suffix(".json").read_text())
     picture = compare._picture(page)
     assert compare.markdown(rows, picture.name if picture.exists() else None, made) == text
+
+
+def _trip_summary(rmse_bar, outside_s, stands_per_hour, tank_m3, under_pore_s=0.0):
+    return {"bhp_rmse_pa": rmse_bar * 1e5, "bhp_time_outside_s": outside_s,
+            "bhp_worst_excursion_pa": 10.0e5, "bhp_under_pore_s": under_pore_s,
+            "bhp_over_fracture_s": 0.0, "stands_tripped": 10,
+            "stands_per_hour": stands_per_hour, "trip_tank_discrepancy_m3": tank_m3}
+
+
+def test_the_multi_stand_trip_runs_under_the_controllers_that_plan_one():
+    items = compare.plan(["trip_out"], compare.CONTROLLERS, 2)
+    assert [(c, s) for _, c, s in items] == [("automated_mpd", 31), ("baseline", 31),
+                                             ("automated_mpd", 1031), ("baseline", 1031)]
+
+
+def test_the_multi_stand_table_gives_the_kpis_and_checks_them_per_run():
+    rows = [_row("trip_out", "automated_mpd", 31, _trip_summary(2.4, 560.0, 13.1, 0.034)),
+            _row("trip_out", "automated_mpd", 1031, _trip_summary(0.6, 90.0, 13.0, -0.020)),
+            _row("trip_out", "baseline", 31, _trip_summary(6.8, 1780.0, 13.05, 0.010)),
+            _row("trip_out", "baseline", 1031, _trip_summary(0.5, 1790.0, 13.07, 0.0,
+                                                               under_pore_s=1.5))]
+    text = compare.markdown(rows, None)
+    assert "## Multi-stand trips" in text
+    # mean / slowest stands per hour; mean / worst of the rest; the tank's size of miss in L
+    assert ("| trip_out | automated_mpd | 13.05 / 13.00 (slowest) | 1.50 / 2.40 | 325 / 560 | "
+            "32.5 / 56.0 | 10.00 / 10.00 | 0.0 / 0.0 | 27 / 34 | 50 / 50 | "
+            "seed 31: bhp_rmse_pa, outside_band_per_stand_s; seed 1031: "
+            "bhp_rmse_pa vs baseline |") in text
+    assert ("| seed 31: bhp_rmse_pa, outside_band_per_stand_s; seed 1031: "
+            "outside_band_per_stand_s, outside_window_s |") in text
+    assert "trip_out: not run under nmpc" in text
