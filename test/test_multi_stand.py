@@ -1,11 +1,13 @@
-"""Integration over DDS: a multi-stand trip through the whole graph in fast mode
+"""Integration over DDS: multi-stand trips through the whole graph in fast mode
 (test/scenarios/trip_out_2.yaml, two stands pulled under the PI baseline and under
-automated MPD, one connection between them and one after the last). The rig floor's node walks each stand through its
+automated MPD, one connection between them and one after the last;
+test/scenarios/trip_in_2.yaml, the string two stands short run back in under automated
+MPD, a connection before each stand). The rig floor's node walks each stand through its
 phases; the slips take the string's weight off the hook; the mud pump stops for each
-connection while the back-pressure pump runs; the plant racks each stand and the string's
-position counts from the new top; BHP stays inside the pore/fracture window; the trip sheet
-in the run's summary books each stand's hole fill against the steel a hand calculation
-gives."""
+connection while the back-pressure pump runs; the plant racks each stand (or makes it up)
+and the string's position counts from the new top; BHP stays inside the pore/fracture
+window; the trip sheet in the run's summary books each stand's hole fill (or returns)
+against the steel a hand calculation gives."""
 import json
 from pathlib import Path
 
@@ -18,16 +20,25 @@ from drill_rig import cli
 from drill_ros import topics
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]
-SCENARIO = Path(__file__).resolve().parent / "scenarios" / "trip_out_2.yaml"
+SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 STEEL_PER_STAND_M3 = 3.746e-3 * 28.0   # the top section's steel area (smeared joints) x 28 m
 BLOCK_WEIGHT_N = 3.5e5                  # config/well.yaml: the hook load off the string
+# per direction: the stands the string is racked (or made up) to, the position's step at
+# each connection (a stand less out of the hole counts from a top 28 m lower), the fill
+# sign (out: the trip tank fills the hole; in: the steel's returns)
+DIRECTION = {"out": ((28.0, 56.0), -28.0, 1.0), "in": ((28.0, 0.0), 28.0, -1.0)}
 
 
-@pytest.fixture(scope="module", params=("baseline", "automated_mpd"))
+@pytest.fixture(scope="module", params=(("trip_out_2", "baseline"),
+                                        ("trip_out_2", "automated_mpd"),
+                                        ("trip_in_2", "automated_mpd")),
+                ids=lambda p: "-".join(p))
 def run(tmp_path_factory, request):
-    code, run_dir = cli.run_scenario(SCENARIO, runs_dir=tmp_path_factory.mktemp("trip_out_2"),
+    scenario, controller = request.param
+    code, run_dir = cli.run_scenario(SCENARIOS / f"{scenario}.yaml",
+                                     runs_dir=tmp_path_factory.mktemp(scenario),
                                      domain_id=61, timeout_s=600, quiet=True,
-                                     controller=request.param)
+                                     controller=controller)
     assert code == 0, (run_dir / "launch.json").read_text()
     mcap = next(run_dir.glob("*.mcap"))
     floor, measurement, truth = {}, {}, {}
@@ -40,16 +51,21 @@ def run(tmp_path_factory, request):
 
 def test_each_stand_goes_through_its_phases_and_is_racked(run):
     floor, _, truth, _ = run
+    direction = floor[min(floor)].direction
+    racked_to, step_m, _ = DIRECTION[direction]
     phases = [floor[k].phase for k in sorted(floor)]
     walked = [p for i, p in enumerate(phases) if i == 0 or p != phases[i - 1]]
-    out = list(STAND_PHASES["out"])
-    assert walked == ["moving", *out[2:], *out, "done"]     # it starts on the move
-    assert floor[max(floor)].stands_pulled == 2
+    stand = list(STAND_PHASES[direction])
+    # pulling out it starts on the move (the string on the elevator); running in, in the
+    # slips with the pump ramping down for the first make-up
+    first = stand[1:] if direction == "out" else stand
+    assert walked == [*first, *stand, "done"]
+    assert floor[max(floor)].stands_pulled == racked_to[-1] / 28.0
     racked = [k for k in sorted(floor) if np.isfinite(floor[k].racked_to_m)]
-    assert [floor[k].racked_to_m for k in racked] == [28.0, 56.0]
-    for k in racked:      # the string's position counts from the new top: a stand less
+    assert [floor[k].racked_to_m for k in racked] == list(racked_to)
+    for k in racked:      # the string's position counts from the new top
         assert truth[k + 1].string_position_m == pytest.approx(
-            truth[k].string_position_m - 28.0, abs=0.01)
+            truth[k].string_position_m + step_m, abs=0.01)
 
 
 def test_the_slips_carry_the_string_and_the_pump_stops_for_the_connections(run):
@@ -67,13 +83,14 @@ def test_the_slips_carry_the_string_and_the_pump_stops_for_the_connections(run):
 
 
 def test_bhp_stays_inside_the_window_and_the_trip_sheet_books_the_steel(run):
-    *_, summary = run
+    floor, *_, summary = run
     assert summary["bhp_under_pore_s"] == 0.0 and summary["bhp_over_fracture_s"] == 0.0
     sheet = summary["trip_sheet"]
     assert [r["stand"] for r in sheet] == [1, 2] and summary["stands_tripped"] == 2
+    steel_m3 = DIRECTION[floor[min(floor)].direction][2] * STEEL_PER_STAND_M3
     for row in sheet:
-        assert row["expected_fill_m3"] == pytest.approx(STEEL_PER_STAND_M3, rel=0.01)
-        assert row["measured_fill_m3"] == pytest.approx(STEEL_PER_STAND_M3, abs=0.05)
+        assert row["expected_fill_m3"] == pytest.approx(steel_m3, rel=0.01)
+        assert row["measured_fill_m3"] == pytest.approx(steel_m3, abs=0.05)
         assert 0.0 < row["out_of_slips_s"] < row["end_s"] - row["start_s"]
     assert summary["trip_tank_discrepancy_m3"] == pytest.approx(
         sum(r["gain_m3"] for r in sheet))

@@ -34,9 +34,10 @@ class OperatingPoint:
 def operating_point(wm: hy.WellModel, circulation_m3s: float, choke_dp_pa: float,
                     bpp_flow_m3s: float) -> OperatingPoint:
     """The U-tube balance at a circulation rate: all annulus flows equal the bit flow,
-    p_1 = p_0 + choke dp, each node adds its hydrostatic head and friction, the string top
-    adds string friction and the bit/BHA loss. Circulation 0: the mud pump is off (string
-    top at atmosphere)."""
+    p_1 = p_0 + choke dp, each node adds its hydrostatic head and friction, the bit (its
+    height over the bottom node less that column) adds the bit/BHA loss, the string top
+    the string's friction less its column. Circulation 0: the mud pump is off (string top
+    at atmosphere)."""
     g, w = wm.geometry, wm.well
     rho_g = w.mud.density_kgm3 * w.gravity_mps2
     flows = np.full(wm.n - 1, float(circulation_m3s))
@@ -50,7 +51,7 @@ def operating_point(wm: hy.WellModel, circulation_m3s: float, choke_dp_pa: float
     if circulation_m3s > 0.0:
         a = 0.5 * w.mud.density_kgm3 / w.bit_nozzle_coefficient_m2 ** 2
         bit_dp = w.bha_loss_coefficient_pa_s_m3 * circulation_m3s + a * circulation_m3s ** 2
-        string_pressure = pressure + bit_dp
+        string_pressure = pressure - rho_g * g.bit_above_bhp_node_m + bit_dp
         pump = string_pressure - rho_g * g.bit_depth_m \
             + float(hy.string_friction(np, wm, circulation_m3s, 0.0))
     else:

@@ -101,6 +101,12 @@ class Scenario:
                           "pulls the slips, makes the connections and ramps the mud pump; the "
                           "schedule's block targets are then the floor's, not the file's")
 
+    @property
+    def pulled_at_start_m(self) -> float:
+        """The string's length off the configured one as the run starts [m]: a run-in
+        trip's stands (drill_core.tripping.programme), else none."""
+        return 0.0 if self.trip is None else self.trip.pulled_at_start_m
+
     def validate(self) -> None:
         times = [c.time_s for c in self.schedule]
         if times != sorted(times):

@@ -6,6 +6,7 @@ import pytest
 
 from drill_core.config import load_rig
 from drill_core.rig_root import config_dir
+from drill_core.scenario import load_scenario
 from drill_core.tripping.hoist import buoyed_weight_n, hoist_forces
 from drill_core.tripping.programme import TripProgramme
 from drill_core.tripping.sequence import (ARRIVAL_TOLERANCE_M, CONNECTION, DONE, MOVING,
@@ -201,3 +202,14 @@ def test_a_scenarios_trip_programme_is_refused_where_it_cannot_run(tmp_path, cha
     with pytest.raises(ConfigError) as info:
         load_scenario(path)
     assert key in str(info.value) and words in str(info.value), str(info.value)
+
+
+def test_a_run_in_starts_with_its_stands_racked_and_a_pull_out_with_none():
+    """trip_in starts on a string its stands short, the bit that much off the bottom, and
+    ends on the configured string; trip_out starts on the configured string."""
+    run_in = TripProgramme(direction="in", stands=10, stand_length_m=28.0)
+    assert (run_in.stands_pulled_at_start, run_in.pulled_at_start_m) == (10, 280.0)
+    assert TripProgramme(direction="out", stands=10).pulled_at_start_m == 0.0
+    scenarios = config_dir() / "scenarios"
+    assert load_scenario(scenarios / "trip_in.yaml")[0].pulled_at_start_m == 280.0
+    assert load_scenario(scenarios / "case2.yaml")[0].pulled_at_start_m == 0.0

@@ -52,7 +52,7 @@ class EstimatorNode(RigNode):
         ctx = load_context(self)
         self.ctx = ctx
         cfg = ctx.config
-        self.tick = EstimatorTick(cfg)
+        self.tick = EstimatorTick(cfg, ctx.scenario.pulled_at_start_m)
         self.ukf, self.watch, self.inputs = self.tick.ukf, self.tick.watch, self.tick.inputs
         self.frozen: tuple[str, ...] = ()
         self.steps = cfg.plant.steps_per_frame

@@ -58,7 +58,8 @@ def initial_state(em: EstimationModel, theta_initial: float, y, circulating: boo
     rho_g = (w.mud.density_kgm3 + em.density_offset_of(x)) * w.gravity_mps2
     if flow > 0.0:
         a_bit = 0.5 * w.mud.density_kgm3 / w.bit_nozzle_coefficient_m2 ** 2
-        x[em.string_pressure] = p_n - rho_g * y[0] + w.bha_loss_coefficient_pa_s_m3 * flow \
+        x[em.string_pressure] = p_n - rho_g * (g.bit_above_bhp_node_m + y[0]) \
+            + w.bha_loss_coefficient_pa_s_m3 * flow \
             + a_bit * flow ** 2
     else:
         x[em.string_pressure] = min(rho_g * (g.bit_depth_m - y[0]), p_n)

@@ -47,9 +47,14 @@ class TickResult:
 class EstimatorTick:
     """The UKF with its channel screen and input history, one sample at a time."""
 
-    def __init__(self, config: RigConfig):
+    def __init__(self, config: RigConfig, pulled_m: float = 0.0):
+        """The estimator of the string ``pulled_m`` short of the configured one (a run-in
+        trip's start, drill_core.scenario.Scenario.pulled_at_start_m)."""
         self.config = config
         self.ukf = RigUkf(config)
+        if pulled_m:
+            self.ukf.use_model(build_estimation_model(config, self.ukf.em.with_disturbance,
+                                                      pulled_m=pulled_m))
         self.watch = ChannelWatch(MEASUREMENT_NAMES, config.estimator.frozen_after_samples)
         self.inputs = ModelInputs(self.ukf.em, self.ukf.block_input,
                                   config.estimator.frozen_after_samples)

@@ -34,6 +34,19 @@ def _profile_bhp(ukf, flow):
 def test_the_start_is_a_steady_state_of_the_model(ukf, flow):
     """3 bar over the report's profile: every flow and pressure rate of the model is zero
     at the start with the inputs the filter then holds."""
+    _assert_steady_start(ukf, flow)
+
+
+@pytest.mark.parametrize("flow", [CIRCULATION, 0.0])
+def test_a_string_ten_stands_short_starts_steady_too(flow):
+    """A run-in trip's start (the bit 280 m over the bottom node): the inside of the
+    string at the bit carries that much less column."""
+    cfg = load_rig(CONFIG_DIR)
+    short = RigUkf(cfg, build_estimation_model(cfg, pulled_m=280.0), jit=False)
+    _assert_steady_start(short, flow)
+
+
+def _assert_steady_start(ukf, flow):
     em = ukf.em
     circulating = flow > 0.0
     y = [0.0, CHOKE_DP_PA, _profile_bhp(ukf, flow) + 3.0e5, flow if circulating else np.nan]

@@ -35,7 +35,8 @@ class FloorNode(RigNode):
             raise ValueError(f"scenario {ctx.scenario.name}: no trip programme (trip:) for "
                              "the rig floor")
         self.tick = FloorTick(ctx.config.well, ctx.scenario.trip,
-                              float(ctx.operating_point.inputs[U_BLOCK]), ctx.config.plant.step_s)
+                              float(ctx.operating_point.inputs[U_BLOCK]), ctx.config.plant.step_s,
+                              ctx.scenario.trip.stands_pulled_at_start)
         self.frame_ns = seconds_to_ns(ctx.config.plant.sensor_period_s)
         self.inbox = StampedInbox(("measurement", "drawworks"))
         self.status = StatusReporter(self, ctx.mode)

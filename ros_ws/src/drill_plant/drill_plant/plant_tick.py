@@ -26,9 +26,10 @@ class PlantTick:
 
     def __init__(self, config: RigConfig, op, scenario, seed: int):
         """The truth plant of ``config`` at rest at the operating point ``op``
-        (drill_core.operating_point) with ``scenario``'s events, noise seeded by ``seed``."""
+        (drill_core.operating_point, of the string the scenario starts with) with
+        ``scenario``'s events, noise seeded by ``seed``."""
         self.sim = PlantSimulator(config, plant_steady_state(len(op.annulus_pressure_pa), op),
-                                  seed)
+                                  seed, scenario.pulled_at_start_m)
         self.circulating = scenario.initial.circulation_m3s > 0.0
         self.events = scenario.events
         self.sensor_faults = SensorFaults(self.events, seed)

@@ -57,9 +57,12 @@ class Truth:
 class PlantSimulator:
     """The stochastic wellbore + hoisting plant, one sensor frame per call."""
 
-    def __init__(self, config: RigConfig, initial: SteadyState, seed: int):
+    def __init__(self, config: RigConfig, initial: SteadyState, seed: int,
+                 pulled_m: float = 0.0):
+        """The plant at ``initial`` (a steady state of the string ``pulled_m`` short of the
+        configured one), its noise seeded by ``seed``."""
         self.config = config
-        self._build(0.0)
+        self._build(pulled_m)
         self.layout = PlantLayout(self.wm.n)
         self._sensors = self.layout.sensor_map(self.config.well.choke_downstream_pressure_pa)
         # the surface-flow sensors draw from their own stream so the paper's four sensors

@@ -8,6 +8,7 @@ import pytest
 
 from drill_core.config import load_rig
 from drill_core.hydraulics import build_well_model
+from drill_core.operating_point import operating_point
 from drill_core.rig_root import config_dir
 from drill_plant import plant_model as pm
 from drill_plant.simulator import PlantSimulator
@@ -61,3 +62,28 @@ def test_racking_a_stand_keeps_the_bit_bhp_and_pit_where_they_were(pulled_twins)
     assert np.max(np.abs(bhp_gap)) < 0.05e5                  # 0.05 bar
     assert np.max(np.abs(pit_gap)) < 2e-5                    # 20 mL
     assert np.max(np.abs(bit_gap)) < 5e-3                    # 5 mm
+
+
+@pytest.mark.parametrize("pulled_m", [0.0, 280.0])
+def test_a_short_strings_operating_point_is_the_plants_steady_state(pulled_m):
+    """A run that starts ten stands short (trip_in) starts from the closed-form balance of
+    that string: the stand-pipe pressure that drives 1000 L/min through it, the inside of
+    the string at the bit a column of ``pulled_m`` lighter than at the bottom node. Held
+    there, the plant stays: its BHP and flows drift by no more than its noise in 20 s."""
+    cfg = load_rig(config_dir())
+    wm = build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
+                          cfg.plant.choke_regularisation_pa, pulled_m)
+    op = operating_point(wm, 1000.0 / 60000.0, 2.0e6, 0.0)
+    rho_g = cfg.well.mud.density_kgm3 * cfg.well.gravity_mps2
+    bit_dp = op.string_pressure_pa - (op.annulus_pressure_pa[-1] - rho_g * pulled_m)
+    assert 0.0 < bit_dp < 1.0e7                   # the bit's loss, the column taken off
+    sim = PlantSimulator(cfg, pm.plant_steady_state(wm.n, op), seed=3, pulled_m=pulled_m)
+    lay = sim.layout
+    u = np.repeat(op.inputs[:, None], sim.steps_per_frame, axis=1)
+    bhp, flow = [], []
+    for _ in range(200):
+        sim.advance(u)
+        bhp.append(sim.state[lay.pressure(wm.n)])
+        flow.append(sim.state[lay.string_flow])
+    assert np.mean(bhp[-50:]) == pytest.approx(op.annulus_pressure_pa[-1], abs=1.0e5)
+    assert np.mean(flow[-50:]) == pytest.approx(op.string_flow_m3s, rel=0.02)

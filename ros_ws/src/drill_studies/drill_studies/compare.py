@@ -3,8 +3,8 @@
 Every run goes through the whole process graph in fast mode (reproducible: same scenario
 files and seeds, same numbers). The trip cases (Cases 1-3: one stand out and back in) run
 under the case's NMPC, automated MPD and the PI baseline, each on the case's seed and two
-more; Case 4 (set-point steps) under its NMPC; the multi-stand trip (trip_out: ten stands
-through their connections) under the controllers that plan one
+more; Case 4 (set-point steps) under its NMPC; the multi-stand trips (trip_out, trip_in: ten
+stands through their connections) under the controllers that plan one
 (drill_studies.multi_stand_section). The figures come from each run's
 summary.json (report.summarise) and go to a Markdown file, in bar at this display edge,
 as mean and worst over the seeds, with the paper's Table 7 beside them and the issue's

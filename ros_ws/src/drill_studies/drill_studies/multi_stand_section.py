@@ -8,7 +8,7 @@ import numpy as np
 from drill_core.scenario import MULTI_STAND_CONTROLLERS
 from drill_core.units import L_PER_M3, PA_PER_BAR
 
-MULTI_STAND_CASES = ("trip_out",)
+MULTI_STAND_CASES = ("trip_out", "trip_in")
 # per run (SI): BHP RMSE over the trip, band time per stand (connections included), and no
 # time outside the pore / fracture window
 TARGETS = {"bhp_rmse_pa": 0.7e5, "outside_band_per_stand_s": 10.0, "outside_window_s": 0.0}
@@ -50,10 +50,12 @@ def section(by: dict, controllers) -> list[str]:
         return []
     lines = ["", "## Multi-stand trips (mean / worst over seeds)", "",
              "A whole section tripped through its connections (`config/scenarios/trip_out.yaml`: "
-             "ten 28 m stands, 90 s slips to slips, the mud pump ramped down and up over 30 s "
-             "each): BHP figures over the whole run, connections included; *stands per hour* "
-             "from the first stand's pick-up to the last one's slips; *trip tank* the trip "
-             "sheet's measured less expected hole fill at the end. "
+             "ten 28 m stands pulled out, 90 s slips to slips, the mud pump ramped down and up "
+             "over 30 s each; `trip_in.yaml`: the same ten run back in from a string ten "
+             "stands short): BHP figures over the whole run, connections included; *stands "
+             "per hour* slips to slips, from the first stand's start to the last one's end; "
+             "*trip tank* the trip sheet's measured less expected hole fill (or returns) at "
+             "the end. "
              f"Controllers that plan a multi-stand trip: {', '.join(MULTI_STAND_CONTROLLERS)}.",
              "",
              "| case | controller | stands per hour | BHP RMSE [bar] | outside band [s] | "

@@ -29,3 +29,15 @@ class TripProgramme:
     discrepancy_alarm_m3: float = param(
         "m^3", 0.0, 10.0, lo_open=True, default=0.3,
         doc="the trip sheet alarms when measured and expected fill differ by more")
+
+    @property
+    def stands_pulled_at_start(self) -> int:
+        """Stands off the configured string as the trip starts: none pulling out; running
+        in, the trip's stands, racked at the start (the trip ends on the configured
+        string, the bit where it was configured)."""
+        return self.stands if self.direction == "in" else 0
+
+    @property
+    def pulled_at_start_m(self) -> float:
+        """The string's length off the configured one as the trip starts [m]."""
+        return self.stands_pulled_at_start * self.stand_length_m
