@@ -29,6 +29,7 @@ from drill_analysis import report
 from drill_bringup import runs
 from drill_studies import batch, multi_stand_section
 from drill_studies.multi_stand_section import MULTI_STAND_CASES
+from drill_studies.table_cells import missed_targets, stat as _stat
 from drill_core.mismatch import load_suite, resolve
 from drill_core.scenario import MULTI_STAND_CONTROLLERS, load_scenario
 from drill_core.units import L_PER_M3, PA_PER_BAR
@@ -143,13 +144,6 @@ def misses(f: dict, baseline: dict | None) -> list[str]:
     return out
 
 
-def _stat(values, scale: float, digits: int, worst=max) -> str:
-    values = [v for v in values if v is not None]
-    if not values:
-        return "n/a"
-    return f"{np.mean(values) / scale:.{digits}f} / {worst(values) / scale:.{digits}f}"
-
-
 def _fallbacks(group, fs) -> str:
     """The fallbacks of a group of runs (n/a for a controller that has none)."""
     return "n/a" if fs[0]["fallback_share"] is None else \
@@ -206,9 +200,8 @@ def markdown(rows: list[dict], plot_name: str | None, made: str = "") -> str:
             if fs[0]["solve_median_s"] is not None:
                 solver = " / ".join(_stat([f[k] for f in fs], 1e-3, 1).split(" / ")[1]
                                     for k in ("solve_median_s", "solve_p99_s", "solve_max_s"))
-            failing = [(r["seed"], misses(f, base.get(r["seed"]) if controller != "baseline"
-                                          else None)) for r, f in zip(group, fs)]
-            failed = "; ".join(f"seed {s}: {', '.join(m)}" for s, m in failing if m) or "none"
+            failed = missed_targets(group, fs, lambda r, f: misses(
+                f, base.get(r["seed"]) if controller != "baseline" else None))
             lines.append(
                 f"| {case} | {controller} | {_stat([f['bhp_rmse_pa'] for f in fs], PA_PER_BAR, 2)} | "
                 f"{_stat([f['bhp_time_outside_s'] for f in fs], 1.0, 1)} | "

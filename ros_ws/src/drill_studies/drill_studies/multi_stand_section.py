@@ -7,6 +7,7 @@ import numpy as np
 
 from drill_core.scenario import MULTI_STAND_CONTROLLERS
 from drill_core.units import L_PER_M3, PA_PER_BAR
+from drill_studies.table_cells import missed_targets, stat as _stat
 
 MULTI_STAND_CASES = ("trip_out", "trip_in")
 # per run (SI): BHP RMSE over the trip, band time per stand (connections included), and no
@@ -36,13 +37,6 @@ def misses(k: dict, baseline: dict | None) -> list[str]:
     return out
 
 
-def _stat(values, scale: float, digits: int) -> str:
-    values = [v for v in values if v is not None]
-    if not values:
-        return "n/a"
-    return f"{np.mean(values) / scale:.{digits}f} / {max(values) / scale:.{digits}f}"
-
-
 def section(by: dict, controllers) -> list[str]:
     """The multi-stand table from the compared rows grouped by (case, controller)."""
     cases = [c for c in MULTI_STAND_CASES if any((c, k) in by for k in controllers)]
@@ -69,9 +63,8 @@ def section(by: dict, controllers) -> list[str]:
             if not group:
                 continue
             ks = [kpis(r["summary"]) for r in group]
-            failing = [(r["seed"], misses(k, base.get(r["seed"]) if controller != "baseline"
-                                          else None)) for r, k in zip(group, ks)]
-            failed = "; ".join(f"seed {s}: {', '.join(m)}" for s, m in failing if m) or "none"
+            failed = missed_targets(group, ks, lambda r, k: misses(
+                k, base.get(r["seed"]) if controller != "baseline" else None))
             stands_h = [k["stands_per_hour"] for k in ks]
             lines.append(
                 f"| {case} | {controller} | "
@@ -83,10 +76,10 @@ def section(by: dict, controllers) -> list[str]:
                 f"{_stat([k['outside_window_s'] for k in ks], 1.0, 1)} | "
                 f"{_stat([abs(k['trip_tank_discrepancy_m3']) for k in ks], 1.0 / L_PER_M3, 0)} | "
                 f"{_stat([r.get('wall_s') for r in group], 1.0, 0)} | {failed} |")
-        absent = [c for c in ("nmpc",) if (case, c) not in by]
-        if absent:
-            lines += ["", f"{case}: not run under {', '.join(absent)} (the NMPC does not plan a "
-                      "multi-stand trip yet: `rig run` refuses it)."]
+    absent = [c for c in controllers if c not in MULTI_STAND_CONTROLLERS]
+    if absent:
+        lines += ["", f"Not run under {', '.join(absent)}: the NMPC does not plan a multi-stand "
+                  "trip yet (`rig run` refuses it)."]
     lines += ["", "Targets per run (issue: trip a whole section): BHP RMSE <= 0.7 bar over the "
               "trip, <= 10 s outside the band per stand, no time outside the pore / fracture "
               "window, and BHP RMSE and band time below the PI baseline's on the same seed; "

@@ -279,4 +279,4 @@ def test_the_multi_stand_table_gives_the_kpis_and_checks_them_per_run():
             "bhp_rmse_pa vs baseline |") in text
     assert ("| seed 31: bhp_rmse_pa, outside_band_per_stand_s; seed 1031: "
             "outside_band_per_stand_s, outside_window_s |") in text
-    assert "trip_out: not run under nmpc" in text
+    assert "Not run under nmpc: the NMPC does not plan a multi-stand trip yet" in text
