@@ -87,20 +87,26 @@ GRAPH_CONFIGURATIONS = (("separate", "single_threaded"), ("separate", DEFAULT_EX
                         ("actuators", DEFAULT_EXECUTOR), ("plant", DEFAULT_EXECUTOR),
                         ("two", DEFAULT_EXECUTOR), (None, DEFAULT_EXECUTOR))
 DEFAULT_WALL_GOAL = 1.05        # the default command's wall over the fastest layout's
+# a whole section tripped (drill_core.tripping) under each controller that plans one, in the
+# default layout, one run each; the goal: ten stands in under two minutes of wall
+MULTI_STAND_RUNS = (("trip_out", "automated_mpd"), ("trip_out", "baseline"),
+                    ("trip_in", "automated_mpd"), ("trip_in", "baseline"))
+MULTI_STAND_WALL_GOAL_S = 120.0
 
 
 def graph_rtf(scenario: str, domain_id: int, layout: str | None = "separate",
-              executor: str = DEFAULT_EXECUTOR) -> dict:
+              executor: str = DEFAULT_EXECUTOR, controller: str | None = None) -> dict:
     """Wall time of a whole scenario through the graph in fast mode in a process layout
-    (None: the default one, as ``rig run`` without ``--layout``) with an executor: from starting the processes to the recorder closing its file (the
-    report afterwards is timed apart), and where the processes' time went
-    (drill_ros.budget)."""
+    (None: the default one, as ``rig run`` without ``--layout``) with an executor, under
+    its own controller or ``controller``: from starting the processes to the recorder
+    closing its file (the report afterwards is timed apart), and where the processes' time
+    went (drill_ros.budget)."""
     path = runs.scenario_path(scenario)
     with _executor(executor), tempfile.TemporaryDirectory() as tmp:
         scenario_obj, _ = load_scenario_config(path, runs.ROOT / "config")
         start = time.monotonic()
         code, run_dir = runs.run_scenario(path, runs_dir=Path(tmp), domain_id=domain_id,
-                                          quiet=True, layout=layout)
+                                          quiet=True, layout=layout, controller=controller)
         total = time.monotonic() - start
         launch = json.loads((run_dir / "launch.json").read_text())
         if code != 0:
@@ -108,7 +114,7 @@ def graph_rtf(scenario: str, domain_id: int, layout: str | None = "separate",
         rows = budget.summarise(run_dir / "budget")
     wall = launch["wall_time_s"]
     return {"scenario": scenario, "layout": launch["layout"], "default": layout is None,
-            "executor": executor,
+            "executor": executor, "controller": launch["controller"],
             "simulated_s": scenario_obj.duration_s, "wall_s": wall,
             "rtf": wall / scenario_obj.duration_s, "report_s": total - wall, "budget": rows}
 
@@ -245,6 +251,19 @@ def write_doc(results: dict, path: Path) -> None:
                       f"{g['executor']} executor", "",
                       budget.markdown(g["budget"]), ""]
         lines += [budget.__doc__.split("\n\n")[1].replace("\n", " "), ""]
+    if "multi_stand" in results:
+        lines += ["## Multi-stand trips", "",
+                  "Ten 28 m stands through their connections (`trip_out`, `trip_in`; "
+                  "docs/results.md, *Multi-stand trips*) through the graph in fast mode in the "
+                  "default layout, one run each, from process start to the recording closed "
+                  f"(goal: under {MULTI_STAND_WALL_GOAL_S:.0f} s of wall):", "",
+                  "| scenario | controller | simulated | wall | real-time factor | goal |",
+                  "| --- | --- | --- | --- | --- | --- |"]
+        lines += [f"| {m['scenario']} | {m['controller']} | {m['simulated_s']:.0f} s | "
+                  f"{m['wall_s']:.1f} s | {m['rtf']:.3f} | "
+                  f"{'met' if m['wall_s'] < MULTI_STAND_WALL_GOAL_S else 'missed'} |"
+                  for m in results["multi_stand"]]
+        lines.append("")
     if "drilling" in results:
         lines += ["## Drilling mode (Paper IV)", "",
                   "Each drilling scenario's simulated time against the string model alone (CPU "
@@ -298,6 +317,11 @@ def main(argv=None) -> int:
             results["graph"].append(
                 median_run(lambda: graph_rtf("case2", domain, layout, executor)))
             print(f"[bench] case2 graph ({layout}, {executor}): {_walls(results['graph'][-1])}",
+                  flush=True)
+        results["multi_stand"] = [graph_rtf(name, domain, None, DEFAULT_EXECUTOR, controller)
+                                  for name, controller in MULTI_STAND_RUNS]
+        for m in results["multi_stand"]:
+            print(f"[bench] {m['scenario']} ({m['controller']}): {m['wall_s']:.1f} s wall",
                   flush=True)
         results["drilling"] = [drilling_speed(name, domain) for name in DRILLING_SCENARIOS]
         for d in results["drilling"]:
