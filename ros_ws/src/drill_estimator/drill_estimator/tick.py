@@ -49,7 +49,9 @@ class EstimatorTick:
 
     def __init__(self, config: RigConfig, pulled_m: float = 0.0):
         """The estimator of the string ``pulled_m`` short of the configured one (a run-in
-        trip's start, drill_core.scenario.Scenario.pulled_at_start_m)."""
+        trip's start, drill_core.scenario.Scenario.pulled_at_start_m): that string's model
+        with the configured string's tuning and scaling, as after any connection
+        (``RigUkf.use_model``)."""
         self.config = config
         self.ukf = RigUkf(config)
         if pulled_m:

@@ -147,11 +147,11 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
         target = step.bit_height_target_m - floor.pulled_m
         if baseline is not None and k % per_command == 0:
             advice, _ = baseline.step(m.block_position_m, m.bhp_pa,
-                                      _setpoints(math.nan, trip_speed_mps), True, math.nan,
+                                      _setpoints(trip_speed_mps), True, math.nan,
                                       m.return_flow_m3s, command)
         if mpd is not None and k % per_command == 0 and estimator.ukf.initialised:
             advice, _ = mpd.step(ukf_view(estimator.ukf, bool(m.string_flow_valid)),
-                                 _setpoints(math.nan, trip_speed_mps), True,
+                                 _setpoints(trip_speed_mps), True,
                                  (trip_speed_mps, trip_speed_mps), math.nan, command)
             advised_at_frame = k
         if step.phase == MOVING and advice is not None and controller != "held_choke":
@@ -190,13 +190,13 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     return TripRun(sim, floor, sheets, alarms, log, tank_start_m3 - tank_end_m3)
 
 
-def _setpoints(block_target_m: float, trip_speed_mps: float) -> ActiveSetpoints:
-    """trip_out's setpoints (Case 2's, the choke dp free to rise to the BHP band's bottom)
-    with the stand's block target (the string's frame)."""
+def _setpoints(trip_speed_mps: float) -> ActiveSetpoints:
+    """trip_out's setpoints (Case 2's, the choke dp free to rise to the BHP band's bottom);
+    no block target: the advisors take each stand's from the floor's command."""
     return ActiveSetpoints(bhp_ref_pa=BHP_REF_PA, bhp_band_pa=BHP_BAND_PA,
                            choke_dp_ref_pa=CHOKE_DP_PA, choke_dp_band_pa=5.0e5,
                            choke_dp_band_upper_pa=6.63e7,
-                           block_position_target_m=block_target_m,
+                           block_position_target_m=math.nan,
                            trip_speed_limit_mps=trip_speed_mps, controller_enabled=True,
                            mud_pump_on=True)
 
