@@ -1,12 +1,25 @@
 """Fixtures every test may ask for: the rig's configuration as committed (config/), its
-plant well model, and a scratch directory for run directories."""
+plant well model, and a scratch directory for run directories; and, once per session, the
+tests' ROS domains cleared of dead shared-memory ports (drill_bringup.shm_ports)."""
 from __future__ import annotations
 
 import pytest
 
+from drill_bringup import shm_ports
 from drill_core import hydraulics as hy
 from drill_core.config import load_rig
 from drill_core.rig_root import config_dir
+
+
+TEST_DOMAINS = range(40, 99)     # the tests' fixed ROS domains (drill_bringup.launcher.RUN_DOMAINS)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _test_domains_without_dead_ports():
+    """A test that starts DDS processes itself (not through the launcher, which clears its
+    domain) must not meet a port a killed process left in its domain."""
+    for domain in TEST_DOMAINS:
+        shm_ports.remove_dead_ports(domain)
 
 
 @pytest.fixture(scope="session")

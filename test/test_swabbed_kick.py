@@ -1,27 +1,28 @@
 """Integration over DDS: a kick swabbed in on a multi-stand trip
-(config/scenarios/trip_out_swabbed_kick.yaml: four stands pulled under the PI baseline into a
-zone whose pore pressure is 7 bar under the BHP reference, the trip sheet's alarm limit
-0.1 m^3). The well flows; the protection's live trip sheet raises trip_tank_gain from the
-trip tank against the steel tripped; the report's sheet, made afterwards from the same
-recording, reads each measurement with the same floor command and books the same alarm and
-the influx the truth recorded."""
+(test/scenarios/trip_out_swabbed_kick_2.yaml, config/scenarios/trip_out_swabbed_kick.yaml
+cut to two stands: pulled under the PI baseline into a zone whose pore pressure is 4 bar
+under the BHP reference, the trip sheet's alarm limit 0.1 m^3). The well flows; the
+protection's live trip sheet raises trip_tank_gain from the trip tank against the steel
+tripped; the report's sheet, made afterwards from the same recording, reads each
+measurement with the same floor command and books the same alarm and the influx the truth
+recorded."""
 import json
+from pathlib import Path
 
 import pytest
 
 from drill_bag import mcap_io
-from drill_bringup import runs
 from drill_rig import cli
 from drill_ros import topics
 from drill_ros.stamps import to_ns
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]
+SCENARIO = Path(__file__).resolve().parent / "scenarios" / "trip_out_swabbed_kick_2.yaml"
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    code, run_dir = cli.run_scenario(runs.scenario_path("trip_out_swabbed_kick"),
-                                     runs_dir=tmp_path_factory.mktemp("swabbed_kick"),
+    code, run_dir = cli.run_scenario(SCENARIO, runs_dir=tmp_path_factory.mktemp("swabbed_kick"),
                                      domain_id=62, timeout_s=600, quiet=True)
     assert code == 0, (run_dir / "launch.json").read_text()
     mcap = next(run_dir.glob("*.mcap"))

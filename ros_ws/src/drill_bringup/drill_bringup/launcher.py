@@ -3,7 +3,8 @@
 In the default layout every node runs as ``python -m <module> --ros-args -p ...``; a
 process layout (drill_ros.graph.LAYOUTS) puts groups of nodes into one container
 process each (drill_ros.container). Every process runs on an isolated ROS_DOMAIN_ID
-with localhost discovery; its output goes to ``<run>/logs/<process>.log`` and its time
+with localhost discovery (the domain's dead shared-memory ports removed first,
+drill_bringup.shm_ports); its output goes to ``<run>/logs/<process>.log`` and its time
 budget to ``<run>/budget/<process>.json``. The recorder starts first and stops last. In fast mode
 the plant starts the lockstep once every subscription the graph needs is
 connected, and exits when the scenario ends (so does the estimator, once it has
@@ -33,6 +34,8 @@ from pathlib import Path
 from drill_ros import graph as graph_decl
 from drill_ros import topics
 from drill_ros.budget import BUDGET_DIR_ENV
+
+from drill_bringup import shm_ports
 
 LOG_TAIL_LINES = 15
 CONSOLE_PORT = 8080
@@ -278,9 +281,11 @@ class Launch:
         self.cpus = cpu_sets(self.processes, sorted(os.sched_getaffinity(0))) \
             if pin_cpus and fast else {}
         self.niceness = dict(FAST_NICENESS) if fast else {}
+        self.removed_shm_ports: list[int] = []
 
     def start(self) -> None:
         self.logs.mkdir(parents=True, exist_ok=True)
+        self.removed_shm_ports = shm_ports.remove_dead_ports(int(self.env["ROS_DOMAIN_ID"]))
         for spec in self.processes:
             log = open(self.logs / f"{spec.name}.log", "w", encoding="utf-8")
             proc = self.procs[spec.name] = subprocess.Popen(

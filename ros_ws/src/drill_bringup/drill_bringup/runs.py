@@ -199,6 +199,9 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     say(f"[rig] {scenario.name}: {scenario.description} ({mode} mode, logs in {run_dir / 'logs'})")
     started = time.monotonic()
     launch.start()
+    if launch.removed_shm_ports:
+        say(f"[rig] removed {len(launch.removed_shm_ports)} dead shared-memory ports of ROS domain "
+            f"{domain_id} (left by a process killed in an earlier run; drill_bringup.shm_ports)")
     if realtime:
         say(f"[rig] ROS_DOMAIN_ID {launch.env['ROS_DOMAIN_ID']} (operator CLI: "
             f"python -m drill_hmi.operator_cli --domain {launch.env['ROS_DOMAIN_ID']} watch)")
@@ -228,6 +231,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
          "scenario": str(path), "mode": mode, "controller": controller, "seed": seed,
          "mismatch": None if truth is None else truth[0],
          "layout": layout, "nodes": sorted(names), "peers": list(peers),
+         "removed_shm_ports": launch.removed_shm_ports,
          "parameters": {n.name: n.params for n in nodes if n.name in names}},
         indent=2))
     if not ok:

@@ -152,8 +152,9 @@ def test_trim_integrates_the_estimated_error_and_is_limited(rig, em):
     cfg = rig.automated_mpd
     low = 6.85e7 - 1.0e5                                          # BHP estimated 1 bar low
     c = mpd.step(_estimate(em, low), _setpoints(), 6.85e7)
-    assert c.trim_pa == pytest.approx(1.0e5 * rig.nmpc.sample_time_s / cfg.trim_time_constant_s)
-    for _ in range(10000):
+    per_sample_pa = 1.0e5 * rig.nmpc.sample_time_s / cfg.trim_time_constant_s
+    assert c.trim_pa == pytest.approx(per_sample_pa)
+    for _ in range(math.ceil(cfg.trim_limit_pa / per_sample_pa) + 10):    # past the limit
         c = mpd.step(_estimate(em, low), _setpoints(), 6.85e7)
     assert c.trim_pa == pytest.approx(cfg.trim_limit_pa)
     nan = mpd.step(_estimate(em, math.nan), _setpoints(), 6.85e7)   # a NaN BHP changes nothing
