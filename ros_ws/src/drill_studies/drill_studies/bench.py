@@ -31,6 +31,7 @@ from drill_core import hydraulics as hy
 from drill_core.scenario import load_scenario_config
 from drill_plant.plant_model import steady_state
 from drill_plant.simulator import PlantSimulator
+from drill_studies import sweep_bench
 
 PAPER_SOLVE_S = 16.4
 REPEATS = 3
@@ -202,20 +203,23 @@ def write_doc(results: dict, path: Path) -> None:
         f"({platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
         f"Python {platform.python_version()}). One bench run; all ratios below come from it.",
         "",
-        "## Plant",
-        "",
-        "| quantity | value |",
-        "| --- | --- |",
-        f"| one 0.1 s plant frame (10 steps x 2 SRK substeps, compiled CasADi) | "
-        f"{results['plant']['plant_frame_median_s'] * 1e3:.3f} ms |",
-        f"| one 0.01 s plant step | {results['plant']['plant_step_median_s'] * 1e6:.1f} us |",
-        f"| plant core alone, real-time factor | {results['plant']['plant_core_rtf']:.4f} |",
-        *(f"| plant + 4 actuators, 600 s Case 2 (fast mode), layout {r['layout']}, "
-          f"{r['executor']} executor, median of {len(r['walls_s'])} (range) | "
-          f"{_walls(r)} wall, RTF {r['rtf']:.3f} (target: <= 6 s) |"
-          for r in results["plant_actuators"]),
-        "",
     ]
+    if "plant" in results:
+        lines += [
+            "## Plant",
+            "",
+            "| quantity | value |",
+            "| --- | --- |",
+            f"| one 0.1 s plant frame (10 steps x 2 SRK substeps, compiled CasADi) | "
+            f"{results['plant']['plant_frame_median_s'] * 1e3:.3f} ms |",
+            f"| one 0.01 s plant step | {results['plant']['plant_step_median_s'] * 1e6:.1f} us |",
+            f"| plant core alone, real-time factor | {results['plant']['plant_core_rtf']:.4f} |",
+            *(f"| plant + 4 actuators, 600 s Case 2 (fast mode), layout {r['layout']}, "
+              f"{r['executor']} executor, median of {len(r['walls_s'])} (range) | "
+              f"{_walls(r)} wall, RTF {r['rtf']:.3f} (target: <= 6 s) |"
+              for r in results["plant_actuators"]),
+            "",
+        ]
     for key, title in (("estimator", "Estimator"), ("nmpc", "NMPC")):
         if key in results:
             lines += [f"## {title}", "", "| quantity | value |", "| --- | --- |"]
@@ -238,9 +242,9 @@ def write_doc(results: dict, path: Path) -> None:
                   for g in results["graph"]]
         lines.append("")
         default = [g for g in results["graph"] if g.get("default")]
-        if default:
-            fastest = min((g for g in results["graph"] if not g.get("default")),
-                          key=lambda g: g["wall_s"])
+        layouts = [g for g in results["graph"] if not g.get("default")]
+        if default and layouts:
+            fastest = min(layouts, key=lambda g: g["wall_s"])
             ratio = default[0]["wall_s"] / fastest["wall_s"]
             lines += [f"The command users run (`rig run case2`, no `--layout`: "
                       f"{default[0]['layout']}) took {ratio:.2f} times the fastest layout's "
@@ -276,6 +280,8 @@ def write_doc(results: dict, path: Path) -> None:
                   f"{d['simulated_s'] / d['model_cpu_s']:.0f} | {d['graph_wall_s']:.1f} s | "
                   f"{d['simulated_s'] / d['graph_wall_s']:.2f} |" for d in results["drilling"]]
         lines.append("")
+    if "sweeps" in results:
+        lines += sweep_bench.markdown(**results["sweeps"])
     if "realtime" in results:
         lines += ["## Realtime margins", "",
                   "The short trip in realtime mode: how late the plant's 0.1 s frames started "
@@ -289,13 +295,36 @@ def write_doc(results: dict, path: Path) -> None:
     path.write_text("\n".join(lines))
 
 
+def _sweeps(default: dict) -> dict:
+    """The sweep section's results against ``default``, Case 2's run alone in the default
+    layout (graph_rtf's median)."""
+    case, controller, single = "case2", default["controller"], default["wall_s"]
+    cpu = sum(row["cpu_s"] for row in default["budget"])
+    results = sweep_bench.sweep_efficiency(case, controller, single, cpu)
+    for r in results:
+        print(f"[bench] sweep on the {r['pool']}: {r['wall_s']:.0f} s for {r['runs']} runs, "
+              f"efficiency {r['efficiency']:.2f}", flush=True)
+    return {"results": results, "case": case, "controller": controller, "single_wall_s": single,
+            "single_cpu_s": cpu}
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="bench", description=__doc__)
     parser.add_argument("--output", type=Path, default=runs.ROOT / "docs" / "benchmarks.md")
     parser.add_argument("--skip-graph", action="store_true",
                         help="skip the Case 2 runs through the graph and the realtime runs")
+    parser.add_argument("--sweeps-only", action="store_true",
+                        help="only Case 2 alone in the default layout and the sweeps, to "
+                             "--output (which must then be given)")
     args = parser.parse_args(argv)
     domain = launcher.default_domain_id()
+    if args.sweeps_only:
+        if "--output" not in " ".join(argv or sys.argv):
+            parser.error("--sweeps-only writes a partial page: give --output")
+        default = median_run(lambda: graph_rtf("case2", domain, None, DEFAULT_EXECUTOR))
+        write_doc({"graph": [default], "sweeps": _sweeps(default)}, args.output)
+        print(f"[bench] wrote {args.output}")
+        return 0
     results = {"plant": plant_frame_cost()}
     print(f"[bench] plant frame {results['plant']['plant_frame_median_s'] * 1e3:.3f} ms", flush=True)
     results["plant_actuators"] = [
@@ -318,6 +347,7 @@ def main(argv=None) -> int:
                 median_run(lambda: graph_rtf("case2", domain, layout, executor)))
             print(f"[bench] case2 graph ({layout}, {executor}): {_walls(results['graph'][-1])}",
                   flush=True)
+        results["sweeps"] = _sweeps(next(g for g in results["graph"] if g["default"]))
         results["multi_stand"] = [graph_rtf(name, domain, None, DEFAULT_EXECUTOR, controller)
                                   for name, controller in MULTI_STAND_RUNS]
         for m in results["multi_stand"]:
