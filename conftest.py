@@ -6,12 +6,10 @@ from __future__ import annotations
 import pytest
 
 from drill_bringup import shm_ports
+from drill_bringup.launcher import TEST_DOMAINS
 from drill_core import hydraulics as hy
 from drill_core.config import load_rig
 from drill_core.rig_root import config_dir
-
-
-TEST_DOMAINS = range(40, 99)     # the tests' fixed ROS domains (drill_bringup.launcher.RUN_DOMAINS)
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -39,7 +39,8 @@ from drill_bringup import shm_ports
 
 LOG_TAIL_LINES = 15
 CONSOLE_PORT = 8080
-RUN_DOMAINS = range(1, 40)       # safe DDS domain ids (0-101) left free by the tests (40-98)
+TEST_DOMAINS = range(40, 99)     # the tests' fixed DDS domain ids (of the safe 0-101)
+RUN_DOMAINS = range(1, TEST_DOMAINS.start)   # the runs' own: left free by the tests
 LOCK_DIR = Path(tempfile.gettempdir()) / "drill_rig_domains"
 _held_domains: list = []         # open lock files: a domain is ours while this process lives
 
@@ -231,7 +232,7 @@ def isolated_env(domain_id: int, peers: tuple[str, ...] = ()) -> dict:
 
 def default_domain_id() -> int:
     """A ROS domain no other run on this machine holds, so parallel runs never see each
-    other: the first free one of RUN_DOMAINS (clear of the tests' fixed domains 40-98),
+    other: the first free one of RUN_DOMAINS (clear of the tests' fixed TEST_DOMAINS),
     held by an flock on a lock file until this process exits."""
     LOCK_DIR.mkdir(parents=True, exist_ok=True)
     start = os.getpid() % len(RUN_DOMAINS)

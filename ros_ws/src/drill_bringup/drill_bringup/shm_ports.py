@@ -55,10 +55,10 @@ def port_files(port: int, shm_dir: Path = SHM_DIR) -> list[Path]:
             shm_dir / f"sem.{name}_mutex"]
 
 
-def dead_ports(domain_id: int, shm_dir: Path = SHM_DIR, now: float | None = None) -> list[int]:
+def dead_ports(domain_id: int, shm_dir: Path = SHM_DIR) -> list[int]:
     """The ports of ``domain_id`` in ``shm_dir`` that no live process listens on."""
     ports = domain_ports(domain_id)
-    now = time.time() if now is None else now
+    now = time.time()
     try:
         names = os.listdir(shm_dir)
     except FileNotFoundError:       # no POSIX shared memory here: nothing to clean
