@@ -40,6 +40,7 @@ from drill_core.config import RigConfig
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.integrators import euler_step, rk4_step
 from drill_core.rheology import wall_stress_magnitude
+from drill_core.table_tape import table_call
 from drill_core.state_layout import (MEASUREMENT_NAMES, POSITION, VELOCITY, WellboreLayout,  # noqa: F401 (MEASUREMENT_NAMES re-exported)
                                      hydraulic_state_names)
 BLOCK_INTEGRAL = "block_integral_m_s"
@@ -108,7 +109,7 @@ class NominalFriction:
         for c, a, kc, d in self._paths[k]:
             v = flow_m3s / a - kc * string_velocity_mps
             if xp is CASADI:
-                tau = self._tables[d](v)
+                tau = table_call(self._tables[d], v)
             else:
                 v = np.asarray(v, dtype=float)
                 tau = np.asarray(self._tables[d](v.reshape(1, -1)), dtype=float).reshape(v.shape)

@@ -8,6 +8,8 @@ third-order Runge-Kutta for the drift plus g dW.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 # Butcher-type coefficients as printed in the thesis (3 stages), checked against the
 # deterministic order-3 conditions: sum(alpha) = 1, alpha.c = 1/2, alpha.c^2 = 1/3,
 # alpha.A.c = 1/6 (see test_integrators.py).
@@ -56,3 +58,18 @@ def rk4_step(drift, x, h: float):
 def euler_step(drift, x, h: float):
     """Forward Euler step (the paper's NMPC discretisation)."""
     return x + h * drift(x)
+
+
+@dataclass(frozen=True)
+class WithSensitivity:
+    """A state and its sensitivity d x / d p (forward), stepped by ``rk4_step`` or
+    ``euler_step`` like a state: they take only sums and products with numbers. The drift
+    given them returns the drift's value and its sensitivity, d f/dx S + d f/dp."""
+    value: object
+    sensitivity: object
+
+    def __add__(self, other: "WithSensitivity") -> "WithSensitivity":
+        return WithSensitivity(self.value + other.value, self.sensitivity + other.sensitivity)
+
+    def __rmul__(self, factor: float) -> "WithSensitivity":
+        return WithSensitivity(factor * self.value, factor * self.sensitivity)

@@ -36,6 +36,7 @@ from drill_nmpc.inputs import choke_input, choke_time_constant
 from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
                                          full_state, nmpc_estimation_model, outputs)
 from drill_nmpc.supervisor import Supervisor
+from drill_nmpc.transcription import RTI_PARTS
 
 PAPER_SOLVE_TIME_S = 16.4          # Tengesdal & Holden 2020, sec. 6.3.4 (MATLAB fmincon, NMPC0)
 TRIP_DISTANCE_M = 28.0
@@ -235,6 +236,31 @@ def run_benchmark(samples: int = 150, configurations=("NMPC0", "NMPC1", "NMPC2")
         out[f"{key}_build_s"] = build_s
         met = met and dist["median_s"] <= 0.010 and dist["p99_s"] <= 0.030
     out["targets_met"] = bool(met)
+    return out
+
+
+def solve_profile(samples: int = 150, configuration: str = "NMPC1",
+                  config_dir: str | os.PathLike | None = None) -> dict:
+    """Where a solve's wall time goes, on ``run_benchmark``'s loop: per part of the
+    real-time iteration (drill_nmpc.transcription.RTI_PARTS) and the rest of the
+    supervisor's step (Python: parameters, bounds, warm start, the step's checks, the
+    result), the mean per solve [s] and its share of the solves' total; the median solve
+    [s] and the share of the QP and the compiled evaluations (the linearisation and the
+    evaluation)."""
+    config = load_rig(config_dir or default_config_dir())
+    em = nmpc_estimation_model(config, configuration)
+    sup = Supervisor(config, em, configuration=configuration)
+    log, sup = closed_loop(config, configuration, samples, supervisor=sup, friction_factor=1.1)
+    total_s = float(np.sum(log.solve_time_s))
+    problems = {id(p): p for p in (sup.problem_for(True), sup.problem_for(False))}.values()
+    parts = {part: sum(p.part_seconds[part] for p in problems) for part in RTI_PARTS}
+    parts["other"] = total_s - sum(parts.values())
+    out: dict = {"configuration": configuration, "solves": samples,
+                 "median_solve_s": float(np.median(log.solve_time_s))}
+    for part, seconds in parts.items():
+        out[f"{part}_s_per_solve"] = seconds / samples
+        out[f"{part}_share"] = seconds / total_s
+    out["qp_and_compiled_share"] = 1.0 - out["other_share"]
     return out
 
 

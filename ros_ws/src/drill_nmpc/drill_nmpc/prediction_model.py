@@ -24,8 +24,9 @@ from drill_core.config import RigConfig
 from drill_core.estimation_model import (EstimationModel, NominalFriction, build_estimation_model,
                                          drift, measurement)
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE, U_SIZE
-from drill_core.integrators import euler_step, rk4_step
+from drill_core.integrators import WithSensitivity, euler_step, rk4_step
 from drill_core.state_layout import StateLayout
+from drill_core.table_tape import drift_with_jacobian, table_call
 
 OUTPUT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa")
 
@@ -65,7 +66,7 @@ class StringFrictionTable:
         return bool(np.allclose(a, b, rtol=1e-9, atol=1.0)) and self.max_error_pa < 1.0e3
 
     def __call__(self, xp, wm, string_flow_m3s, string_velocity_mps):
-        return self.scale * self.spline(string_flow_m3s + self.area * string_velocity_mps)
+        return self.scale * table_call(self.spline, string_flow_m3s + self.area * string_velocity_mps)
 
 
 @dataclass(frozen=True)
@@ -247,7 +248,9 @@ class PredictionModel:
         pump. F's
         derivative is its explicit Jacobian, the chain rule over the steps of the step's
         own (one SX function), so every derivative the NLP needs is one call of it per
-        stage instead of forward sweeps through the integrator."""
+        stage instead of forward sweeps through the integrator; the step's Jacobian is the
+        RK4 stages' forward sensitivities with each friction table's value and slope one
+        call each (drill_core.table_tape), not one call per seed direction."""
         x = ca.SX.sym("x", self.nd)
         u = ca.SX.sym("u", U_SIZE)
         par = ca.SX.sym("par", self.npar)
@@ -258,10 +261,23 @@ class PredictionModel:
                                         friction_pump_on))
 
         h = step_s / substeps
-        xn = rk4_step(f, x, h) if integrator == "rk4" else euler_step(f, x, h)
-        step = ca.Function("predict_step", [x, u, par, on], [xn])
+        integrate = rk4_step if integrator == "rk4" else euler_step
+        step = ca.Function("predict_step", [x, u, par, on], [integrate(f, x, h)])
+        drift_jacobian = drift_with_jacobian(f, x, [u, par, on])
+        nd, n_other = self.nd, U_SIZE + self.npar + 1
+
+        def sensitive_drift(s: WithSensitivity) -> WithSensitivity:
+            value, jacobian = drift_jacobian(s.value, u, par, on)
+            direct = ca.horzcat(ca.SX(nd, nd), jacobian[:, nd:])     # u, par, pump_on
+            return WithSensitivity(value, ca.mtimes(jacobian[:, :nd], s.sensitivity) + direct)
+
+        stepped = integrate(sensitive_drift,
+                            WithSensitivity(x, ca.horzcat(ca.SX.eye(nd), ca.SX(nd, n_other))), h)
+        sensitivity = stepped.sensitivity
+        columns = np.cumsum([0, nd, U_SIZE, self.npar, 1])
         step_jacobian = ca.Function("predict_step_jacobian", [x, u, par, on],
-                                    [xn] + [ca.jacobian(xn, a) for a in (x, u, par, on)])
+                                    [stepped.value] + [sensitivity[:, int(a):int(b)]
+                                                       for a, b in zip(columns[:-1], columns[1:])])
         args = [ca.MX.sym("x", self.nd), ca.MX.sym("u", U_SIZE), ca.MX.sym("par", self.npar),
                 ca.MX.sym("pump_on")]
         state = args[0]

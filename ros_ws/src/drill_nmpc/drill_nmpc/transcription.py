@@ -8,6 +8,7 @@ derivation and the measurements behind each choice: docs/nmpc.md sections 1-4.
 from __future__ import annotations
 
 import dataclasses
+import time
 from dataclasses import dataclass
 
 import casadi as ca
@@ -36,6 +37,14 @@ _ITERATION_LIMIT = ("Maximum_Iterations_Exceeded", "SOLVER_RET_LIMITED", RTI_STA
 LINEAR_TOLERANCE = 5.0e-2
 GAP_TOLERANCE = 5.0
 STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.125)   # RTI step lengths tried until the gaps are within it
+# The parts of a real-time-iteration step whose wall time NmpcProblem.part_seconds adds up
+# (the bench's profile, drill_nmpc.bench.solve_profile), with what each is.
+RTI_PARTS = {
+    "linearisation": "the cost gradient, the constraints and their Jacobian at the warm start "
+                     "(the compiled prediction step and its Jacobian per stage, in CasADi's graph)",
+    "qp": "the QP (HPIPM)",
+    "evaluation": "the cost and constraints at the new iterate (the step's assessment)",
+}
 
 
 def _succeeded(stats: dict) -> bool:
@@ -85,6 +94,7 @@ class NmpcProblem:
         self.hessian = hessian
         self.terminal_constraints = terminal_constraints
         self.jit = jit
+        self.part_seconds = dict.fromkeys(RTI_PARTS, 0.0)   # wall time per RTI part, summed [s]
         self.N = cfg.prediction_steps
         self.Nc = cfg.control_steps
         self.ts = cfg.sample_time_s
@@ -493,7 +503,9 @@ class NmpcProblem:
     def _rti_step(self, p, z0, lbz, ubz, lbg, ubg, lam_z0, lam_g0) -> dict:
         """One Gauss-Newton SQP step, full length (acados' real-time iteration): the QP of
         the linearisation at z0 gives the step and the new multipliers."""
+        t0 = time.perf_counter()
         grad_f, g0, jac_g = self._linearisation(z0, p)
+        t1 = time.perf_counter()
         args = {"h": self._hessian, "g": grad_f, "a": jac_g, "lba": lbg - g0, "uba": ubg - g0,
                 "lbx": lbz - z0, "ubx": ubz - z0}
         if lam_z0 is not None:
@@ -502,6 +514,7 @@ class NmpcProblem:
             args["lam_a0"] = lam_g0
         qp = self.solver(**args)
         qp_stats = self.solver.stats()
+        t2 = time.perf_counter()
         dz = np.array(qp["x"]).ravel()
         lam_z, lam_g = np.array(qp["lam_x"]).ravel(), np.array(qp["lam_a"]).ravel()
         # An inexact QP answer (HPIPM's iteration or step-length limit) is still a step: the
@@ -516,6 +529,9 @@ class NmpcProblem:
             g = np.array(g).ravel()
             if not finite or self.dynamics_gap(g, lbg, ubg) <= GAP_TOLERANCE:
                 break
+        t3 = time.perf_counter()
+        for part, seconds in zip(RTI_PARTS, (t1 - t0, t2 - t1, t3 - t2)):
+            self.part_seconds[part] += seconds
         if fraction < 1.0:          # the multipliers move with the primal step
             lam_z = fraction * lam_z + (1.0 - fraction) * (0.0 if lam_z0 is None else lam_z0)
             lam_g = fraction * lam_g + (1.0 - fraction) * (0.0 if lam_g0 is None else lam_g0)

@@ -31,6 +31,7 @@ from drill_core import hydraulics as hy
 from drill_core.scenario import load_scenario_config
 from drill_plant.plant_model import steady_state
 from drill_plant.simulator import PlantSimulator
+from drill_nmpc.transcription import RTI_PARTS
 from drill_studies import sweep_bench
 
 PAPER_SOLVE_S = 16.4
@@ -93,6 +94,7 @@ DEFAULT_WALL_GOAL = 1.05        # the default command's wall over the fastest la
 MULTI_STAND_RUNS = (("trip_out", "automated_mpd"), ("trip_out", "baseline"),
                     ("trip_in", "automated_mpd"), ("trip_in", "baseline"))
 MULTI_STAND_WALL_GOAL_S = 120.0
+PROFILE_SHARE_GOAL = 0.80       # the QP's and the compiled evaluations' share of a solve
 
 
 def graph_rtf(scenario: str, domain_id: int, layout: str | None = "separate",
@@ -226,6 +228,8 @@ def write_doc(results: dict, path: Path) -> None:
             lines += [f"| {k} | {v:.6g} |" if isinstance(v, float) else f"| {k} | {v} |"
                       for k, v in results[key].items()]
             lines.append("")
+    if "nmpc_profile" in results:
+        lines += solve_profile_markdown(results["nmpc_profile"])
     if "graph" in results:
         first = results["graph"][0]
         lines += ["## Whole graph by process layout", "",
@@ -295,6 +299,24 @@ def write_doc(results: dict, path: Path) -> None:
     path.write_text("\n".join(lines))
 
 
+def solve_profile_markdown(profile: dict) -> list[str]:
+    """The NMPC section's profile: where a solve's time goes (drill_nmpc.bench.solve_profile)."""
+    share = profile["qp_and_compiled_share"]
+    rows = [(part, RTI_PARTS[part]) for part in RTI_PARTS] + [
+        ("other", "the supervisor's Python around the solve: parameters, bounds, warm start, "
+                  "the step's checks, the result")]
+    return ["### Where a solve's time goes", "",
+            f"{profile['configuration']} on the loop above, {profile['solves']} solves (one "
+            f"real-time-iteration step each), each part's wall time summed over them; median "
+            f"solve {profile['median_solve_s'] * 1e3:.1f} ms.", "",
+            "| part | what | per solve | share |", "| --- | --- | --- | --- |",
+            *(f"| {part} | {what} | {profile[f'{part}_s_per_solve'] * 1e3:.2f} ms | "
+              f"{profile[f'{part}_share']:.0%} |" for part, what in rows), "",
+            f"The QP and the compiled evaluations take {share:.0%} of the solves' time (goal: "
+            f">= {PROFILE_SHARE_GOAL:.0%}{'' if share >= PROFILE_SHARE_GOAL else ': missed'}).",
+            ""]
+
+
 def _sweeps(default: dict) -> dict:
     """The sweep section's results against ``default``, Case 2's run alone in the default
     layout (graph_rtf's median)."""
@@ -340,6 +362,7 @@ def main(argv=None) -> int:
     print("[bench] estimator done", flush=True)
     from drill_nmpc import bench as nmpc_bench
     results["nmpc"] = nmpc_bench.run_benchmark()
+    results["nmpc_profile"] = nmpc_bench.solve_profile()
     print("[bench] nmpc done", flush=True)
     if not args.skip_graph:
         results["graph"] = []
