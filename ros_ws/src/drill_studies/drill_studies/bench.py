@@ -95,6 +95,7 @@ MULTI_STAND_RUNS = (("trip_out", "automated_mpd"), ("trip_out", "baseline"),
                     ("trip_in", "automated_mpd"), ("trip_in", "baseline"))
 MULTI_STAND_WALL_GOAL_S = 120.0
 PROFILE_SHARE_GOAL = 0.80       # the QP's and the compiled evaluations' share of a solve
+PEER_SPEEDUP_GOAL = 20.0        # the NMPC's median solve against the faster peer's
 
 
 def graph_rtf(scenario: str, domain_id: int, layout: str | None = "separate",
@@ -230,6 +231,8 @@ def write_doc(results: dict, path: Path) -> None:
             lines.append("")
     if "nmpc_profile" in results:
         lines += solve_profile_markdown(results["nmpc_profile"])
+    if "peers" in results:
+        lines += peers_markdown(results["peers"])
     if "graph" in results:
         first = results["graph"][0]
         lines += ["## Whole graph by process layout", "",
@@ -317,6 +320,26 @@ def solve_profile_markdown(profile: dict) -> list[str]:
             ""]
 
 
+def peers_markdown(peers: dict) -> list[str]:
+    """The NMPC against its peers on the same problem (drill_nmpc.peers.compare)."""
+    names = (("project", "this project (CasADi, one real-time iteration, HPIPM)"),
+             ("do_mpc", "do-mpc (orthogonal collocation, IPOPT to convergence)"))
+    ratio = peers["do_mpc_median_s"] / peers["project_median_s"]
+    return ["### Against its peers", "",
+            f"Case 2's NMPC1 (the same prediction model, horizon, weights and constraints: "
+            f"`drill_nmpc.peers`) on the loop above, {peers['samples']} samples, one run each "
+            f"in this process:", "",
+            "| solver | solve median | p99 | max | BHP RMSE | worst BHP error | fallbacks | build |",
+            "| --- | --- | --- | --- | --- | --- | --- | --- |",
+            *(f"| {what} | {peers[f'{n}_median_s'] * 1e3:.1f} ms | {peers[f'{n}_p99_s'] * 1e3:.1f} ms "
+              f"| {peers[f'{n}_max_s'] * 1e3:.1f} ms | {peers[f'{n}_bhp_rmse_pa'] / 1e5:.3f} bar | "
+              f"{peers[f'{n}_bhp_max_error_pa'] / 1e5:.2f} bar | {peers[f'{n}_fallbacks']} | "
+              f"{peers[f'{n}_build_s']:.1f} s |" for n, what in names), "",
+            f"The project's median solve is {ratio:.1f} times faster than do-mpc's (goal: >= "
+            f"{PEER_SPEEDUP_GOAL:.0f}{'' if ratio >= PEER_SPEEDUP_GOAL else ': missed'}). "
+            "GEKKO is not in the comparison (not built).", ""]
+
+
 def _sweeps(default: dict) -> dict:
     """The sweep section's results against ``default``, Case 2's run alone in the default
     layout (graph_rtf's median)."""
@@ -363,6 +386,8 @@ def main(argv=None) -> int:
     from drill_nmpc import bench as nmpc_bench
     results["nmpc"] = nmpc_bench.run_benchmark()
     results["nmpc_profile"] = nmpc_bench.solve_profile()
+    from drill_nmpc import peers
+    results["peers"] = peers.compare()
     print("[bench] nmpc done", flush=True)
     if not args.skip_graph:
         results["graph"] = []

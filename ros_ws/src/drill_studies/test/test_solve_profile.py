@@ -28,3 +28,14 @@ def test_the_page_section_names_every_part_and_the_goal(profile):
     assert "goal: >= 80%" in text
     missed = {**profile, "qp_and_compiled_share": 0.5}
     assert "goal: >= 80%: missed" in "\n".join(solve_profile_markdown(missed))
+
+
+def test_the_peer_table_gives_the_ratio_and_its_goal():
+    from drill_studies.bench import peers_markdown
+    row = {"median_s": 0.01, "p99_s": 0.02, "max_s": 0.03, "bhp_rmse_pa": 2.0e4,
+           "bhp_max_error_pa": 5.0e4, "fallbacks": 0, "build_s": 1.0}
+    peers = {"samples": 150, **{f"project_{k}": v for k, v in row.items()},
+             **{f"do_mpc_{k}": (v * 12 if k == "median_s" else v) for k, v in row.items()}}
+    text = "\n".join(peers_markdown(peers))
+    assert "12.0 times faster" in text and "goal: >= 20: missed" in text
+    assert "| 120.0 ms |" in text and "| 10.0 ms |" in text
