@@ -12,7 +12,8 @@ from pathlib import Path
 from drill_bag import mcap_io
 from drill_core.config import RigConfig
 from drill_core.tripping.stands import StandVolumes
-from drill_core.tripping.trip_sheet import TripSheet, stands_per_hour
+from drill_core.tripping.sheet_feed import TripSheetFeed
+from drill_core.tripping.trip_sheet import stands_per_hour
 from drill_core.units import L_PER_M3, PA_PER_BAR
 from drill_core.well import build_geometry
 from drill_ros import topic_names as topics
@@ -23,7 +24,8 @@ from drill_ros.stamps import seconds_to_ns, to_ns
 def trip_sheet(mcap_path: Path, config: RigConfig) -> dict | None:
     """The trip sheet's rows and figures (SI), None when the recording holds no rig floor.
     Each measurement t_k is read with the floor's command for the frame before it, t_k-1
-    (the one the plant ran under up to t_k), as the protection keeps its live sheet."""
+    (the one the plant ran under up to t_k), as the protection keeps its live sheet
+    (drill_core.tripping.sheet_feed)."""
     floors, measurements, setpoints = {}, {}, []
     for rec, msg in mcap_io.decoded_messages(mcap_path, [topics.FLOOR, topics.MEASUREMENT,
                                                          topics.SETPOINTS]):
@@ -37,25 +39,23 @@ def trip_sheet(mcap_path: Path, config: RigConfig) -> dict | None:
         return None
     programme = floor_programme(floors[min(floors)])
     volumes = StandVolumes.of(build_geometry(config.well), programme.stand_length_m)
-    frame_ns = seconds_to_ns(config.plant.sensor_period_s)
+    feed = TripSheetFeed(programme, volumes, seconds_to_ns(config.plant.sensor_period_s))
+    for stamp in sorted(floors):
+        feed.floor(stamp, floor_command(floors[stamp]).step)
     setpoints.sort()
-    band = setpoints[0][2] if setpoints else math.nan
-    sheet = TripSheet(programme, volumes, band)
-    alarms, ref = [], math.nan
+    if setpoints:
+        feed.reference(math.nan, setpoints[0][2])
     for stamp in sorted(measurements):
-        if stamp - frame_ns not in floors:
-            continue
         while setpoints and setpoints[0][0] <= stamp:
-            _, ref, band = setpoints.pop(0)
-            sheet.band_pa = band
-        m, step = measurements[stamp], floor_command(floors[stamp - frame_ns]).step
-        alarms += sheet.observe(stamp * 1e-9, step, m.bhp_pa, ref, m.trip_tank_volume_m3)
-    rows = sheet.rows
+            feed.reference(*setpoints.pop(0)[1:])
+        m = measurements[stamp]
+        feed.measurement(stamp, m.bhp_pa, m.trip_tank_volume_m3)
+    rows = feed.sheet.rows
     return {"trip_sheet": [dataclasses.asdict(r) for r in rows],
             "stands_tripped": len(rows),
             "stands_per_hour": stands_per_hour(rows),
-            "trip_tank_discrepancy_m3": sheet.cumulative_gain_m3,
-            "trip_sheet_alarms": [n.code for n in alarms]}
+            "trip_tank_discrepancy_m3": feed.sheet.cumulative_gain_m3,
+            "trip_sheet_alarms": [n.code for n in feed.alarms]}
 
 
 def format_sheet(figures: dict) -> list[str]:

@@ -23,8 +23,11 @@ conversion and form validation live in :mod:`drill_hmi.console_state`.
 Sources: /rig/measurement, /estimator/estimate, /nmpc/status, /setpoints (latched),
 /actuators/<name>/frame, /<node>/status, /operator/events, /protection/events,
 /operator/automation_level and /operator/emergency_stop (latched), and /rig/truth,
-shown labelled "truth (simulation)" for evaluation only. Display subscriptions are
-best-effort keep-last, so a slow console can never hold up the graph.
+shown labelled "truth (simulation)" for evaluation only; on a multi-stand trip /rig/floor,
+whose steps with the measurements keep the live trip sheet (``trip_sheet`` in the state).
+Display subscriptions are best-effort keep-last, so a slow console can never hold up the
+graph (a frame it misses is passed over by its trip sheet; the report's, from the
+recording, is the record).
 
 JSON API (SI units in every response; the request bodies use the page's display
 units where the key says so — ``_bar`` keys are bar, converted to Pa here)::
@@ -34,7 +37,8 @@ units where the key says so — ``_bar`` keys are bar, converted to Pa here)::
          everything the page shows: latest measurement / estimate / truth / NMPC
          status / setpoints / actuator frames / node statuses, the pressure window,
          the automation level in force ("automation": level, source, requested,
-         emergency_stop), recent events, the last action's result, and the trend
+         emergency_stop), recent events, the last action's result, the trip sheet
+         (None but on a multi-stand trip: its rows, SI, as the report's), and the trend
          points with sequence number > N ("trends": {series: [[t_s, value_SI], ...]},
          "seq": newest sequence number — pass it back as ``since``).
     POST /api/setpoints    {"bhp_bar", "bhp_band_bar", "dp_bar", "dp_band_bar",
@@ -69,7 +73,7 @@ from pathlib import Path
 from urllib.parse import parse_qs, urlparse
 
 from diagnostic_msgs.msg import DiagnosticArray
-from drill_msgs.msg import (ActuatorFrame, NmpcStatus, OperatorEvent, PlantTruth,
+from drill_msgs.msg import (ActuatorFrame, NmpcStatus, OperatorEvent, PlantTruth, RigFloor,
                             RigMeasurement, Setpoints, StateEstimate)
 from drill_msgs.srv import SetSetpoints
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -87,9 +91,13 @@ from drill_ros.diagnostics import HARDWARE_ID, status_fields
 from drill_ros.events import event_message
 from drill_ros.node import RigNode
 from drill_ros.runner import run
-from drill_ros.stamps import to_ns
+from drill_ros.floor import floor_command, floor_programme
+from drill_ros.stamps import seconds_to_ns, to_ns
 from drill_ros.status import StatusReporter
 from drill_core.scenario import load_scenario_config
+from drill_core.tripping.sheet_feed import TripSheetFeed
+from drill_core.tripping.stands import StandVolumes
+from drill_core.well import build_geometry
 
 DISPLAY = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
                      reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
@@ -273,12 +281,15 @@ class ConsoleNode(RigNode):
         self.token = console_token(host, security_dir)
         config = load_scenario_config(scenario, config_dir)[1] if scenario else load_rig(config_dir)
         self.state = cs.ConsoleState(cs.Window.from_config(config), stand_length_m=stand)
+        self.geometry = build_geometry(config.well)             # the trip sheet's stand volumes
+        self.frame_ns = seconds_to_ns(config.plant.sensor_period_s)
         self.link = OperatorLink(self, timeout, source="console")
         self.exit_code = 0
         self.counters = {"http_requests": 0.0, "actions": 0.0, "refusals": 0.0}
 
         sub = self.create_subscription
         sub(RigMeasurement, topics.MEASUREMENT, self._on_measurement, DISPLAY)
+        sub(RigFloor, topics.FLOOR, self._on_floor, DISPLAY)
         sub(PlantTruth, topics.TRUTH, self._on_truth, DISPLAY)
         sub(StateEstimate, topics.ESTIMATE, self._on_estimate, DISPLAY)
         sub(NmpcStatus, topics.NMPC_STATUS, self._on_nmpc, DISPLAY)
@@ -316,7 +327,15 @@ class ConsoleNode(RigNode):
 
     # ------------------------------------------------------------------ inputs
     def _on_measurement(self, m: RigMeasurement) -> None:
-        self.state.on_measurement(seconds(m.header.stamp), measurement_dict(m))
+        self.state.on_measurement(seconds(m.header.stamp), measurement_dict(m),
+                                  to_ns(m.header.stamp))
+
+    def _on_floor(self, m: RigFloor) -> None:
+        def start_sheet() -> TripSheetFeed:
+            programme = floor_programme(m)
+            return TripSheetFeed(programme, StandVolumes.of(self.geometry, programme.stand_length_m),
+                                 self.frame_ns)
+        self.state.on_floor(to_ns(m.header.stamp), floor_command(m).step, start_sheet)
 
     def _on_truth(self, m: PlantTruth) -> None:
         self.state.on_truth(seconds(m.header.stamp), truth_dict(m))

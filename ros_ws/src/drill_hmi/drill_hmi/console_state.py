@@ -9,12 +9,15 @@
   console shows — the console never second-guesses it;
 * trend buffers with a global sequence number, so the page fetches only new points;
 * the latest value of every source, the recent events (operator and protection) with
-  acknowledgement, the automation level requested and in force.
+  acknowledgement, the automation level requested and in force;
+* on a multi-stand trip, the trip sheet kept live (drill_core.tripping.sheet_feed, fed the
+  rig floor's steps, the measurements and the setpoints, as the report's is).
 
 Everything is guarded by one lock: the rclpy callbacks write, the HTTP threads read.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 import time
@@ -26,6 +29,9 @@ from drill_core.automation import AUTOMATION_LEVELS
 from drill_core.scenario import SETPOINT_BOOL_FIELDS as BOOL_FIELDS
 from drill_core.scenario import SETPOINT_FIELDS
 from drill_core.surface_flows import delta_flow_m3s
+from drill_core.tripping.sequence import TripStep
+from drill_core.tripping.sheet_feed import TripSheetFeed
+from drill_core.tripping.trip_sheet import stands_per_hour
 from drill_core.units import DISPLAY_UNITS, LPM_PER_M3S, PA_PER_BAR
 from drill_core.well import (annulus_pressure_at_depth_pa, build_geometry,
                              equivalent_density_kgm3)
@@ -282,6 +288,8 @@ class ConsoleState:
         self._protection_estop = False              # latched /protection/emergency_stop
         self._result: dict | None = None            # last operator action and its outcome
         self._pit_start_m3: float | None = None     # the first pit reading
+        self._trip_sheet: TripSheetFeed | None = None   # a multi-stand trip's, once its floor speaks
+        self._floor_step: TripStep | None = None        # the rig floor's last step
 
     # ---------------------------------------------------------------- trends
     def add_point(self, series: str, t: float, value: float) -> None:
@@ -311,10 +319,13 @@ class ConsoleState:
         self._latest[source] = values
         self._received[source] = self._clock()
 
-    def on_measurement(self, t: float, m: dict) -> None:
+    def on_measurement(self, t: float, m: dict, stamp_ns: int | None = None) -> None:
+        """A measurement at ``t`` [s]; stamped ``stamp_ns`` it also feeds the trip sheet."""
         with self._lock:
             if self._pit_start_m3 is None and math.isfinite(m.get("pit_volume_m3", math.nan)):
                 self._pit_start_m3 = m["pit_volume_m3"]
+            if self._trip_sheet is not None and stamp_ns is not None:
+                self._trip_sheet.measurement(stamp_ns, m["bhp_pa"], m["trip_tank_volume_m3"])
             self._touch("measurement", dict(m, t=t, **self._mpd_view(m)))
             self.add_point("bhp_measured", t, m["bhp_pa"])
             self.add_point("dp_measured", t, m["choke_dp_pa"])
@@ -362,6 +373,38 @@ class ConsoleState:
     def on_setpoints(self, m: dict) -> None:
         with self._lock:
             self._touch("setpoints", dict(m))
+            if self._trip_sheet is not None:
+                self._trip_sheet.reference(m["bhp_ref_pa"], m["bhp_band_pa"])
+
+    def on_floor(self, stamp_ns: int, step: TripStep, start_sheet=None) -> None:
+        """The rig floor's step for the frame from ``stamp_ns``; ``start_sheet()`` makes the
+        trip sheet's feed (drill_core.tripping.sheet_feed.TripSheetFeed) at the first one."""
+        with self._lock:
+            if self._trip_sheet is None and start_sheet is not None:
+                self._trip_sheet = start_sheet()
+                sp = self._latest.get("setpoints")
+                if sp is not None:
+                    self._trip_sheet.reference(sp["bhp_ref_pa"], sp["bhp_band_pa"])
+            self._floor_step = step
+            if self._trip_sheet is not None:
+                self._trip_sheet.floor(stamp_ns, step)
+
+    def trip_sheet(self) -> dict | None:
+        """The live trip sheet (SI): the programme, the closed rows, stands per hour, the
+        running trip-tank difference, the floor's phase and stand; None before a trip."""
+        with self._lock:
+            feed = self._trip_sheet
+            if feed is None:
+                return None
+            sheet, step = feed.sheet, self._floor_step
+            return {"direction": sheet.programme.direction, "stands": sheet.programme.stands,
+                    "stand_length_m": sheet.programme.stand_length_m,
+                    "discrepancy_alarm_m3": sheet.programme.discrepancy_alarm_m3,
+                    "rows": [dataclasses.asdict(r) for r in sheet.rows],
+                    "stands_per_hour": stands_per_hour(sheet.rows) if sheet.rows else None,
+                    "cumulative_gain_m3": sheet.cumulative_gain_m3,
+                    "alarms": [n.code for n in feed.alarms],
+                    "phase": step.phase if step else None, "stand": step.stand if step else None}
 
     def on_frame(self, name: str, t: float, m: dict) -> None:
         with self._lock:
@@ -501,5 +544,6 @@ class ConsoleState:
                 "events": [dict(e) for e in list(self._events)[-50:]],
                 "unacknowledged": sum(1 for e in self._events if e["needs_ack"] and not e["acked"]),
                 "result": self._result,
+                "trip_sheet": self.trip_sheet(),
             }
             return clean(out)

@@ -258,3 +258,41 @@ def test_the_display_unit_systems_convert_from_si():
     assert 1000.0 * field["force"][1] == pytest.approx(0.224809, rel=1e-5)      # klbf per kN
     assert (metric["pressure"], metric["density"]) == (["bar", 1e-5], ["s.g.", 1e-3])
     assert metric["force"] == ["kN", 1e-3]
+
+
+def test_the_trip_sheet_is_kept_from_the_floor_and_the_measurements():
+    """On a multi-stand trip the console keeps the trip sheet as the report does: each
+    measurement with the floor's step for the frame before it, the band from the setpoints
+    in force; none before the floor speaks."""
+    from drill_core.tripping.programme import TripProgramme
+    from drill_core.tripping.sequence import CONNECTION, MOVING, TripStep
+    from drill_core.tripping.sheet_feed import TripSheetFeed
+    from drill_core.tripping.stands import StandVolumes
+
+    frame_ns = 100_000_000
+    volumes = StandVolumes(steel_m3=0.1, closed_end_m3=0.36, contents_m3=0.26)
+    state = cs.ConsoleState(WINDOW)
+    sample = {"bhp_pa": 6.7e7, "choke_dp_pa": 2.0e6, "block_position_m": 0.0,
+              "string_flow_m3s": 0.016, "string_flow_valid": True, "return_flow_m3s": 0.016,
+              "pit_volume_m3": 40.0, "bpp_flow_m3s": 0.0, "trip_tank_volume_m3": 6.0}
+    state.on_measurement(0.0, sample, 0)
+    assert state.snapshot()["trip_sheet"] is None
+    state.on_setpoints(dict(ACTIVE))
+    start = lambda: TripSheetFeed(TripProgramme(direction="out", stands=2), volumes, frame_ns)
+    for k in range(30):           # stand 1: 20 frames moving, 10 in its connection; then stand 2
+        stand, phase = (1, MOVING) if k < 20 else (1, CONNECTION) if k < 28 else (2, MOVING)
+        state.on_floor(k * frame_ns, TripStep(phase=phase, stand=stand, slips_set=phase == CONNECTION,
+                                              latched=True, pump_factor=1.0, bit_height_target_m=0.0,
+                                              stands_pulled=stand - 1), start)
+        bhp = 6.7e7 - (3.0e5 if k == 5 else 0.0)         # one frame swabbed past the 2 bar band
+        state.on_measurement((k + 1) * 0.1, dict(sample, bhp_pa=bhp, trip_tank_volume_m3=6.0 - 0.004 * k),
+                             (k + 1) * frame_ns)
+    sheet = json.loads(json.dumps(state.snapshot()))["trip_sheet"]
+    assert (sheet["direction"], sheet["stands"], sheet["stand"], sheet["phase"]) == ("out", 2, 2, MOVING)
+    [row] = sheet["rows"]
+    assert row["stand"] == 1 and row["peak_swab_pa"] == pytest.approx(3.0e5)
+    assert row["outside_band_s"] == pytest.approx(0.1)
+    assert row["out_of_slips_s"] == pytest.approx(2.0 - 0.1)       # 20 frames, the first untimed
+    assert row["measured_fill_m3"] == pytest.approx(0.004 * 28)
+    assert row["gain_m3"] == pytest.approx(0.1 - 0.004 * 28)
+    assert sheet["cumulative_gain_m3"] == pytest.approx(row["gain_m3"])

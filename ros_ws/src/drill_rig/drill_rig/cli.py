@@ -271,7 +271,7 @@ def main(argv=None) -> int:
                   f"{result['mcap']}")
             return 0
         from drill_bag import replay
-        return replay.main(rest) or 0
+        return replay.main(["rig replay", *rest]) or 0     # its argv: the program's name first
     except ConfigError as err:
         print(f"[rig] configuration error: {err}", file=sys.stderr)
         return 2

@@ -163,7 +163,7 @@ NODES = (
          (topics.MEASUREMENT, topics.TRUTH, topics.ESTIMATE, topics.NMPC_STATUS, topics.SETPOINTS,
           topics.OPERATOR_EVENTS, topics.PROTECTION_EVENTS, topics.AUTOMATION_LEVEL,
           topics.EMERGENCY_STOP, topics.LEVEL_IN_FORCE, topics.ESTOP_IN_FORCE, topics.RIG_EVENTS,
-          topics.DIAGNOSTICS, *FRAMES),
+          topics.DIAGNOSTICS, topics.FLOOR, *FRAMES),
          realtime_only=True),
     # Optional observers (``rig run --foxglove`` / ``--opcua`` / ``--wits0``; drill_gateway): their
     # subscriptions are best-effort keep-last (latched topics: depth 1), so they never hold
