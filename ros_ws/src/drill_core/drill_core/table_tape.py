@@ -2,8 +2,9 @@
 the expression's Jacobian evaluates each table's slope once per call.
 
 CasADi's automatic differentiation of an SX expression differentiates a call node once
-per seed direction: the NMPC's prediction step (32 table calls, 24 inputs) becomes about
-620 calls in its Jacobian, nine tenths of its cost. Built under a :class:`TableTape`, an
+per seed direction, so a Jacobian with many columns calls each table many times (the
+NMPC's prediction step: docs/experiments/2026-12-05-nmpc-jacobian.md). Built under a
+:class:`TableTape`, an
 expression gets a fresh symbol in place of each table call (``table_call``), and the tape
 keeps the table and its argument; :func:`drift_with_jacobian` then writes the drift's
 Jacobian by the chain rule with the tables' values and slopes as two calls each:

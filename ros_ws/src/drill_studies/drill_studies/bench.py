@@ -28,6 +28,7 @@ from drill_ros.executors import DEFAULT_EXECUTOR, EXECUTOR_ENV
 from drill_ros import graph as graph_decl
 from drill_ros import topics
 from drill_core import hydraulics as hy
+from drill_core.config import load_rig
 from drill_core.scenario import load_scenario_config
 from drill_plant.plant_model import steady_state
 from drill_plant.simulator import PlantSimulator
@@ -96,6 +97,8 @@ MULTI_STAND_RUNS = (("trip_out", "automated_mpd"), ("trip_out", "baseline"),
 MULTI_STAND_WALL_GOAL_S = 120.0
 PROFILE_SHARE_GOAL = 0.80       # the QP's and the compiled evaluations' share of a solve
 PEER_SPEEDUP_GOAL = 20.0        # the NMPC's median solve against the faster peer's
+FLOOR_GOAL = 2.0                # the default layout's Case 2 CPU over its arithmetic
+FLOOR_NMPC = "nmpc1"            # Case 2's NMPC configuration (its solves in the floor)
 
 
 def graph_rtf(scenario: str, domain_id: int, layout: str | None = "separate",
@@ -257,6 +260,8 @@ def write_doc(results: dict, path: Path) -> None:
                       f"{default[0]['layout']}) took {ratio:.2f} times the fastest layout's "
                       f"wall ({fastest['layout']}, {fastest['executor']}) in this run (goal: <= "
                       f"{DEFAULT_WALL_GOAL}{'' if ratio <= DEFAULT_WALL_GOAL else ': missed'}).", ""]
+        if results.get("floor"):
+            lines += floor_markdown(results["floor"])
         for g in results["graph"]:
             lines += [f"### Time budget, layout {g['layout']}{' (default)' if g.get('default') else ''}, "
                       f"{g['executor']} executor", "",
@@ -300,6 +305,36 @@ def write_doc(results: dict, path: Path) -> None:
                   for r in results["realtime"]]
         lines.append("")
     path.write_text("\n".join(lines))
+
+
+def arithmetic_floor(results: dict, sensor_period_s: float, sample_time_s: float) -> dict | None:
+    """The arithmetic of the default layout's Case 2 run from this bench's own per-frame
+    figures (a plant frame and a UKF frame per sensor period, an NMPC solve per sample)
+    against the CPU its processes used; None without those sections."""
+    default = next((g for g in results.get("graph", []) if g.get("default")), None)
+    if default is None or not all(key in results for key in ("plant", "estimator", "nmpc")):
+        return None
+    frames = round(default["simulated_s"] / sensor_period_s)
+    solves = round(default["simulated_s"] / sample_time_s)
+    parts = {"plant frames": (frames, results["plant"]["plant_frame_median_s"]),
+             "UKF frames": (frames, results["estimator"]["ukf_n4_frame_ms"] * 1e-3),
+             f"{FLOOR_NMPC.upper()} solves": (solves, results["nmpc"][f"{FLOOR_NMPC}_median_s"])}
+    floor_s = sum(count * seconds for count, seconds in parts.values())
+    cpu_s = sum(row["cpu_s"] for row in default["budget"])
+    return {"parts": parts, "floor_s": floor_s, "cpu_s": cpu_s, "ratio": cpu_s / floor_s,
+            "layout": default["layout"]}
+
+
+def floor_markdown(floor: dict) -> list[str]:
+    """The line of the whole-graph section on the arithmetic floor."""
+    terms = " + ".join(f"{count} {name} x {seconds * 1e3:.3g} ms"
+                       for name, (count, seconds) in floor["parts"].items())
+    met = floor["ratio"] <= FLOOR_GOAL
+    return [f"The arithmetic of a Case 2 run, from this run's per-frame figures above: {terms} "
+            f"= {floor['floor_s']:.1f} s of CPU; the default layout's ({floor['layout']}) "
+            f"processes used {floor['cpu_s']:.1f} s, {floor['ratio']:.2f} times that floor "
+            f"(goal: <= {FLOOR_GOAL:g}{'' if met else ': missed'}; the rest is executors, DDS, "
+            "serialisation, Python glue and start-up: the time budget below).", ""]
 
 
 def solve_profile_markdown(profile: dict) -> list[str]:
@@ -396,6 +431,9 @@ def main(argv=None) -> int:
                 median_run(lambda: graph_rtf("case2", domain, layout, executor)))
             print(f"[bench] case2 graph ({layout}, {executor}): {_walls(results['graph'][-1])}",
                   flush=True)
+        config = load_rig(runs.ROOT / "config")
+        results["floor"] = arithmetic_floor(results, config.plant.sensor_period_s,
+                                            config.nmpc.sample_time_s)
         results["sweeps"] = _sweeps(next(g for g in results["graph"] if g["default"]))
         results["multi_stand"] = [graph_rtf(name, domain, None, DEFAULT_EXECUTOR, controller)
                                   for name, controller in MULTI_STAND_RUNS]

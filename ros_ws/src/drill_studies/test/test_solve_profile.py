@@ -39,3 +39,18 @@ def test_the_peer_table_gives_the_ratio_and_its_goal():
     text = "\n".join(peers_markdown(peers))
     assert "12.0 times faster" in text and "goal: >= 20: missed" in text
     assert "| 120.0 ms |" in text and "| 10.0 ms |" in text
+
+
+def test_the_arithmetic_floor_is_the_runs_frames_and_solves_at_their_bench_cost():
+    from drill_studies.bench import arithmetic_floor, floor_markdown
+    results = {"plant": {"plant_frame_median_s": 0.4e-3}, "estimator": {"ukf_n4_frame_ms": 1.0},
+               "nmpc": {"nmpc1_median_s": 0.01},
+               "graph": [{"default": False, "simulated_s": 600.0, "budget": [{"cpu_s": 99.0}]},
+                         {"default": True, "layout": "two", "simulated_s": 600.0,
+                          "budget": [{"cpu_s": 20.0}, {"cpu_s": 10.0}]}]}
+    floor = arithmetic_floor(results, 0.1, 1.0)
+    assert floor["floor_s"] == pytest.approx(6000 * 0.4e-3 + 6000 * 1.0e-3 + 600 * 0.01)   # 14.4 s
+    assert floor["cpu_s"] == 30.0 and floor["ratio"] == pytest.approx(30.0 / 14.4)
+    text = "\n".join(floor_markdown(floor))
+    assert "= 14.4 s of CPU" in text and "2.08 times that floor (goal: <= 2: missed" in text
+    assert arithmetic_floor({"graph": results["graph"]}, 0.1, 1.0) is None
