@@ -78,5 +78,6 @@ def drift_with_jacobian(drift, state: ca.SX, others: list) -> ca.Function:
                                                ca.mtimes(ca.diag(slopes), ca.jacobian(arguments, wrt)))
     linear = ca.Function("drift_linear", [*inputs, values, slopes], [f, jacobian])
     table_values = ca.vertcat(*[t(arguments[j]) for j, t in enumerate(tape.tables)])
-    table_slopes = ca.vertcat(*[slope_function(t)(arguments[j]) for j, t in enumerate(tape.tables)])
+    slope_of = {id(t): slope_function(t) for t in tape.tables}    # one per table, however often called
+    table_slopes = ca.vertcat(*[slope_of[id(t)](arguments[j]) for j, t in enumerate(tape.tables)])
     return ca.Function("drift_jacobian", inputs, linear(*inputs, table_values, table_slopes))
