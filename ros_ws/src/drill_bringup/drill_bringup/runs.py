@@ -94,14 +94,14 @@ def _drilling_scenario(path: Path, realtime: bool, controller: str | None):
 TRUTH_FILE = "truth.json"       # the plant's mismatch in a run directory (drill_core.mismatch)
 
 
-def stage_config(run_dir: Path) -> Path:
-    """Copy the checkout's rig configuration (config/*.yaml) into ``run_dir`` and return
-    the copy's directory: the nodes launched here read it and the report judges the run
-    with it (report.RUN_CONFIG), so a run keeps what it ran with."""
+def stage_config(run_dir: Path, source: Path = ROOT / "config") -> Path:
+    """Copy the rig configuration (``source``/*.yaml: the checkout's config/ unless given)
+    into ``run_dir`` and return the copy's directory: the nodes launched here read it and
+    the report judges the run with it (report.RUN_CONFIG), so a run keeps what it ran with."""
     target = run_dir / report.RUN_CONFIG
     target.mkdir(parents=True, exist_ok=True)
-    for source in sorted((ROOT / "config").glob("*.yaml")):
-        (target / source.name).write_bytes(source.read_bytes())
+    for file in sorted(source.glob("*.yaml")):
+        (target / file.name).write_bytes(file.read_bytes())
     return target
 
 
@@ -132,7 +132,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
                  here: str | None = None, peers: tuple[str, ...] = (),
                  extras: dict[str, dict] | None = None,
                  pin_cpus: bool = True, mismatch: str | None = None,
-                 node_params: dict[str, dict] | None = None) -> tuple[int, Path]:
+                 node_params: dict[str, dict] | None = None,
+                 config_source: Path | None = None) -> tuple[int, Path]:
     """Launch a scenario, record it and report; returns (exit code, run directory).
     ``seed`` replaces the scenario's plant seed and ``controller`` its controller (the same
     trip under another controller: ``rig compare``); ``layout`` groups nodes into processes
@@ -145,7 +146,9 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     ``mismatch`` (a member of config/mismatch.yaml or ``draw:N``) replaces the scenario's
     ``truth:``: how the plant differs from the model; only the plant's side is given it
     (run_truth, stage_truth). ``node_params``: more parameters of nodes of the graph
-    (name -> parameters; the console's host and security directory)."""
+    (name -> parameters; the console's host and security directory). ``config_source``: the
+    rig configuration's directory the run stages (stage_config; the checkout's config/
+    unless given: the benches' variants of the well)."""
     kind = scenario_kind(path)
     if kind == "drilling":
         scenario, own_controller = _drilling_scenario(path, realtime, controller), "none"
@@ -192,7 +195,7 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     launch = launcher.Launch(nodes, run_dir, domain_id, layout,
                              None if here is None else names, peers, pin_cpus=pin_cpus)
     run_dir.mkdir(parents=True, exist_ok=True)
-    stage_config(run_dir)
+    stage_config(run_dir, config_source or ROOT / "config")
     if truth is not None:
         stage_truth(path, run_dir, truth)
     say = (lambda *_: None) if quiet else (lambda text: print(text, flush=True))

@@ -14,6 +14,11 @@ import numpy as np
 from drill_core import hydraulics as hy
 from drill_core.input_layout import U_PUMP_PRESSURE
 from drill_core.scenario import Initial
+from drill_core.units import LPM_PER_M3S
+
+# The benches' operating point (drill_plant, drill_estimator and drill_nmpc bench modules):
+# Case 2's start, config/scenarios/case2.yaml.
+BENCH_POINT = Initial(circulation_m3s=1000.0 / LPM_PER_M3S, choke_dp_pa=2.0e6, bpp_flow_m3s=0.0)
 
 
 @dataclass(frozen=True)

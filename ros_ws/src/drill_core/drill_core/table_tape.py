@@ -60,14 +60,15 @@ class TableTape:
         return symbol
 
 
-def drift_with_jacobian(drift, state: ca.SX, others: list) -> ca.Function:
-    """G(state, *others) -> (f, df/d(state, *others)) of ``drift(state)`` (an SX expression
-    in ``state`` and the symbols ``others``; its table calls through ``table_call``), with
-    each table's value and slope one call each. Called with SX arguments it inlines."""
+def drift_with_jacobian(drift, state: ca.SX, others: list, constants: list = ()) -> ca.Function:
+    """G(state, *others, *constants) -> (f, df/d(state, *others)) of ``drift(state)`` (an SX
+    expression in ``state`` and the symbols ``others`` and ``constants``, the latter held
+    constant: not differentiated; its table calls through ``table_call``), with each
+    table's value and slope one call each. Called with SX arguments it inlines."""
     with TableTape() as tape:
         f = drift(state)
-    inputs = [state, *others]
-    wrt = ca.vertcat(*inputs)
+    inputs = [state, *others, *constants]
+    wrt = ca.vertcat(state, *others)
     if not tape.symbols:
         return ca.Function("drift_jacobian", inputs, [f, ca.jacobian(f, wrt)])
     values, arguments = ca.vertcat(*tape.symbols), ca.vertcat(*tape.arguments)

@@ -19,12 +19,13 @@ import numpy as np
 
 from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, load_rig, replace
+from drill_core.operating_point import BENCH_POINT
 from drill_core.rig_root import config_dir as default_config_dir
 from drill_core.units import LPM_PER_M3S
 from drill_estimator.ukf import RigUkf
 
-CIRCULATION = 1000.0 / LPM_PER_M3S      # 1000 L/min
-CHOKE_DP = 2.0e6                    # 20 bar
+CIRCULATION = BENCH_POINT.circulation_m3s
+CHOKE_DP = BENCH_POINT.choke_dp_pa
 
 
 def split_segments(lengths, parts: int) -> tuple[float, ...]:

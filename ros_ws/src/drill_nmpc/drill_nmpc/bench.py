@@ -28,10 +28,9 @@ from drill_core import hydraulics as hy
 from drill_core.config import RigConfig, load_rig
 from drill_core.estimation_model import EstimationModel, fitted_friction_parameters
 from drill_core.input_layout import U_CHOKE
-from drill_core.operating_point import initial_operating_point
+from drill_core.operating_point import BENCH_POINT, initial_operating_point
 from drill_core.rig_root import config_dir as default_config_dir
 from drill_core.scenario import ActiveSetpoints, Initial
-from drill_core.units import LPM_PER_M3S
 from drill_nmpc.inputs import choke_input, choke_time_constant
 from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
                                          full_state, nmpc_estimation_model, outputs)
@@ -154,8 +153,7 @@ def closed_loop(config: RigConfig, configuration: str, samples: int, *, out_at: 
                 initial: Initial | None = None, measured_actuators: bool = True,
                 dp_band_upper_pa: float = 0.0) -> tuple[LoopLog, Supervisor]:
     """Run ``samples`` supervisor steps on the model plant (perfect state feedback)."""
-    initial = initial or Initial(circulation_m3s=1000.0 / LPM_PER_M3S, choke_dp_pa=2.0e6,
-                                 bpp_flow_m3s=0.0)
+    initial = initial or BENCH_POINT
     em = nmpc_estimation_model(config, configuration)
     x0, u = steady_estimate(em, initial)
     sup = supervisor or Supervisor(config, em, configuration=configuration, solver=solver, jit=jit)
@@ -240,23 +238,28 @@ def run_benchmark(samples: int = 150, configurations=("NMPC0", "NMPC1", "NMPC2")
 
 
 def solve_profile(samples: int = 150, configuration: str = "NMPC1",
-                  config_dir: str | os.PathLike | None = None) -> dict:
+                  config_dir: str | os.PathLike | None = None,
+                  config: RigConfig | None = None) -> dict:
     """Where a solve's wall time goes, on ``run_benchmark``'s loop: per part of the
     real-time iteration (drill_nmpc.transcription.RTI_PARTS) and the rest of the
     supervisor's step (Python: parameters, bounds, warm start, the step's checks, the
-    result), the mean per solve [s] and its share of the solves' total; the median solve
-    [s] and the share of the QP and the compiled evaluations (the linearisation and the
-    evaluation)."""
-    config = load_rig(config_dir or default_config_dir())
+    result), the mean per solve [s] and its share of the solves' total; the median and
+    p99 solve [s], the share of the QP and the compiled evaluations (the linearisation and
+    the evaluation) and the supervisor's build time [s]. ``config`` (a loaded configuration)
+    replaces ``config_dir``'s."""
+    config = config or load_rig(config_dir or default_config_dir())
     em = nmpc_estimation_model(config, configuration)
+    start = time.perf_counter()
     sup = Supervisor(config, em, configuration=configuration)
+    build_s = time.perf_counter() - start
     log, sup = closed_loop(config, configuration, samples, supervisor=sup, friction_factor=1.1)
     total_s = float(np.sum(log.solve_time_s))
     problems = {id(p): p for p in (sup.problem_for(True), sup.problem_for(False))}.values()
     parts = {part: sum(p.part_seconds[part] for p in problems) for part in RTI_PARTS}
     parts["other"] = total_s - sum(parts.values())
-    out: dict = {"configuration": configuration, "solves": samples,
-                 "median_solve_s": float(np.median(log.solve_time_s))}
+    dist = distribution(log.solve_time_s)
+    out: dict = {"configuration": configuration, "solves": samples, "build_s": build_s,
+                 "median_solve_s": dist["median_s"], "p99_solve_s": dist["p99_s"]}
     for part, seconds in parts.items():
         out[f"{part}_s_per_solve"] = seconds / samples
         out[f"{part}_share"] = seconds / total_s

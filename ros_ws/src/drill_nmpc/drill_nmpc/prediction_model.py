@@ -250,7 +250,10 @@ class PredictionModel:
         own (one SX function), so every derivative the NLP needs is one call of it per
         stage instead of forward sweeps through the integrator; the step's Jacobian is the
         RK4 stages' forward sensitivities with each friction table's value and slope one
-        call each (drill_core.table_tape), not one call per seed direction."""
+        call each (drill_core.table_tape), not one call per seed direction. F is
+        differentiable in x and u only: the frozen parameters and the pump state are the
+        NLP's parameters, never its decisions (``is_diff_in``), so no sensitivity is
+        carried for them."""
         x = ca.SX.sym("x", self.nd)
         u = ca.SX.sym("u", U_SIZE)
         par = ca.SX.sym("par", self.npar)
@@ -263,37 +266,37 @@ class PredictionModel:
         h = step_s / substeps
         integrate = rk4_step if integrator == "rk4" else euler_step
         step = ca.Function("predict_step", [x, u, par, on], [integrate(f, x, h)])
-        drift_jacobian = drift_with_jacobian(f, x, [u, par, on])
-        nd, n_other = self.nd, U_SIZE + self.npar + 1
+        drift_jacobian = drift_with_jacobian(f, x, [u], [par, on])
+        nd = self.nd
 
         def sensitive_drift(s: WithSensitivity) -> WithSensitivity:
             value, jacobian = drift_jacobian(s.value, u, par, on)
-            direct = ca.horzcat(ca.SX(nd, nd), jacobian[:, nd:])     # u, par, pump_on
+            direct = ca.horzcat(ca.SX(nd, nd), jacobian[:, nd:])     # u
             return WithSensitivity(value, ca.mtimes(jacobian[:, :nd], s.sensitivity) + direct)
 
         stepped = integrate(sensitive_drift,
-                            WithSensitivity(x, ca.horzcat(ca.SX.eye(nd), ca.SX(nd, n_other))), h)
-        sensitivity = stepped.sensitivity
-        columns = np.cumsum([0, nd, U_SIZE, self.npar, 1])
+                            WithSensitivity(x, ca.horzcat(ca.SX.eye(nd), ca.SX(nd, U_SIZE))), h)
         step_jacobian = ca.Function("predict_step_jacobian", [x, u, par, on],
-                                    [stepped.value] + [sensitivity[:, int(a):int(b)]
-                                                       for a, b in zip(columns[:-1], columns[1:])])
+                                    [stepped.value, stepped.sensitivity[:, :nd],
+                                     stepped.sensitivity[:, nd:]])
         args = [ca.MX.sym("x", self.nd), ca.MX.sym("u", U_SIZE), ca.MX.sym("par", self.npar),
                 ca.MX.sym("pump_on")]
         state = args[0]
         for _ in range(substeps):
             state = step(state, *args[1:])
-        xk, chain = args[0], None         # d x_k / d (x, u, par, pump_on)
+        xk, chain_x, chain_u = args[0], None, None        # d x_k / d x, d x_k / d u
         for _ in range(substeps):
-            xk, *local = step_jacobian(xk, *args[1:])
-            chain = local if chain is None else \
-                [ca.mtimes(local[0], chain[0])] + [ca.mtimes(local[0], c) + l
-                                                   for c, l in zip(chain[1:], local[1:])]
+            xk, local_x, local_u = step_jacobian(xk, *args[1:])
+            chain_x, chain_u = ((local_x, local_u) if chain_x is None else
+                                (ca.mtimes(local_x, chain_x), ca.mtimes(local_x, chain_u) + local_u))
         names = ["x", "u", "par", "pump_on"]
-        jac = ca.Function("jac_predict", [*args, ca.MX.sym("out", self.nd)], chain,
+        held = [ca.MX(nd, self.npar), ca.MX(nd, 1)]      # par, pump_on: not differentiated
+        jac = ca.Function("jac_predict", [*args, ca.MX.sym("out", self.nd)],
+                          [chain_x, chain_u, *held],
                           [*names, "out_x_next"], [f"jac_x_next_{n}" for n in names])
         return ca.Function("predict", args, [state], names, ["x_next"],
-                           {"custom_jacobian": jac, "jac_penalty": 0})
+                           {"custom_jacobian": jac, "jac_penalty": 0,
+                            "is_diff_in": [True, True, False, False]})
 
     def initial_state(self, x_full, u_prev=None, actuators: dict | None = None,
                       pump_on: bool = True) -> np.ndarray:
