@@ -89,5 +89,5 @@ def test_a_measurement_whose_step_never_comes_is_passed_over(volumes):
     for (_, step), (stamp, bhp, tank) in kept:
         sheet.observe(stamp * 1e-9, step, bhp, BHP_REF_PA, tank)
     assert feed.sheet.rows == sheet.rows
-    assert not feed._waiting                    # nothing left waiting on the lost frame
+    assert feed.pairs.waiting() == 0            # nothing left waiting on the lost frame
     assert math.isfinite(feed.sheet.rows[0].measured_fill_m3)

@@ -35,6 +35,7 @@ from drill_msgs.msg import (ActuatorFrame, OperatorEvent, RigCommand, RigFloor, 
 from std_msgs.msg import Bool, String
 
 from drill_core.event_codes import Notice
+from drill_core.tripping.frame_pairs import FramePairs
 from drill_ros import topics
 from drill_ros.context import load_context
 from drill_ros.events import event_message
@@ -63,9 +64,8 @@ class ProtectionNode(RigNode):
         # a multi-stand trip: a measurement t_k is read once the rig floor's command
         # stamped t_{k-1} (the frame before it) has come (fast mode)
         self.multi_stand = ctx.scenario.trip is not None
-        self.measurements: dict[int, RigMeasurement] = {}    # waiting for their floor
-        self.floors: dict[int, RigFloor] = {}
         self.frame_ns = seconds_to_ns(ctx.config.plant.sensor_period_s)
+        self.floor_pairs = FramePairs(self.frame_ns)    # measurements with the floor's step
         self.clamp_count = 0
         self.status = StatusReporter(self, ctx.mode)
         self.pub_command = self.create_publisher(RigCommand, topics.MACHINE_COMMAND, topics.RELIABLE)
@@ -124,24 +124,18 @@ class ProtectionNode(RigNode):
         if not self.multi_stand:
             self._observe(msg)
             return
-        self.measurements[to_ns(msg.header.stamp)] = msg
-        self._drain()
+        self._drain(self.floor_pairs.item(to_ns(msg.header.stamp), msg))
 
     def _on_floor(self, msg: RigFloor) -> None:
-        self.floors[to_ns(msg.header.stamp)] = msg
-        self._drain()
+        self._drain(self.floor_pairs.partner(to_ns(msg.header.stamp), msg))
 
-    def _drain(self) -> None:
-        """The waiting measurements in stamp order, each once the floor's command for the
-        frame before it has come."""
-        while self.measurements:
-            stamp = min(self.measurements)
-            before = stamp - self.frame_ns
-            if stamp > 0:
-                if before not in self.floors:
-                    return
-                self.tick.floor(floor_command(self.floors.pop(before)))
-            self._observe(self.measurements.pop(stamp))
+    def _drain(self, released) -> None:
+        """The measurements released in stamp order, each after the floor's command for the
+        frame before it (none before the first frame)."""
+        for _, measurement, floor in released:
+            if floor is not None:
+                self.tick.floor(floor_command(floor))
+            self._observe(measurement)
 
     def _observe(self, msg: RigMeasurement) -> None:
         stamp = to_ns(msg.header.stamp)
