@@ -2,7 +2,8 @@
 
 Model code receives ``xp`` (``NUMPY`` or ``CASADI``) and uses only the functions
 below plus + - * / **. With numpy, a state entry may be a row of values (one per
-sigma point), so one call evaluates all sigma points at once.
+sigma point), so one call evaluates all sigma points at once. :func:`table` calls a
+tabulated 1-D function (a CasADi interpolant of values on ``grid``) in a namespace.
 """
 from __future__ import annotations
 
@@ -10,6 +11,13 @@ from types import SimpleNamespace
 
 import casadi as ca
 import numpy as np
+
+from drill_core.table_tape import table_call
+
+
+def _np_table(function, v, grid):
+    v = np.asarray(v, dtype=float)
+    return np.asarray(function(v.reshape(1, -1)), dtype=float).reshape(v.shape)
 
 
 def _np_stack(items):
@@ -23,6 +31,7 @@ NUMPY = SimpleNamespace(
     fmax=np.maximum, fmin=np.minimum, sign=np.sign,
     if_else=lambda cond, a, b: np.where(cond, a, b),
     stack=_np_stack,
+    table=_np_table,
 )
 
 CASADI = SimpleNamespace(
@@ -31,7 +40,15 @@ CASADI = SimpleNamespace(
     fmax=ca.fmax, fmin=ca.fmin, sign=ca.sign,
     if_else=ca.if_else,
     stack=lambda items: ca.vertcat(*items),
+    table=lambda function, v, grid: table_call(function, v),
 )
+
+
+def table(xp, function, v, grid):
+    """``function`` (a 1-D CasADi interpolant tabulated on ``grid``) at ``v``: the namespace's
+    ``table`` (a namespace that cannot call a CasADi function tabulates it again from
+    ``grid``: drill_nmpc.peer_gekko), numpy's for the numpy module used as a namespace."""
+    return getattr(xp, "table", _np_table)(function, v, grid)
 
 
 def clip(xp, value, lo, hi):

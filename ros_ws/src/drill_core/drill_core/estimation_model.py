@@ -34,13 +34,12 @@ import casadi as ca
 import numpy as np
 
 from drill_core import hydraulics as hy
-from drill_core.backend import CASADI, NUMPY
+from drill_core.backend import CASADI, NUMPY, table
 from drill_core.block_control import block_command, integral_rate
 from drill_core.config import RigConfig
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.integrators import euler_step, rk4_step
 from drill_core.rheology import wall_stress_magnitude
-from drill_core.table_tape import table_call
 from drill_core.state_layout import (MEASUREMENT_NAMES, POSITION, VELOCITY, WellboreLayout,  # noqa: F401 (MEASUREMENT_NAMES re-exported)
                                      hydraulic_state_names)
 BLOCK_INTEGRAL = "block_integral_m_s"
@@ -76,6 +75,7 @@ class NominalFriction:
                 * np.tanh(v / smoothing_mps)
 
         self._exact = stress
+        self.grid = grid                  # the tables' sample points [m/s]
         self._tables = {d: ca.interpolant(f"annulus_stress_{k}", "bspline", [grid], stress(grid, sec))
                         for k, (d, sec) in enumerate(sorted(sections.items()))}
         self._paths = []                  # per path: (4 L/d_h, A_f, K_c, d_h), alike sections merged
@@ -108,12 +108,7 @@ class NominalFriction:
         total = 0.0
         for c, a, kc, d in self._paths[k]:
             v = flow_m3s / a - kc * string_velocity_mps
-            if xp is CASADI:
-                tau = table_call(self._tables[d], v)
-            else:
-                v = np.asarray(v, dtype=float)
-                tau = np.asarray(self._tables[d](v.reshape(1, -1)), dtype=float).reshape(v.shape)
-            total = total + c * tau
+            total = total + c * table(xp, self._tables[d], v, self.grid)
         return total
 
 

@@ -71,15 +71,16 @@ drill_nmpc.supervisor), so what the comparison does *not* compare:
    the pressure-loop variant (``choke_control: pressure``) is not built here;
 8. the per-sample references, levels and NMPC1's carried integrals are the supervisor's own
    (``Supervisor.setpoint_vector``, ``levels``, ``block_profile``, ``carried_integral``,
-   from a Supervisor the peer keeps for them); its last period's block speed and the
-   reference trajectory (59) are two lines written again;
+   from a Supervisor the peer keeps for them: drill_nmpc.peer_base, shared with the GEKKO
+   peer); its last period's block speed and the reference trajectory (59) are two lines
+   written again;
 9. the step reports no objective value (``SolveResult.cost`` NaN: do-mpc keeps none) and
    no predicted output trajectories, only the planned inputs and the slacks.
 
     python -m drill_nmpc.peers [--samples 150] [--out-at 5] [--friction-factor 1]
 
-prints median / p99 solve time and BHP RMSE of this peer and of the project's supervisor on
-the same bench loop (``drill_nmpc.bench.closed_loop``, one function for both: the shared
+prints median / p99 solve time and BHP RMSE of this peer, of the GEKKO one
+(drill_nmpc.peer_gekko) and of the project's supervisor on the same bench loop (``drill_nmpc.bench.closed_loop``, one function for both: the shared
 model as the plant, exact state feedback; Case 2 from its steady state -- 1000 L/min, 20 bar
 choke dp, BHP held at its start within +-2 bar, the dp band up to the BHP band's bottom --
 with the bench's schedule: the 28 m pull-out from ``--out-at``, the run back in from 0.6 of
@@ -88,9 +89,7 @@ the run). Solve times are wall times on whatever machine runs it.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
-import math
 import time
 import warnings
 
@@ -98,35 +97,28 @@ import casadi as ca
 import numpy as np
 
 from drill_core.config import RigConfig, load_rig
-from drill_core.input_layout import U_BLOCK, U_CHOKE, U_PUMP_PRESSURE, U_SIZE
+from drill_core.input_layout import U_BLOCK, U_SIZE
 from drill_core.rig_root import config_dir as default_config_dir
 from drill_core.scenario import ActiveSetpoints
 from drill_nmpc.bench import closed_loop, distribution
-from drill_nmpc.inputs import choke_time_constant, input_arrays
-from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
-                                         full_state, nmpc_estimation_model, outputs)
-from drill_nmpc.soft_constraints import SLACK_NAMES, SOFT_CONSTRAINTS, StageValues
-from drill_nmpc.solve_result import Fallback, SolveResult
+from drill_nmpc.peer_base import BHP, NmpcPeer
+from drill_nmpc.peer_gekko import GekkoPeer
+from drill_nmpc.prediction_model import nmpc_estimation_model, outputs
+from drill_nmpc.soft_constraints import SOFT_CONSTRAINTS, StageValues
+from drill_nmpc.solve_result import SolveResult
 from drill_nmpc.supervisor import Supervisor
-from drill_nmpc.transcription import INTEGRAL_OUTPUTS
 
 with warnings.catch_warnings():      # do-mpc warns at import about its optional extras (ONNX, torch)
     warnings.simplefilter("ignore")
     import do_mpc
 
 CASE2_DP_BAND_UPPER_PA = 6.63e7      # config/scenarios/case2.yaml: dp up to the BHP band's bottom
-BHP = 2                              # index of the BHP in the outputs [block, choke dp, BHP]
 # Case 2 (config/scenarios/case2.yaml) on the bench loop, beyond bench's defaults (its steady
 # state, +-2 bar BHP band, 20 bar dp reference, 0.5 m/s): the dp band's upper edge.
 CASE2 = {"dp_band_upper_pa": CASE2_DP_BAND_UPPER_PA}
 
 
-def input_names(config: RigConfig) -> tuple[str, ...]:
-    """The supervisor's input names, in the input vector's order (config/nmpc.yaml)."""
-    return tuple(f.name for f in dataclasses.fields(config.nmpc.input_min))
-
-
-class DoMpcPeer:
+class DoMpcPeer(NmpcPeer):
     """NMPC1 in do-mpc, with the supervisor's ``step`` interface (drill_nmpc.bench's loop).
 
     ``step(x_hat, setpoints, u_prev, actuators=...)`` returns a :class:`SolveResult` whose
@@ -137,40 +129,10 @@ class DoMpcPeer:
     """
 
     def __init__(self, config: RigConfig, em=None, *, nlpsol_opts: dict | None = None):
-        cfg = config.nmpc
-        if cfg.choke_control != "flow":
-            raise ValueError("the do-mpc peer is built for choke_control flow")
-        self.config, self.cfg = config, cfg
-        self.em = em = em or nmpc_estimation_model(config, "NMPC1")
-        if em.with_disturbance:
-            raise ValueError("NMPC1 predicts without the influx state")
-        self.configuration = "NMPC1"
-        lags = ActuatorLags.from_config(config) if cfg.actuator_lags_in_model else None
-        table = StringFrictionTable(em.wm)
-        self.model_pred = PredictionModel(em, lags, table if table.applies() else None,
-                                          choke_time_constant(cfg))
-        self.N, self.ts = cfg.prediction_steps, cfg.sample_time_s
-        if cfg.control_steps != self.N:
-            raise ValueError("do-mpc optimises an input per stage: control_steps must equal "
-                             "prediction_steps")
-        self.inputs = input_arrays(cfg)
-        self.u_min, self.u_max = self.inputs["min"], self.inputs["max"]
-        self.slew = self.inputs["slew"]
-        self.acceleration = config.protection.trip_acceleration_max_mps2
-        self.alpha = np.array(cfg.reference_smoothing.as_tuple(), dtype=float)
-        self.y_span = np.array(cfg.output_span.as_tuple(), dtype=float)
-        self.u_names = input_names(config)
-        self.references = Supervisor(config, em)   # its per-sample references and levels
+        super().__init__(config, em)
         self.model = self._build_model()
         self.mpc = self._build_mpc(nlpsol_opts or {})
-        # carried between samples, as the supervisor carries them
-        self.integral = 0.0                          # the BHP's, the one with a weight
-        self._integrals = np.zeros(len(INTEGRAL_OUTPUTS))
-        self.spp_nominal: float | None = None
-        self._applied: np.ndarray | None = None
         self._started = False
-        self.solve_count = 0
-        self.fallback_count = 0
         self.make_step_s: list[float] = []
 
     # -- construction -------------------------------------------------------------------
@@ -293,68 +255,27 @@ class DoMpcPeer:
         return mpc
 
     # -- one sample ---------------------------------------------------------------------
-    def safe_input(self, u_prev) -> np.ndarray:
-        u = np.asarray(u_prev, dtype=float).ravel()[:U_SIZE].copy()
-        bad = ~np.isfinite(u)
-        u[bad] = np.clip(0.0, self.u_min, self.u_max)[bad]
-        return np.clip(u, self.u_min, self.u_max)
-
-    def limit(self, u, u_prev, reference_speed: float) -> np.ndarray:
-        """The command clipped into the slew, acceleration and input limits around u_prev
-        (IPOPT meets them to its tolerance)."""
-        u = np.where(np.isfinite(u), u, u_prev)
-        lo, hi = u_prev - self.slew, u_prev + self.slew
-        if self.acceleration:
-            step = self.acceleration * self.ts ** 2
-            lo[U_BLOCK] = max(lo[U_BLOCK], u_prev[U_BLOCK] + reference_speed * self.ts - step)
-            hi[U_BLOCK] = min(hi[U_BLOCK], u_prev[U_BLOCK] + reference_speed * self.ts + step)
-        return np.clip(np.clip(u, lo, hi), self.u_min, self.u_max)
-
     def step(self, x_hat, setpoints: ActiveSetpoints, u_prev, disturbance=None,
              actuators: dict | None = None) -> SolveResult:
         t0 = time.perf_counter()
-        em, m, cfg = self.em, self.model_pred, self.cfg
-        u_prev = self.safe_input(u_prev)
-        speed = 0.0 if self._applied is None else \
-            float(u_prev[U_BLOCK] - self._applied[U_BLOCK]) / self.ts
-        self._applied = u_prev.copy()
-        self.solve_count += 1
-        x = full_state(em, x_hat, disturbance)
-        if self.spp_nominal is None:
-            self.spp_nominal = float(u_prev[U_PUMP_PRESSURE])
-        pump_on = bool(setpoints.mud_pump_on)
-        x0 = m.initial_state(x, u_prev, actuators or {}, pump_on)
-        par = x[m.nd_model:]
-        y_now = np.array([float(v) for v in outputs(em, x)])
-
-        # setpoints and references: the supervisor's own per-sample rules
-        sup = self.references
-        y_sp = sup.setpoint_vector(x, setpoints, par)
-        bhp_sp = float(y_sp[2])
-        vlim, bhp_band, dp_band = sup.levels(setpoints, y_sp)
-        y_ref = np.array([self.alpha ** j * y_now + (1.0 - self.alpha ** j) * y_sp
-                          for j in range(self.N + 1)])
-        if cfg.block_reference == "profile":
-            y_ref[:, 0] = sup.block_profile(float(x[em.position]), float(y_sp[0]), vlim)
-        self._integrals = sup.carried_integral(self._integrals, y_now, dp_band, bhp_band)
-        self.integral = float(self._integrals[INTEGRAL_OUTPUTS.index(BHP)])
-        u_ref = np.array([y_sp[0], u_prev[U_CHOKE], 0.0, self.spp_nominal])
-
+        s = self.sample(x_hat, setpoints, u_prev, disturbance, actuators)
         tvp = self._tvp
         for k in range(self.N + 1):
-            values = {"ref_block_m": y_ref[k, 0], "ref_choke_dp_pa": y_ref[k, 1],
-                      "ref_bhp_pa": y_ref[k, 2], "bhp_setpoint_pa": bhp_sp,
-                      "bhp_low_pa": bhp_band[0], "bhp_high_pa": bhp_band[1],
-                      "dp_low_pa": dp_band[0], "dp_high_pa": dp_band[1],
-                      "velocity_limit_mps": vlim, "previous_block_step_m": speed * self.ts}
-            values.update({f"u_ref_{n}": u_ref[i] for i, n in enumerate(self.u_names)})
+            values = {"ref_block_m": s.y_ref[k, 0], "ref_choke_dp_pa": s.y_ref[k, 1],
+                      "ref_bhp_pa": s.y_ref[k, 2], "bhp_setpoint_pa": s.bhp_setpoint_pa,
+                      "bhp_low_pa": s.bhp_band_pa[0], "bhp_high_pa": s.bhp_band_pa[1],
+                      "dp_low_pa": s.dp_band_pa[0], "dp_high_pa": s.dp_band_pa[1],
+                      "velocity_limit_mps": s.velocity_limit_mps,
+                      "previous_block_step_m": s.speed_mps * self.ts}
+            values.update({f"u_ref_{n}": s.u_ref[i] for i, n in enumerate(self.u_names)})
             for name, value in values.items():
                 tvp["_tvp", k, name] = value
-        for name, value in zip(self.par_names, par):
+        for name, value in zip(self.par_names, s.par):
             self._p["_p", 0, name] = value
-        self._p["_p", 0, "pump_on"] = 1.0 if pump_on else 0.0
+        self._p["_p", 0, "pump_on"] = 1.0 if s.pump_on else 0.0
 
-        state = np.concatenate([x0, [self.integral]]).reshape(-1, 1)
+        state = np.concatenate([s.x0, [s.integral]]).reshape(-1, 1)
+        u_prev = s.u_prev
         mpc = self.mpc
         mpc.u0 = u_prev.reshape(-1, 1)         # u_{-1} of the r-term and the slew rows
         if not self._started:                   # cold: every stage at x_0 and u_{-1}
@@ -368,13 +289,6 @@ class DoMpcPeer:
         except RuntimeError as exc:             # an evaluation error inside IPOPT
             u_opt, stats = u_prev.copy(), {"success": False, "return_status": f"error: {exc}"[:120]}
         self.make_step_s.append(time.perf_counter() - t_solve)
-        success = bool(stats.get("success", False)) and bool(np.all(np.isfinite(u_opt)))
-        status = str(stats.get("return_status", ""))
-        if success:
-            u, fallback = self.limit(u_opt, u_prev, speed), Fallback.NONE
-        else:
-            self.fallback_count += 1
-            u, fallback = self.limit(u_prev, u_prev, speed), Fallback.HOLD
         planned = np.array([np.asarray(mpc.opt_x_num_unscaled["_u", k, 0]).ravel()
                             for k in range(self.N)])
         slacks = {}
@@ -382,14 +296,9 @@ class DoMpcPeer:
             names = [f"{c.name}_low", f"{c.name}_high"] if c.band else [c.name]
             slacks[c.name] = max(float(mpc.opt_x_num["_eps", k, 0, n]) for n in names
                                  for k in range(1, self.N)) * c.slack_unit
-        return SolveResult(u=u, success=success, fallback=fallback, status=status,
-                           iterations=int(stats.get("iter_count", -1)),
-                           solve_time_s=time.perf_counter() - t0,
-                           cost=math.nan,     # do-mpc keeps no objective value
-                           slacks=slacks if success else {n: math.nan for n in SLACK_NAMES},
-                           planned_inputs=planned if success else np.tile(u, (self.N, 1)),
-                           reference=y_ref, integral=np.array([self.integral]),
-                           configuration=self.configuration)
+        return self.result(s, u_opt, bool(stats.get("success", False)),
+                           str(stats.get("return_status", "")), int(stats.get("iter_count", -1)),
+                           t0, slacks, planned)
 
 
 def run_loop(config: RigConfig, controller, samples: int, *, out_at: float = 5.0,
@@ -408,17 +317,24 @@ def run_loop(config: RigConfig, controller, samples: int, *, out_at: float = 5.0
 
 def compare(samples: int = 150, config_dir=None, out_at: float = 5.0,
             friction_factor: float = 1.0) -> dict:
-    """do-mpc's NMPC1 and the project's supervisor on the same loop, one run each."""
+    """do-mpc's and GEKKO's NMPC1 and the project's supervisor on the same loop, one run
+    each; beyond the common keys, do-mpc's ``make_step`` median and GEKKO's own solve time
+    (``SOLVETIME``, the ``apm`` run's solver) median [s]."""
     config = load_rig(config_dir or default_config_dir())
     em = nmpc_estimation_model(config, "NMPC1")
     out: dict = {"samples": samples, "out_at_s": out_at, "friction_factor": friction_factor}
     for name, build in (("do_mpc", lambda: DoMpcPeer(config, em)),
+                        ("gekko", lambda: GekkoPeer(config, em)),
                         ("project", lambda: Supervisor(config, em, configuration="NMPC1"))):
         t0 = time.perf_counter()
         controller = build()
         build_s = time.perf_counter() - t0
-        run = run_loop(config, controller, samples, out_at=out_at,
-                       friction_factor=friction_factor)
+        try:
+            run = run_loop(config, controller, samples, out_at=out_at,
+                           friction_factor=friction_factor)
+        finally:
+            if isinstance(controller, GekkoPeer):
+                controller.close()
         dist = distribution(run["solve_time_s"])
         out[f"{name}_median_s"] = dist["median_s"]
         out[f"{name}_p99_s"] = dist["p99_s"]
@@ -429,6 +345,8 @@ def compare(samples: int = 150, config_dir=None, out_at: float = 5.0,
         out[f"{name}_build_s"] = build_s
         if isinstance(controller, DoMpcPeer):
             out["do_mpc_make_step_median_s"] = float(np.median(controller.make_step_s))
+        if isinstance(controller, GekkoPeer):
+            out["gekko_solver_median_s"] = float(np.median(controller.solver_time_s))
     return out
 
 

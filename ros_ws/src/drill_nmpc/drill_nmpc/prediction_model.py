@@ -17,7 +17,7 @@ import casadi as ca
 import numpy as np
 
 from drill_core import hydraulics as hy
-from drill_core.backend import CASADI, NUMPY
+from drill_core.backend import CASADI, NUMPY, table
 from drill_core.block_control import (block_command, integral_for_command, integral_rate,
                                        reference_for_command)
 from drill_core.config import RigConfig
@@ -26,7 +26,7 @@ from drill_core.estimation_model import (EstimationModel, NominalFriction, build
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE, U_SIZE
 from drill_core.integrators import WithSensitivity, euler_step, rk4_step
 from drill_core.state_layout import StateLayout
-from drill_core.table_tape import drift_with_jacobian, table_call
+from drill_core.table_tape import drift_with_jacobian
 
 OUTPUT_NAMES = ("block_position_m", "choke_dp_pa", "bhp_pa")
 
@@ -51,6 +51,7 @@ class StringFrictionTable:
         grid = np.unique(np.concatenate([-log, [0.0], log, np.linspace(-q_max_m3s, q_max_m3s, 1601)]))
         values = np.asarray(hy.string_friction(NUMPY, wm, grid, 0.0 * grid), dtype=float)
         self.scale = 1.0e5
+        self.grid = grid                  # the table's sample points [m^3/s]
         self.spline = ca.interpolant("string_friction_table", "bspline", [grid], values / self.scale)
         check = np.linspace(-0.04, 0.04, 4001)
         exact = np.asarray(hy.string_friction(NUMPY, wm, check, 0.0 * check), dtype=float)
@@ -66,7 +67,8 @@ class StringFrictionTable:
         return bool(np.allclose(a, b, rtol=1e-9, atol=1.0)) and self.max_error_pa < 1.0e3
 
     def __call__(self, xp, wm, string_flow_m3s, string_velocity_mps):
-        return self.scale * table_call(self.spline, string_flow_m3s + self.area * string_velocity_mps)
+        relative_flow_m3s = string_flow_m3s + self.area * string_velocity_mps
+        return self.scale * table(xp, self.spline, relative_flow_m3s, self.grid)
 
 
 @dataclass(frozen=True)
@@ -199,9 +201,10 @@ class PredictionModel:
             em = dataclasses.replace(em, nominal_friction=em.nominal_friction.at(pump_on))
         return em
 
-    def rhs(self, x, u, par, pump_on=1.0, friction_pump_on=None):
-        """Time derivative of the prediction state (list of expressions); the friction law
-        is ``friction_pump_on``'s (0/1) where given, else ``pump_on``'s."""
+    def rhs(self, x, u, par, pump_on=1.0, friction_pump_on=None, xp=CASADI):
+        """Time derivative of the prediction state (list of expressions in the array
+        namespace ``xp``, drill_core.backend); the friction law is ``friction_pump_on``'s
+        (0/1) where given, else ``pump_on``'s."""
         em = self.model_at(pump_on if friction_pump_on is None else friction_pump_on)
         full = self.full(x, par)
         spp_cmd = u[U_PUMP_PRESSURE] * pump_on
@@ -211,7 +214,7 @@ class PredictionModel:
         if self.block is not None:
             inputs[U_BLOCK] = reference_for_command(x[self.block], x[em.position], x[em.block_integral],
                                                     self._stretch, em.block_kp, em.block_ki_per_s)
-        out = drift(CASADI, em, full, inputs, self.table)[:self.nd_model]
+        out = drift(xp, em, full, inputs, self.table)[:self.nd_model]
         if self.block is not None:
             out[em.block_integral] = integral_rate(u[U_BLOCK], x[em.position])
             command = self.block_command(u[U_BLOCK], x[em.position], x[em.block_integral])
