@@ -328,7 +328,7 @@ def solve_profile_markdown(profile: dict) -> list[str]:
 
 
 PEERS = (("do_mpc", "do-mpc (orthogonal collocation, IPOPT to convergence)"),
-         ("gekko", "GEKKO (APMonitor, IMODE 6)"))
+         ("gekko", "GEKKO (APMonitor IMODE 6, implicit Euler, IPOPT)"))
 
 
 def peers_markdown(peers: dict, profile: dict | None = None) -> list[str]:
