@@ -66,6 +66,14 @@ def exponent(counts, values) -> float:
     return float(np.polyfit(np.log(counts), np.log(values), 1)[0])
 
 
+def growth_exponents(rows: list[dict]) -> dict:
+    """k per figure of GROWTH over the rows (cost ~ n^k), where every row has it positive
+    and the rows span more than one n."""
+    counts = [r["n"] for r in rows]
+    return {key: exponent(counts, [r[key] for r in rows]) for key, _ in GROWTH
+            if len(set(counts)) > 1 and all(r.get(key, 0.0) > 0.0 for r in rows)}
+
+
 def in_process(config: RigConfig, samples: int = SAMPLES) -> dict:
     """One plant frame, one UKF frame (time update over the frame plus the measurement
     update) and the NMPC1 solves of the in-process loop with their parts
@@ -107,9 +115,7 @@ def run(domain_id: int, counts=SEGMENT_COUNTS, skip_graph: bool = False) -> dict
                        graph_cpu_s=sum(r["cpu_s"] for r in graph["budget"]))
         print(f"[bench] scaling n = {n}: {json.dumps(row)}", flush=True)
         rows.append(row)
-    counts = [r["n"] for r in rows]
-    exponents = {key: exponent(counts, [r[key] for r in rows])
-                 for key, _ in GROWTH if all(key in r for r in rows) and len(set(counts)) > 1}
+    exponents = growth_exponents(rows)
     by_n = {r["n"]: r for r in rows}
     wall_ratio = (by_n[6]["graph_wall_s"] / by_n[4]["graph_wall_s"]
                   if {4, 6} <= by_n.keys() and "graph_wall_s" in by_n[4] else math.nan)

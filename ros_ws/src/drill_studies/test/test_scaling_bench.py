@@ -54,10 +54,8 @@ def _row(n, k):
 @pytest.mark.parametrize("k, missed", [(0.9, False), (1.8, True)])
 def test_the_section_states_each_goal_and_the_bound_of_a_missed_one(k, missed):
     rows = [_row(n, k) for n in scaling_bench.SEGMENT_COUNTS]
-    counts = [r["n"] for r in rows]
     scaling = {"rows": rows, "wall_ratio_6_4": rows[1]["graph_wall_s"] / rows[0]["graph_wall_s"],
-               "exponents": {key: scaling_bench.exponent(counts, [r[key] for r in rows])
-                             for key, _ in scaling_bench.GROWTH}}
+               "exponents": scaling_bench.growth_exponents(rows)}
     text = "\n".join(scaling_bench.markdown(scaling))
     assert f"NMPC solve median k = {k:.2f} (goal: <= 1{': missed' if missed else ')'}" in text
     assert "UKF frame k = 0.99 (goal: <= 1)" in text
@@ -76,5 +74,14 @@ def test_the_drilling_section_names_the_fixed_cost_that_bounds_a_short_run():
     text = "\n".join(drilling_markdown(runs))
     assert "| long | 70.00 s | 0.400 s | 175 | 5.7 s | 12.28 | 0.08 | met |" in text
     assert "| 0.84 | missed |" in text
-    assert "5.0 s + 0.010 s per simulated s" in text and "short (6.0 s simulated: 3.0 s" in text
+    assert "short (6.0 s simulated: 3.0 s of wall allowed, its string model 0.40 s of CPU)" in text
+    assert "costs at least 5.1 s whatever its simulated time (the shortest run here, short" in text
     assert "Goal" not in "\n".join(drilling_markdown(runs[:1]))
+
+
+def test_a_figure_measured_at_or_below_zero_gets_no_exponent():
+    rows = [_row(n, 1.0) for n in scaling_bench.SEGMENT_COUNTS]
+    rows[2]["ukf_measurement_update_s"] = -1e-5
+    exponents = scaling_bench.growth_exponents(rows)
+    assert "ukf_measurement_update_s" not in exponents and "ukf_frame_s" in exponents
+    assert scaling_bench.growth_exponents(rows[:1]) == {}
