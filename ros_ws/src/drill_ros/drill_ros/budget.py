@@ -77,6 +77,14 @@ def summarise(budget_dir: Path) -> list[dict]:
     return rows
 
 
+SUMMED = ("cpu_s", "executor_s", "compute_s", "publish_s", "preempted_s")   # add up over processes
+
+
+def totals(rows: list[dict]) -> dict[str, float]:
+    """The run's total of each figure that adds up over its processes [s]."""
+    return {key: sum(r[key] for r in rows) for key in SUMMED}
+
+
 def markdown(rows: list[dict]) -> str:
     """The budget as a markdown table."""
     head = ("| process | nodes | start-up [s] | spin wall [s] | CPU [s] | idle [s] | "
@@ -86,7 +94,7 @@ def markdown(rows: list[dict]) -> str:
             "preempted_s")
     lines = [f"| {r['process']} | {r['nodes']} | " + " | ".join(f"{r[k]:.1f}" for k in keys)
              + " |" for r in rows]
-    summed = ("cpu_s", "executor_s", "compute_s", "publish_s", "preempted_s")
+    total = totals(rows)
     lines.append("| all | | | | " + " | ".join(
-        f"{sum(r[k] for r in rows):.1f}" if k in summed else "" for k in keys[2:]) + " |")
+        f"{total[k]:.1f}" if k in total else "" for k in keys[2:]) + " |")
     return "\n".join([head, *lines])

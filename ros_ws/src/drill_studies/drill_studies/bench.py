@@ -285,8 +285,7 @@ def arithmetic_floor(results: dict, sensor_period_s: float, sample_time_s: float
              "UKF frames": (frames, results["estimator"]["ukf_n4_frame_ms"] * 1e-3),
              f"{FLOOR_NMPC.upper()} solves": (solves, results["nmpc"][f"{FLOOR_NMPC}_median_s"])}
     floor_s = sum(count * seconds for count, seconds in parts.values())
-    spent = {key: sum(row[key] for row in default["budget"])
-             for key in ("cpu_s", "executor_s", "compute_s", "publish_s")}
+    spent = budget.totals(default["budget"])
     return {"parts": parts, "floor_s": floor_s, **spent, "ratio": spent["cpu_s"] / floor_s,
             "layout": default["layout"]}
 
@@ -368,7 +367,7 @@ def _sweeps(default: dict) -> dict:
     """The sweep section's results against ``default``, Case 2's run alone in the default
     layout (graph_rtf's median)."""
     case, controller, single = "case2", default["controller"], default["wall_s"]
-    cpu = sum(row["cpu_s"] for row in default["budget"])
+    cpu = budget.totals(default["budget"])["cpu_s"]
     results = sweep_bench.sweep_efficiency(case, controller, single, cpu)
     for r in results:
         print(f"[bench] sweep on the {r['pool']}: {r['wall_s']:.0f} s for {r['runs']} runs, "

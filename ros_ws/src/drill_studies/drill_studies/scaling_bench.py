@@ -20,6 +20,7 @@ import yaml
 
 from drill_bringup import launcher, runs
 from drill_core.config import RigConfig, load_rig, replace
+from drill_ros import budget
 from drill_estimator.bench import time_filter
 from drill_nmpc.bench import solve_profile
 from drill_nmpc.transcription import RTI_PARTS
@@ -92,10 +93,9 @@ def in_process(config: RigConfig, samples: int = SAMPLES) -> dict:
 
 
 def staged_config(n: int, directory: Path) -> Path:
-    """A copy of the checkout's config/ in ``directory`` with well.yaml's annulus in ``n``
-    segments; returns the directory."""
-    for file in sorted((runs.ROOT / "config").glob("*.yaml")):
-        (directory / file.name).write_bytes(file.read_bytes())
+    """The checkout's config/ staged under ``directory`` (runs.stage_config) with well.yaml's
+    annulus in ``n`` segments; returns the staged configuration's directory."""
+    directory = runs.stage_config(directory)
     well = yaml.safe_load((directory / "well.yaml").read_text())
     well["segment_lengths_m"] = list(segment_lengths_m(well["segment_lengths_m"], n))
     (directory / "well.yaml").write_text(yaml.safe_dump(well, sort_keys=False))
@@ -112,7 +112,7 @@ def run(domain_id: int, counts=SEGMENT_COUNTS, skip_graph: bool = False) -> dict
             with tempfile.TemporaryDirectory() as tmp:
                 graph = graph_rtf("case2", domain_id, None, config_source=staged_config(n, Path(tmp)))
             row.update(graph_wall_s=graph["wall_s"], graph_rtf=graph["rtf"],
-                       graph_cpu_s=sum(r["cpu_s"] for r in graph["budget"]))
+                       graph_cpu_s=budget.totals(graph["budget"])["cpu_s"])
         print(f"[bench] scaling n = {n}: {json.dumps(row)}", flush=True)
         rows.append(row)
     exponents = growth_exponents(rows)

@@ -60,12 +60,14 @@ def test_the_arithmetic_floor_is_the_runs_frames_and_solves_at_their_bench_cost(
     from drill_studies.bench import arithmetic_floor, floor_markdown
     results = {"plant": {"plant_frame_median_s": 0.4e-3}, "estimator": {"ukf_n4_frame_ms": 1.0},
                "nmpc": {"nmpc1_median_s": 0.01},
-               "graph": [{"default": False, "simulated_s": 600.0, "budget": [{"cpu_s": 99.0}]},
+               "graph": [{"default": False, "simulated_s": 600.0, "budget": [{"cpu_s": 99.0, "executor_s": 0.0,
+                                                                        "compute_s": 99.0, "publish_s": 0.0,
+                                                                        "preempted_s": 0.0}]},
                          {"default": True, "layout": "two", "simulated_s": 600.0,
                           "budget": [{"cpu_s": 20.0, "executor_s": 3.0, "compute_s": 16.0,
-                                      "publish_s": 1.0},
+                                      "publish_s": 1.0, "preempted_s": 0.5},
                                      {"cpu_s": 10.0, "executor_s": 2.0, "compute_s": 7.0,
-                                      "publish_s": 1.0}]}]}
+                                      "publish_s": 1.0, "preempted_s": 0.0}]}]}
     floor = arithmetic_floor(results, 0.1, 1.0)
     assert floor["floor_s"] == pytest.approx(6000 * 0.4e-3 + 6000 * 1.0e-3 + 600 * 0.01)   # 14.4 s
     assert floor["cpu_s"] == 30.0 and floor["ratio"] == pytest.approx(30.0 / 14.4)
