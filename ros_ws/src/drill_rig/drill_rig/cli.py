@@ -53,10 +53,11 @@
                                    (suite: every member of config/mismatch.yaml); --resume:
                                    the runs the table holds are not run again; --render:
                                    run nothing, write the page again from its JSON table
-  rig compare --fault-matrix [PAIRS] [--with-fault FAULT [--controller C ...]] [--render | --bounds]
-                                   each actuator and sensor fault alone (pull-out, rest,
-                                   run-in) and in pairs (pull-out) under every controller:
-                                   time outside the pore/fracture window per cell
+  rig compare --fault-matrix [PAIRS] [--with-fault FAULT] [--controller C ...] [--resume]
+              [--workers W] [--render | --bounds]
+                                   each actuator and sensor fault alone and in pairs
+                                   (pull-out, rest, run-in) under every controller: time
+                                   outside the pore/fracture window per cell
 """
 from __future__ import annotations
 
@@ -199,10 +200,12 @@ def main(argv=None) -> int:
                       help="do not run again a planned run whose row the table already holds")
     from drill_studies.fault_matrix import CONTROLLERS as MATRIX_CONTROLLERS, PAIRS
     comp.add_argument("--fault-matrix", nargs="?", const="actuators", choices=PAIRS,
-                      help="each actuator and sensor fault alone in the pull-out, at rest "
-                           "and in the run-in, and pairs in the pull-out (actuators, the "
-                           "default: every pair of actuator faults; all: every pair), under "
-                           "every controller (docs/fault-matrix.md)")
+                      help="each actuator and sensor fault alone and in pairs in the "
+                           "pull-out, at rest and in the run-in (actuators, the default: "
+                           "every pair of actuator faults; all: every pair), under every "
+                           "controller (docs/fault-matrix.md)")
+    comp.add_argument("--workers", type=int, default=1,
+                      help="with --fault-matrix: runs at a time (a local process pool)")
     comp.add_argument("--with-fault", metavar="FAULT",
                       help="with --fault-matrix: run only the cells with this fault (e.g. "
                            "'mud pump trip'), the table's other rows kept")
@@ -253,7 +256,8 @@ def main(argv=None) -> int:
                     from drill_studies import fault_bound
                     return fault_bound.main(output)
                 return fault_matrix.main(output, args.fault_matrix, args.with_fault,
-                                         args.controller or fault_matrix.CONTROLLERS)
+                                         args.controller or fault_matrix.CONTROLLERS,
+                                         resume=args.resume, workers=args.workers)
             from drill_studies import compare
             output = args.output or ROOT / "docs" / "results.md"
             if args.render:

@@ -1,7 +1,8 @@
 """``rig compare --fault-matrix``: each actuator and sensor fault, alone and in pairs, in
 the pull-out, at rest and in the run-in of Case 2's trip, under every controller, through
 the whole graph in fast mode; per cell the time BHP spent under the pore pressure and over
-the fracture pressure (docs/fault-matrix.md, rendered from its JSON table).
+the fracture pressure (docs/fault-matrix.md, rendered from its JSON table, which is written
+after every run so that an interrupted matrix resumes where it stopped).
 
 A cell is a short scenario made from Case 2 (its well, mud, setpoints and seed): the
 phase's schedule and the fault's events at the phase's fault time (both faults of a pair
@@ -63,19 +64,22 @@ PHASES = {
 }
 
 
-PAIRS = ("none", "actuators", "all")      # which pairs run in the pull-out
+PAIRS = ("none", "actuators", "all")      # which pairs run in every phase
+BOUND = "bound"       # the controller of drill_studies.fault_bound's rows (in process)
 
 
 def cells(pairs: str = "actuators") -> list[tuple[str, tuple[str, ...]]]:
-    """(phase, faults) of every cell: each fault alone in each phase, and pairs in the
-    pull-out: ``actuators`` (every pair of actuator faults), ``all`` (every pair) or
-    ``none``."""
+    """(phase, faults) of every cell: each fault alone in each phase, then pairs in each
+    phase: ``actuators`` (every pair of actuator faults), ``all`` (every pair; the pairs of
+    actuator faults first) or ``none``."""
     if pairs not in PAIRS:
         raise ValueError(f"pairs {pairs!r}: expected one of {', '.join(PAIRS)}")
+    def of_actuators(pair: tuple[str, ...]) -> bool:
+        return set(pair) <= set(ACTUATOR_FAULTS)
     alone = [(phase, (fault,)) for phase in PHASES for fault in FAULTS]
-    both = [pair for pair in itertools.combinations(FAULTS, 2)
-            if pairs == "all" or (pairs == "actuators" and set(pair) <= set(ACTUATOR_FAULTS))]
-    return alone + [("pull-out", pair) for pair in both]
+    both = [(phase, pair) for phase in PHASES for pair in itertools.combinations(FAULTS, 2)
+            if pairs == "all" or (pairs == "actuators" and of_actuators(pair))]
+    return alone + sorted(both, key=lambda cell: not of_actuators(cell[1]))
 
 
 def cell_name(phase: str, faults: tuple[str, ...]) -> str:
@@ -121,16 +125,31 @@ def cell_figures(summary: dict) -> dict:
                               "false_alarms": false_alarms(summary)}
 
 
+def row_key(row: dict) -> tuple[str, tuple[str, ...], str]:
+    """A row's cell and controller: (phase, faults, controller)."""
+    return row["phase"], tuple(row["faults"]), row["controller"]
+
+
+def run_of(row: dict) -> tuple[str, tuple[str, ...], str]:
+    """The run a row belongs to, (phase, faults, controller): its own, or for a bound row
+    (drill_studies.fault_bound) the run it was made after, which it goes with."""
+    phase, faults, controller = row_key(row)
+    return phase, faults, row["prefix"] if controller == BOUND else controller
+
+
 def run_matrix(pairs: str = "actuators", controllers=CONTROLLERS, run=batch.run_one,
-               with_fault: str | None = None) -> list[dict]:
+               with_fault: str | None = None, skip=frozenset(), workers: int = 1,
+               on_row=None) -> list[dict]:
     """Run every cell (``with_fault``: every cell with that fault) under every controller,
-    one after another; the table's rows."""
+    but those whose (phase, faults, controller) is in ``skip``; the table's rows.
+    ``on_row`` sees each row as its run finishes."""
     base = base_scenario()
     scenarios = [c for c in write_cells(runs.ROOT / "runs" / "fault-matrix", pairs, base)
                  if with_fault is None or with_fault in c[1]]
     seed = base["seed"]
     specs = {(path.stem, controller): (phase, faults, batch.RunSpec(path.stem, str(path), controller, seed))
-             for phase, faults, path in scenarios for controller in controllers}
+             for phase, faults, path in scenarios for controller in controllers
+             if (phase, faults, controller) not in skip}
     rows = []
 
     def done(row: dict) -> None:
@@ -142,11 +161,15 @@ def run_matrix(pairs: str = "actuators", controllers=CONTROLLERS, run=batch.run_
                      "seed": row["seed"], "run_dir": Path(row["run_dir"]).name,   # under runs/
                      "wall_s": row["wall_s"],
                      **figures})
+        if on_row is not None:
+            on_row(rows[-1])
         print(f"[fault matrix] {len(rows)}/{len(specs)} {phase} / {' + '.join(faults)} / "
               f"{row['controller']}: under pore {figures['bhp_under_pore_s']:.1f} s, over "
               f"fracture {figures['bhp_over_fracture_s']:.1f} s", flush=True)
-    print(f"[fault matrix] {len(specs)} runs, one at a time", flush=True)
-    batch.execute([s for _, _, s in specs.values()], run, on_done=done)
+    print(f"[fault matrix] {len(specs)} runs"
+          + (f", {len(skip)} kept from the table" if skip else "")
+          + (f", {workers} at a time" if workers > 1 else ", one at a time"), flush=True)
+    batch.execute([s for _, _, s in specs.values()], run, workers=workers, on_done=done)
     return rows
 
 
@@ -173,9 +196,6 @@ def _cell(row: dict | None) -> str:
     if row["false_alarms"]:
         notes.append(f"{row['false_alarms']} false alarm(s)")
     return text + (f" ({', '.join(notes)})" if notes else "")
-
-
-BOUND = "bound"       # the controller of drill_studies.fault_bound's rows (in process)
 
 
 def cell_speed_mps() -> float:
@@ -265,11 +285,13 @@ def markdown(rows: list[dict], made: str, window_pa: tuple[float, float]) -> str
     if started:
         lines += ["", f"The runs were made from {started[0]:%Y-%m-%d %H:%M} to "
                       f"{started[-1]:%Y-%m-%d %H:%M} (their run directories' stamps; a "
-                      "re-run of a part (`--with-fault`, `--controller`) replaces its cells' rows)."]
+                      "run of the matrix or of a part of it (`--with-fault`, `--controller`) "
+                      "replaces the rows of the cells it runs)."]
     lines += ["", f"Pairs not run: {len(missing)} of the "
               f"{len(PHASES) * len(list(itertools.combinations(FAULTS, 2)))} (phase, pair) cells "
-              "(`--fault-matrix all` runs every pair in the pull-out; pairs in the other "
-              "phases are not planned).", "",
+              "(`--fault-matrix` runs the pairs of actuator faults in every phase, "
+              "`--fault-matrix all` every pair; `--resume` runs only the cells the table "
+              "lacks).", "",
               "Protection events per run (alarms, clamps, answers) and each run's directory "
               "are in the JSON table."]
     return "\n".join(lines) + "\n"
@@ -285,19 +307,31 @@ def write(rows: list[dict], output: Path, made: str | None = None) -> None:
 
 
 def main(output: Path, pairs: str = "actuators", with_fault: str | None = None,
-         controllers=CONTROLLERS, run=batch.run_one) -> int:
+         controllers=CONTROLLERS, run=batch.run_one, resume: bool = False,
+         workers: int = 1) -> int:
     """Run the matrix under ``controllers`` (with ``with_fault``: only the cells with that
-    fault) and write its page; a part of the matrix keeps the table's other rows."""
+    fault) and write its page. The table keeps the rows of the cells not run now, and is
+    written after every run; ``resume``: a cell whose row the table holds is not run
+    again."""
     if with_fault is not None and with_fault not in FAULTS:
         raise ValueError(f"fault {with_fault!r}: expected one of {', '.join(FAULTS)}")
-    rows = run_matrix(pairs, controllers, run, with_fault)
     table = output.with_suffix(".json")
-    part = with_fault is not None or set(controllers) != set(CONTROLLERS)
-    if part and table.exists():
-        key = lambda r: (r["phase"], tuple(r["faults"]), r["controller"])
-        fresh = {key(r) for r in rows}
-        rows = [r for r in json.loads(table.read_text()) if key(r) not in fresh] + rows
-    write(rows, output)
+    old = json.loads(table.read_text()) if table.exists() else []
+    plan = {(phase, faults, c) for phase, faults in cells(pairs) for c in controllers
+            if with_fault is None or with_fault in faults}
+    skip = plan & {row_key(r) for r in old} if resume else set()
+    planned = plan - skip
+    kept = [r for r in old if run_of(r) not in planned]
+    fresh: list[dict] = []
+
+    def checkpoint(row: dict) -> None:      # whole or not at all: a killed matrix resumes
+        fresh.append(row)
+        output.parent.mkdir(parents=True, exist_ok=True)
+        part = table.with_name(table.name + ".part")
+        part.write_text(json.dumps(kept + fresh, indent=1))
+        part.replace(table)
+    run_matrix(pairs, controllers, run, with_fault, skip, workers, checkpoint)
+    write(kept + fresh, output)
     return 0
 
 

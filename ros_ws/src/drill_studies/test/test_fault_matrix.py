@@ -1,6 +1,7 @@
-"""The fault matrix's plan and page, without running a graph: the cells (each fault alone in
-each phase, the pairs asked for in the pull-out), valid scenarios with the faults at the
-phase's fault time, rows per run, and a page that marks every cell outside the window."""
+"""The fault matrix's plan and page, without running a graph: the cells (each fault alone and
+the pairs asked for, in each phase), valid scenarios with the faults at the phase's fault
+time, rows per run, a table written after every run that a resumed matrix completes, and a
+page that marks every cell outside the window."""
 import itertools
 import json
 import shutil
@@ -14,14 +15,18 @@ from drill_bringup import runs
 from drill_core.scenario import load_scenario
 
 
-def test_every_fault_alone_in_every_phase_and_the_pairs_asked_for_in_the_pull_out():
+def test_every_fault_alone_and_the_pairs_asked_for_in_every_phase():
     n, actuators = len(fm.FAULTS), len(fm.ACTUATOR_FAULTS)
     assert len(fm.cells("none")) == 3 * n
-    assert len(fm.cells("actuators")) == 3 * n + actuators * (actuators - 1) // 2
-    assert len(fm.cells("all")) == 3 * n + n * (n - 1) // 2
+    assert len(fm.cells("actuators")) == 3 * (n + actuators * (actuators - 1) // 2)
+    everything = fm.cells("all")
+    assert len(everything) == 3 * (n + n * (n - 1) // 2) == len(set(everything))
     pairs = [faults for phase, faults in fm.cells("actuators") if len(faults) == 2]
     assert all(set(p) <= set(fm.ACTUATOR_FAULTS) for p in pairs)
-    assert {phase for phase, faults in fm.cells("all") if len(faults) == 2} == {"pull-out"}
+    assert {phase for phase, faults in everything if len(faults) == 2} == set(fm.PHASES)
+    # the pairs of actuator faults first: a matrix of every pair begins with them
+    of_actuators = [set(f) <= set(fm.ACTUATOR_FAULTS) for _, f in everything if len(f) == 2]
+    assert of_actuators == sorted(of_actuators, reverse=True)
     with pytest.raises(ValueError, match="expected one of none, actuators, all"):
         fm.cells("some")
 
@@ -114,3 +119,29 @@ def test_the_page_says_when_its_runs_were_made_from_their_run_directories():
                          ("baseline", "/r/fm-rest-seed2-20261202-035300-1"))]
     page = fm.markdown(rows, "now", (6.6e7, 7.1e7))
     assert "The runs were made from 2026-12-02 03:53 to 2026-12-02 04:50" in page
+
+
+def test_the_table_is_written_after_every_run_and_a_resumed_matrix_runs_only_what_it_lacks(checkout):
+    output = checkout / "docs" / "fault-matrix.md"
+    table = output.with_suffix(".json")
+    calls = []
+
+    def dies_after_five(spec):
+        calls.append(spec)
+        row = fake_run(spec)
+        return row if len(calls) <= 5 else {**row, "ok": False, "message": "the graph died"}
+    with pytest.raises(RuntimeError, match="the graph died"):
+        fm.main(output, "none", run=dies_after_five)
+    assert len(json.loads(table.read_text())) == 5          # every finished run is kept
+    calls.clear()
+    fm.main(output, "none", run=lambda spec: (calls.append(spec), fake_run(spec))[1], resume=True)
+    rows = json.loads(table.read_text())
+    assert len(calls) == len(rows) - 5 == 3 * len(fm.FAULTS) * len(fm.CONTROLLERS) - 5
+    assert len({fm.row_key(r) for r in rows}) == len(rows)  # one row per cell and controller
+    # a bound goes with the run it was made after: a re-run of that run drops it
+    bound = {**rows[0], "controller": fm.BOUND, "prefix": rows[0]["controller"], "speed_mps": 0.5}
+    table.write_text(json.dumps(rows + [bound], indent=1))
+    phase, (fault,), controller = fm.row_key(rows[0])
+    fm.main(output, "none", fault, (controller,), run=fake_run)
+    again = json.loads(table.read_text())
+    assert len(again) == len(rows) and fm.BOUND not in {r["controller"] for r in again}
