@@ -11,15 +11,16 @@ open a choke sticks, how fast the string moves) is that controller's. It is a bo
 that answer, not a proven optimum: it says how much of a cell's time outside the window
 is left when every machine does at once the most it can.
 
-The same bound at lower pull-out speeds (the operator's trip-speed limit of the cell's
-scenario) gives the speed envelope: the fastest pull-out from which the fastest answer
-still keeps BHP inside the window.
+The same bound at lower trip speeds (the operator's trip-speed limit of the cell's
+scenario), in the phases where the string moves, gives the speed envelope: the fastest
+trip from which the fastest answer still keeps BHP inside the window.
 
 In process (drill_studies.loop_bench: the nodes' own tick classes, the estimator on the
 noisy measurements); its rows go into the fault matrix's JSON table with the controller
 ``bound``.
 
     python -m drill_studies.fault_bound            # bounds for docs/fault-matrix.json
+    python -m drill_studies.fault_bound --speeds   # at the cells' own trip speed only
 """
 from __future__ import annotations
 
@@ -65,7 +66,7 @@ def figures(out: dict) -> dict:
 
 
 def bound(phase: str, faults: tuple[str, ...], speed_mps: float, prefix: str) -> dict:
-    """The bound row of one cell at pull-out speed ``speed_mps``, the trip under
+    """The bound row of one cell at trip speed ``speed_mps``, the trip under
     ``prefix`` until the fault."""
     config = load_rig(runs.ROOT / "config")
     base = fault_matrix.base_scenario()
@@ -91,14 +92,15 @@ def runs_left(rows: list[dict]) -> list[tuple[str, tuple[str, ...], str]]:
 
 
 def main(output: Path, speeds=None) -> int:
-    """Bounds (at the cells' own pull-out speed and each of ``speeds``, default
-    SLOWER_SPEEDS_MPS) for each run that left the window, after its own controller; the
-    table's earlier bound rows dropped, its page written again."""
+    """Bounds (at the cells' own trip speed and, where the string moves, each of
+    ``speeds``, default SLOWER_SPEEDS_MPS) for each run that left the window, after its own
+    controller; the table's earlier bound rows dropped, its page written again."""
     speeds = (fault_matrix.cell_speed_mps(), *(SLOWER_SPEEDS_MPS if speeds is None else speeds))
     table = output.with_suffix(".json")
     rows = [r for r in json.loads(table.read_text()) if r["controller"] != fault_matrix.BOUND]
     for phase, faults, prefix in runs_left(rows):
-        for speed in speeds:
+        moving = bool(fault_matrix.PHASES[phase].targets)     # at rest the speed moves nothing
+        for speed in speeds if moving else speeds[:1]:
             row = bound(phase, faults, speed, prefix)
             print(f"[fault bound] {phase} / {' + '.join(faults)} after {prefix} at {speed:g} "
                   f"m/s: under pore "
@@ -112,4 +114,8 @@ def main(output: Path, speeds=None) -> int:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--output", type=Path, default=runs.ROOT / "docs" / "fault-matrix.md")
-    sys.exit(main(parser.parse_args().output))
+    parser.add_argument("--speeds", type=float, nargs="*", default=SLOWER_SPEEDS_MPS,
+                        help="the envelope's trip speeds below the cells' own [m/s] "
+                             "(none: the cells' own speed only)")
+    args = parser.parse_args()
+    sys.exit(main(args.output, tuple(args.speeds)))

@@ -199,7 +199,7 @@ def _cell(row: dict | None) -> str:
 
 
 def cell_speed_mps() -> float:
-    """The cells' pull-out speed: Case 2's trip-speed limit [m/s]."""
+    """The cells' trip speed: Case 2's trip-speed limit [m/s]."""
     return float(base_scenario()["schedule"][0]["trip_speed_limit_mps"])
 
 
@@ -208,11 +208,11 @@ def _bound_key(r: dict) -> tuple:
 
 
 def _envelope(bounds: list[dict]) -> list[str]:
-    """The bound at each pull-out speed, per cell and controller bounded."""
+    """The bound at each trip speed, per cell and controller bounded."""
     lines = []
     for phase, faults, prefix in sorted({_bound_key(r) for r in bounds}):
         lines += ["", f"*{phase}, {' + '.join(faults)}, after {prefix}*: the fastest answer "
-                      "from each pull-out speed", "", "| pull-out speed | the fastest answer |",
+                      "from each trip speed", "", "| trip speed | the fastest answer |",
                   "| --- | --- |"]
         for r in sorted((r for r in bounds if _bound_key(r) == (phase, faults, prefix)),
                         key=lambda r: -r["speed_mps"]):

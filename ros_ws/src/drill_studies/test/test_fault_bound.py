@@ -1,5 +1,6 @@
 """The machines' bound of a fault-matrix cell: the fastest answer's machine command, the
 runs it is taken for, and its column and speed envelope on the page (no run)."""
+import json
 import math
 from dataclasses import dataclass, replace
 
@@ -70,3 +71,20 @@ def test_the_page_shows_the_bound_column_and_the_envelope():
     assert "*pull-out, choke stuck + mud pump trip, after automated_mpd*" in page
     assert f"| {speed:g} m/s | 0 |" in page and "| 0.3 m/s | **1.5 s under (2.0 bar)** |" in page
     assert "*pull-out, choke stuck + mud pump trip, after baseline*" in page
+
+
+def test_a_string_at_rest_is_bounded_at_its_own_speed_only(tmp_path, monkeypatch):
+    output = tmp_path / "fault-matrix.md"
+    left = [("rest", ("choke stuck", "mud pump trip")), ("run-in", ("BPP trip", "mud pump trip"))]
+    rows = [row(*cell, "baseline", 3.0) for cell in left]
+    output.with_suffix(".json").write_text(json.dumps(rows))
+    asked = []
+
+    def fake_bound(phase, faults, speed_mps, prefix):
+        asked.append((phase, speed_mps))
+        return row(phase, faults, fm.BOUND, 1.0, speed_mps=speed_mps, prefix=prefix)
+    monkeypatch.setattr(fb, "bound", fake_bound)
+    fb.main(output, speeds=(0.3, 0.1))
+    speed = fm.cell_speed_mps()
+    assert asked == [("rest", speed), ("run-in", speed), ("run-in", 0.3), ("run-in", 0.1)]
+    assert len(json.loads(output.with_suffix(".json").read_text())) == len(rows) + len(asked)
