@@ -246,6 +246,10 @@ class Actuators:
         "samples", 0, 10000, default=5,
         doc="the same return-flow sample this many frames running is frozen: the flow "
             "controller falls back on the valve law (0: never)")
+    choke_gauges_frozen_after_samples: int = param(
+        "samples", 0, 10000, default=5,
+        doc="the same choke-dp or BHP sample this many frames running is frozen: the "
+            "pressure and BHP loops hold the opening as for a dropout (0: never)")
     choke_pressure_kp: float = param(
         "1", 0.0, 100.0, default=0.0,
         doc="pressure mode: PI gain, opening per unit normalised choke-dp error")
@@ -565,6 +569,16 @@ class ValveWatch:
 
 
 @dataclass(frozen=True)
+class PumpWatch:
+    """A pump that does not deliver what it is asked for, judged from its measured flow
+    against its lag's answer to the commands sent (drill_protection.actuator_watch)."""
+    flow_error_m3s: float = param("m^3/s", 0.0, 1.0, lo_open=True,
+                                  doc="the measured flow stood at least this under the lag's "
+                                      "answer ...")
+    window_s: float = param("s", 0.0, 60.0, lo_open=True, doc="... for this long: not delivering")
+
+
+@dataclass(frozen=True)
 class WellControl:
     """The protection's answer to a kick or losses alarm: the BHP window narrowed in steps
     (drill_protection.well_control)."""
@@ -605,6 +619,12 @@ class Protection:
                                                 "the drawworks does not follow it")
     choke_watch: ValveWatch = param(doc="a choke that does not move on its flow loop while "
                                         "circulation is lost: the protective stop")
+    bpp_watch: PumpWatch = param(doc="a back-pressure pump that does not deliver while "
+                                     "circulation is lost: the protective stop")
+    frozen_after_samples: int = param(
+        "samples", 0, 10000, default=5,
+        doc="a gauge repeating its value this often is read as frozen and left out like a "
+            "dropout (drill_protection.reading; 0: never)")
 
 
 @dataclass(frozen=True)

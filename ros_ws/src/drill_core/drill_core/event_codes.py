@@ -35,6 +35,9 @@ _PROTECTION = {
     "circulation_lost": EventCode("alarm", "", "circulation lost: the mud pump is asked for, "
                                                "the string-flow meter reads nothing"),
     "circulation_restored": EventCode("alarm", "", "circulation is back"),
+    "gauge_frozen": EventCode("alarm", "", "a gauge repeats its value: the protection reads it "
+                                           "as a dropout until it moves"),
+    "gauge_live": EventCode("alarm", "", "a gauge read as frozen moves again"),
     "window_exit": EventCode("alarm", "Pa", "BHP left the pore/fracture window; value: BHP"),
     "window_return": EventCode("alarm", "Pa", "BHP is back inside the window; value: BHP"),
     "non_finite_request": EventCode("clamp", "", "a non-finite command: the last one held"),
@@ -48,6 +51,8 @@ _PROTECTION = {
     "level_hold": EventCode("clamp", "", "the automation level keeps the advisor's command off"),
     "non_finite_dp_setpoint": EventCode("clamp", "", "a non-finite choke dp set-point: the choke "
                                                      "on its flow reference"),
+    "dp_setpoint_unread": EventCode("clamp", "", "no usable choke-dp reading: the choke on its "
+                                                 "flow controller instead of a dp set-point"),
     "well_control_hold": EventCode("clamp", "Pa", "the well-control response holds the choke; "
                                                   "value: the BHP it holds"),
     "window_guard": EventCode("clamp", "Pa", "BHP near a window limit: the choke and the "

@@ -10,6 +10,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from drill_core.channel_watch import ChannelWatch
 from drill_core.config import RigConfig
 from drill_core.estimation_model import EstimationModel
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_PUMP_PRESSURE
@@ -25,6 +26,9 @@ from drill_nmpc.supervisor import Supervisor
 BASELINE_KP_M3S_PER_PA = 5.0e-9     # the PI baseline's default gains: 30 L/min per bar
 BASELINE_TI_S = 5.0
 BASELINE_BRAKING_MPS2 = 0.05        # a multi-stand trip: the ramp's deceleration onto a stand's end
+BASELINE_FROZEN_AFTER_SAMPLES = 2   # a gauge repeating its value at the next sample is frozen
+                                    # (a live gauge's noise never repeats a float)
+BASELINE_GAUGES = ("block_position_m", "bhp_pa", "return_flow_m3s")
 CONNECTION_BPP_FLOW_M3S = 0.01      # the advisors' back-pressure pump through a connection (600 L/min)
 
 
@@ -161,6 +165,7 @@ class AutomatedMpdTick:
                                    start.circulating)
         self.start = start
         self.stand_length_m = math.nan if trip is None else trip.stand_length_m
+        self.gauges = ChannelWatch(BASELINE_GAUGES, BASELINE_FROZEN_AFTER_SAMPLES)
 
     def step(self, view: EstimateView, setpoints, bhp_resolved: bool,
              speed_limits_mps: tuple[float, float], applied_block_m: float,
@@ -200,7 +205,8 @@ class BaselineTick:
     at the start point. On a multi-stand trip (``trip``, the scenario's programme) the
     conventional connection: the ramp slows onto each stand's end, and the back-pressure
     pump runs at CONNECTION_BPP_FLOW_M3S while the mud pump is under its rate, giving
-    the PI choke a flow to hold BHP with."""
+    the PI choke a flow to hold BHP with. Its gauges are screened (drill_core.channel_watch):
+    a frozen one reads as a dropout, so the PI holds instead of winding up on it."""
 
     def __init__(self, config: RigConfig, trip_speed_mps: float, start: StartInputs,
                  kp_m3s_per_pa: float = BASELINE_KP_M3S_PER_PA, ti_s: float = BASELINE_TI_S,
@@ -211,6 +217,7 @@ class BaselineTick:
                                    math.inf if trip is None else BASELINE_BRAKING_MPS2)
         self.start = start
         self.stand_length_m = math.nan if trip is None else trip.stand_length_m
+        self.gauges = ChannelWatch(BASELINE_GAUGES, BASELINE_FROZEN_AFTER_SAMPLES)
 
     def step(self, position_m: float, bhp_pa: float, setpoints, bhp_resolved: bool,
              applied_block_m: float, return_flow_m3s: float = math.nan, floor=None
@@ -220,6 +227,8 @@ class BaselineTick:
         held). On a multi-stand trip ``floor`` is the rig floor's command at the sample
         (drill_core.tripping.rig_floor): the ramp goes to the stand's end while it moves
         and waits at the string while the floor has it (the slips, a connection)."""
+        screened, _ = self.gauges.screen(0.0, [position_m, bhp_pa, return_flow_m3s])
+        position_m, bhp_pa, return_flow_m3s = (float(v) for v in screened)
         c = self.controller
         c.adopt_applied(applied_block_m)
         target_m = setpoints.block_position_target_m

@@ -106,3 +106,19 @@ def test_on_a_multi_stand_trip_the_ramp_follows_the_floor_and_the_pump_carries_t
     assert cmd.block_position_ref_m == pytest.approx(27.6)   # waits at the string
     cmd, _ = tick.step(27.6, 6.85e7, sp, True, math.nan, floor=floor(CONNECTION, 1))
     assert cmd.bpp_flow_m3s == CONNECTION_BPP_FLOW_M3S
+
+
+def test_the_tick_reads_a_frozen_bhp_gauge_as_a_dropout_and_holds_the_choke(cfg):
+    """A BHP sample repeating at the next sample is a frozen gauge (a live one's noise never
+    repeats a float): the PI holds its choke reference as without a reading, instead of
+    winding up on a value that no longer moves."""
+    tick = BaselineTick(cfg, 0.5, StartInputs(Q0, 2.0e6, 0.0, 1.0e7, True))
+    sp = SimpleNamespace(block_position_target_m=0.0, bhp_ref_pa=6.85e7,
+                         controller_enabled=True, mud_pump_on=True)
+    cmd, ok = tick.step(0.01, 6.95e7, sp, True, math.nan, 0.01)
+    assert ok and cmd.choke_flow_ref_m3s > Q0                 # 1 bar high: opens
+    held = cmd.choke_flow_ref_m3s
+    cmd, ok = tick.step(0.02, 6.95e7, sp, True, math.nan, 0.0101)    # the same BHP: frozen
+    assert not ok and cmd.choke_flow_ref_m3s == held
+    cmd, ok = tick.step(0.03, 6.951e7, sp, True, math.nan, 0.0102)   # it moves again
+    assert ok and cmd.choke_flow_ref_m3s > held

@@ -127,15 +127,16 @@ class ActuatorTick:
             return self.model.frame(target, m.block_position_m, step_s, steps)
         if self.name != "choke":
             return self.model.frame(target, step_s, steps)
+        dp_pa, bhp_pa = self.model.gauges(m.choke_dp_pa, m.bhp_pa)
         if stop:
-            return self.model.bhp_frame(cmd.emergency_bhp_pa, m.bhp_pa, cmd.choke_dp_ref_pa,
-                                        target, m.choke_dp_pa, step_s, steps)
+            return self.model.bhp_frame(cmd.emergency_bhp_pa, bhp_pa, cmd.choke_dp_ref_pa,
+                                        target, dp_pa, step_s, steps)
         if hold:
             opening = self.model.lag.value
             return FrameOutput(opening, target, self.model.lag.advance(opening, step_s, steps))
         if cmd.choke_pressure_control and not cmd.choke_manual:
             since_s = (stamp_ns - self.command_stamp_ns) * 1e-9
             return self.model.pressure_frame(cmd.choke_dp_ref_pa, cmd.choke_dp_ref_rate_pa_s,
-                                             since_s, target, m.choke_dp_pa, step_s, steps)
+                                             since_s, target, dp_pa, step_s, steps)
         manual = cmd.choke_opening_ref if cmd.choke_manual else None
-        return self.model.frame(target, m.choke_dp_pa, step_s, steps, manual, m.return_flow_m3s)
+        return self.model.frame(target, dp_pa, step_s, steps, manual, m.return_flow_m3s)

@@ -165,7 +165,10 @@ class Choke:
     value at its rate, plus the opening the valve law gives for a feedforward flow at that
     set-point. BHP mode (the emergency stop's hold): the same loop on the measured BHP, its
     set-point the BHP to hold, as a cascade: an outer PI on the BHP sets the pressure loop's
-    choke-dp set-point (while the BHP sample is bad the set-point stands). Manual mode
+    choke-dp set-point (while the BHP sample is bad the set-point stands). The choke-dp and
+    BHP gauges are screened every frame (``gauges``): a frozen one (the same sample
+    ``choke_gauges_frozen_after_samples`` frames running) reads as a NaN, so the loops hold
+    instead of integrating against a gauge that no longer moves. Manual mode
     drives the valve to a given opening (the paper's estimation study, sec. 4.3, holds the
     choke at 50 %). Every switch is bumpless: each mode continues from the opening the
     valve was left at.
@@ -182,7 +185,15 @@ class Choke:
         self.bhp_dp_integral_pa = math.nan              # BHP mode: the outer loop's integral
         self.bhp_dp_setpoint_pa = math.nan              # and the choke-dp set-point it sets [Pa]
         self.flow_watch = ChannelWatch(("return_flow_m3s",), config.choke_flow_frozen_after_samples)
+        self.gauge_watch = ChannelWatch(("choke_dp_pa", "bhp_pa"),
+                                        config.choke_gauges_frozen_after_samples)
         self.valve_law_frames = 0     # flow-mode frames on the valve law (bad return-flow sample)
+
+    def gauges(self, choke_dp_pa: float, bhp_pa: float) -> tuple[float, float]:
+        """The frame's choke-dp and BHP samples [Pa], each NaN when frozen (call once per
+        frame)."""
+        screened, _ = self.gauge_watch.screen(0.0, [choke_dp_pa, bhp_pa])
+        return float(screened[0]), float(screened[1])
 
     def measured_flow(self, return_flow_m3s: float, measured_dp_pa: float) -> float:
         """The flow loop's measured choke flow [m^3/s]: the return-flow sample, or the valve

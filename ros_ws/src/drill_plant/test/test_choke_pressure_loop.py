@@ -80,3 +80,20 @@ def test_pressure_mode_entry_is_bumpless_and_a_bad_sample_changes_nothing(config
     fresh = Choke(config.actuators, choke.wm, 0.3)
     flow = float(hy.choke_flow(choke.wm, 0.3, 2.0e6))
     assert fresh.pressure_frame(2.0e6, 0.0, 0.0, flow, 2.0e6, 0.01, 10).command == pytest.approx(0.3)
+
+
+def test_a_frozen_choke_dp_gauge_holds_the_pressure_loop_as_a_dropout_does(config):
+    """The same choke-dp sample frame after frame (a frozen gauge) reads as a NaN from the
+    count on (drill_plant.actuators.Choke.gauges): the loop holds its opening instead of
+    integrating against a gauge that no longer moves; a moving gauge is read again."""
+    _, _, choke = _closed_loop(config, lambda t: (2.0e6, 0.0, 0.0), 5.0)
+    n = config.actuators.choke_gauges_frozen_after_samples
+    for k in range(n - 1):
+        dp, bhp = choke.gauges(2.6e6, 6.85e7 + k)
+        assert dp == 2.6e6 and bhp == 6.85e7 + k
+    dp, bhp = choke.gauges(2.6e6, 6.9e7)
+    assert math.isnan(dp) and bhp == 6.9e7
+    opening, integral = choke.opening_command, choke.pressure_integral
+    out = choke.pressure_frame(2.0e6, 0.0, 0.0, FLOW, dp, 0.01, 10)
+    assert out.command == opening and choke.pressure_integral == integral
+    assert choke.gauges(2.61e6, 6.9e7 + 1.0)[0] == 2.61e6

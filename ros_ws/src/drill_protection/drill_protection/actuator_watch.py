@@ -9,14 +9,16 @@ integral lets the string rest a metre from its reference), so the watches read t
 actuator's frames, the output its encoder reports: over a short window the reference moved
 and the output did not (:class:`ActuatorWatch`), or, for a valve on its flow loop, the
 loop's error stood and the valve did not move inside its range (:class:`StuckValveWatch`).
-Plain Python; the protection acts on them.
+A pump has no frames the protection reads, but its flow is measured (the back-pressure
+pump's stroke counter): :class:`PumpDeliveryWatch` compares it with what the pump's lag
+makes of the commands sent. Plain Python; the protection acts on them.
 """
 from __future__ import annotations
 
 import math
 from collections import deque
 
-from drill_core.config import FollowingWatch, Lag, ValveWatch
+from drill_core.config import FollowingWatch, Lag, PumpWatch, ValveWatch
 
 
 class FrameWindow:
@@ -123,3 +125,35 @@ class StuckValveWatch:
             return False
         errors = [abs(f[1]) for f in seen if f[0] <= now_s - c.response_s]
         return bool(errors) and min(errors) >= c.flow_error_m3s and hi - lo < c.output_travel
+
+
+class PumpDeliveryWatch:
+    """A pump that does not deliver: ``command`` each flow sent [m^3/s], ``observe`` each
+    measured flow; the flow expected is the pump's first-order lag (``pump``'s time
+    constant and range) driven by the commands. ``not_delivering`` says whether the
+    measured flow has stood ``flow_error_m3s`` or more under it for ``window_s`` (a trip, or
+    a pump stuck short of what it is asked for); a non-finite sample is not judged."""
+
+    def __init__(self, config: PumpWatch, pump: Lag, initial_m3s: float):
+        self.config = config
+        self.pump = pump
+        self.expected_m3s = float(initial_m3s)
+        self.command_m3s = float(initial_m3s)
+        self.last_s: float | None = None
+        self.short_since_s: float | None = None   # when the flow fell short, None: it is not
+        self.not_delivering = False
+
+    def command(self, flow_m3s: float) -> None:
+        self.command_m3s = min(max(float(flow_m3s), self.pump.minimum), self.pump.maximum)
+
+    def observe(self, time_s: float, measured_m3s: float) -> None:
+        if self.last_s is not None:
+            gain = 1.0 - math.exp(-(time_s - self.last_s) / self.pump.time_constant_s)
+            self.expected_m3s += (self.command_m3s - self.expected_m3s) * gain
+        self.last_s = time_s
+        if not math.isfinite(measured_m3s):
+            return
+        short = self.expected_m3s - measured_m3s >= self.config.flow_error_m3s
+        self.short_since_s = (self.short_since_s if self.short_since_s is not None
+                              else time_s) if short else None
+        self.not_delivering = short and time_s - self.short_since_s >= self.config.window_s

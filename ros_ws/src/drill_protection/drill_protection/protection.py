@@ -41,15 +41,19 @@ machines respects the most conservative of
 * a drawworks that does not follow its reference (drill_protection.actuator_watch): the
   block reference held at the measured string, at rest, so that a stuck block does not
   catch up at the drawworks' speed limit when it lets go,
-* a choke that does not follow its flow reference while circulation is lost: nothing can
-  then make good the friction the mud pump took with it but a string at rest and the
-  back-pressure pump's flow through what the choke passes, so the protective stop sets the
-  drawworks brake and the choke's BHP loop as the emergency stop does, with the
-  back-pressure pump at its maximum, until the choke moves again or circulation is back.
+* a choke that does not follow its flow reference, or a back-pressure pump that does not
+  deliver, while circulation is lost: nothing can then make good the friction the mud pump
+  took with it but a string at rest and what the choke traps, so the protective stop sets
+  the drawworks brake and the choke's BHP loop as the emergency stop does, with the
+  back-pressure pump at its maximum, until the choke moves again (the pump delivers again)
+  or circulation is back.
 
 A manual choke opening (choke panel in manual) is kept inside the choke's range; its
 rate is limited by the choke actuator's own lag. A choke-dp set-point (the choke on its
-pressure loop) passes when finite; a non-finite one puts the choke back on its flow loop.
+pressure loop) passes when finite and the choke dp is read; a non-finite one, or one the
+choke cannot follow for want of a usable choke-dp reading (a dropout, a frozen gauge),
+puts the choke back on its flow loop at the advisor's flow (the pressure loop's
+feedforward).
 Both are held, like the pressures, outside closed loop.
 
 Every clamp is reported with its reason. Plain Python; the node wires it to topics.
@@ -67,6 +71,7 @@ from drill_core.input_layout import COMMAND_NAMES, U_BLOCK, U_BPP_FLOW, U_CHOKE,
 from drill_core.units import PA_PER_BAR
 from drill_protection.pump_trip import TripAction
 from drill_protection.recent_median import BHP_MEDIAN_S, RecentMedian
+from drill_protection.surface_bhp import SurfaceBhp
 from drill_protection.well_control import Hold
 
 _SPEED_GRID_POINTS = 61
@@ -122,6 +127,7 @@ class ProcessProtection:
     def __init__(self, config: RigConfig, wm: hy.WellModel, initial_command: np.ndarray):
         self.config = config
         self.wm = wm
+        self.surface = SurfaceBhp(wm)
         self.previous = np.asarray(initial_command, dtype=float).copy()
         self.previous_manual_opening: float | None = None
         self.previous_dp_setpoint: tuple[float, float] | None = None
@@ -206,7 +212,8 @@ class ProcessProtection:
               trip_action: TripAction | None = None,
               advisor_bhp_ref_pa: float = float("nan"),
               choke_dp_pa: float = float("nan"), block_not_following: bool = False,
-              choke_not_following: bool = False, choke_moving: bool = True) -> Decision:
+              choke_not_following: bool = False, choke_moving: bool = True,
+              bpp_not_delivering: bool = False) -> Decision:
         """Limit ``request`` [u_r, q_c, q_bpp, p_spp], the requested manual choke opening and
         choke-dp set-point (dp Pa, ramp Pa/s) (both None: the choke on its PI flow
         controller; a manual opening wins); ``surface_flows`` are the measured return and
@@ -214,8 +221,9 @@ class ProcessProtection:
         answer to a lost circulation (drill_protection.pump_trip), None when there is
         none; ``advisor_bhp_ref_pa`` the BHP the advisor aims at (NaN: none);
         ``choke_dp_pa`` the measured choke dp (the emergency stop's feedforward);
-        ``block_not_following``, ``choke_not_following`` and ``choke_moving`` the actuator
-        watches' judgements. Returns the command to send and why."""
+        ``block_not_following``, ``choke_not_following``, ``choke_moving`` and
+        ``bpp_not_delivering`` the actuator watches' judgements. Returns the command to
+        send and why."""
         p = self.config.protection
         period = p.command_period_s
         request = np.asarray(request, dtype=float)
@@ -230,16 +238,18 @@ class ProcessProtection:
         if np.isfinite(bhp_pa):
             self.last_bhp_pa = float(bhp_pa)
         self.protective_stop = trip_action is not None and not self.emergency_stop and (
-            choke_not_following or (self.protective_stop and not choke_moving))
+            choke_not_following or bpp_not_delivering
+            or (self.protective_stop and not choke_moving))
         protective = self.protective_stop
         stop = self.emergency_stop or protective
         stopped = self._emergency_bhp(stop, string_velocity_mps, circulation_m3s, choke_dp_pa)
         not_applied = stop or self.automation_level != "closed_loop"
         if protective:
-            clamps.append(Notice("protective_stop", "circulation lost and the choke does not "
-                                 "follow its flow reference: advisor command not applied, "
-                                 "drawworks brake set, back-pressure pump at its maximum",
-                                 stopped))
+            machine = "the back-pressure pump does not deliver" if bpp_not_delivering \
+                else "the choke does not follow its flow reference"
+            clamps.append(Notice("protective_stop", f"circulation lost and {machine}: advisor "
+                                 "command not applied, drawworks brake set, back-pressure pump "
+                                 "at its maximum", stopped))
         elif self.emergency_stop:
             clamps.append(Notice("estop_hold", f"emergency stop: advisor command not applied, "
                                  f"drawworks brake set, BHP held at {stopped / PA_PER_BAR:.1f} "
@@ -258,6 +268,11 @@ class ProcessProtection:
         elif choke_dp_setpoint is not None and not np.all(np.isfinite(choke_dp_setpoint)):
             clamps.append(Notice("non_finite_dp_setpoint", f"non-finite choke dp set-point "
                                  f"{choke_dp_setpoint[0]} Pa: choke on its flow controller"))
+            choke_dp_setpoint = None
+        elif choke_dp_setpoint is not None and not np.isfinite(choke_dp_pa):
+            clamps.append(Notice("dp_setpoint_unread", "no usable choke-dp reading: the choke-dp "
+                                 "set-point cannot be followed, the choke on its flow "
+                                 "controller at the advisor's flow"))
             choke_dp_setpoint = None
         held_block = block_not_following and not not_applied
         if held_block:
@@ -283,7 +298,10 @@ class ProcessProtection:
         trip = None if not_applied and not stop else trip_action
         friction_free = trip.friction_free_bhp_pa if trip is not None else float("nan")
         resting = abs(self.previous_speed_mps) < RESTING_REFERENCE_SPEED_MPS
-        guard = self._window_guard(bhp_pa, clamps, friction_free if resting else float("nan"))
+        judged = bhp_pa if np.isfinite(bhp_pa) else self.surface.bhp_pa(
+            choke_dp_pa, float(np.subtract(*(surface_flows or (np.nan, np.nan)))),
+            string_velocity_mps)
+        guard = self._window_guard(judged, clamps, friction_free if resting else float("nan"))
         shut = trip is not None and trip.choke_flow_m3s is not None and not stop
         if guard or shut:
             manual_choke_opening, choke_dp_setpoint = None, None

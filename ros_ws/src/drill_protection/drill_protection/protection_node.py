@@ -182,7 +182,7 @@ class ProtectionNode(RigNode):
         for notice in decision.clamps:
             self.clamp_count += 1
             self._event(notice, stamp)
-        for notice in self.tick.check_window(m.bhp_pa):
+        for notice in self.tick.check_window(m):
             self._event(notice, stamp)
         level = "emergency_stop" if self.protection.emergency_stop else self.protection.automation_level
         self.status.mode = f"{self.ctx.mode}/{level}"

@@ -1,5 +1,6 @@
-"""The protection node's per-sample logic as a plain tick class (no rclpy): the
-measurement watch (drill_protection.watch) fed every measurement, the operator's buttons
+"""The protection node's per-sample logic as a plain tick class (no rclpy): every
+measurement screened for frozen gauges (drill_protection.reading) and fed to the
+measurement watch (drill_protection.watch), the operator's buttons
 (the emergency stop, the automation level) and the scenario's operator actions
 (drill_core.operator_actions) pressing them, the limiter (drill_protection.protection)
 between an advisor's command and the machines with the machine command it sends, and the
@@ -22,8 +23,9 @@ from drill_core.tripping.sequence import CONNECTION_PHASES, position_after_conne
 from drill_core.tripping.stands import StandVolumes
 from drill_core.tripping.trip_sheet import TripSheet
 from drill_core.units import PA_PER_BAR
-from drill_protection.actuator_watch import ActuatorWatch, StuckValveWatch
+from drill_protection.actuator_watch import ActuatorWatch, PumpDeliveryWatch, StuckValveWatch
 from drill_protection.protection import Decision, ProcessProtection
+from drill_protection.reading import ReadingScreen
 from drill_protection.watch import MeasurementWatch
 
 
@@ -77,8 +79,11 @@ class ProtectionTick:
         self.protection = ProcessProtection(config, wm, start)
         self.watch = MeasurementWatch(config, wm, self.protection,
                                       trip_tank=scenario.trip is not None)
+        self.screen = ReadingScreen(config.protection.frozen_after_samples)
         self.drawworks = ActuatorWatch(config.protection.drawworks_watch)
         self.choke = StuckValveWatch(config.protection.choke_watch, config.actuators.choke)
+        self.bpp = PumpDeliveryWatch(config.protection.bpp_watch, config.actuators.bpp,
+                                     start[U_BPP_FLOW])
         self.choke_on_flow_loop = True      # the last decision's choke mode
         self.return_flow_m3s = math.nan     # the last measured return flow (the choke's)
         self.script = OperatorScript(scenario.operator)
@@ -108,11 +113,14 @@ class ProtectionTick:
         return self.floor_step is not None and self.floor_step.phase in CONNECTION_PHASES
 
     def observe(self, stamp_ns: int, m) -> list[Notice]:
-        """One measurement through the watch (and on a multi-stand trip through the trip
-        sheet, whose trip tank against the steel tripped raises its own alarm): the notices
-        it raised."""
-        self.return_flow_m3s = float(m.return_flow_m3s)
-        notices = self.watch.observe(stamp_ns, m, balance=not self.in_connection)
+        """One measurement screened (a gauge found frozen or live again is announced) and
+        through the watch (and on a multi-stand trip through the trip sheet, whose trip tank
+        against the steel tripped raises its own alarm): the notices it raised."""
+        notices = self.screen.observe(stamp_ns * 1e-9, m)
+        m = self.screen.of(m)
+        self.return_flow_m3s = m.return_flow_m3s
+        self.bpp.observe(stamp_ns * 1e-9, m.bpp_flow_m3s)
+        notices += self.watch.observe(stamp_ns, m, balance=not self.in_connection)
         if self.trip_sheet is not None and self.floor_step is not None:
             alarms = self.trip_sheet.observe(stamp_ns * 1e-9, self.floor_step, m.bhp_pa,
                                              math.nan, m.trip_tank_volume_m3)
@@ -137,11 +145,13 @@ class ProtectionTick:
         return self.drawworks.has(t) and self.choke.has(t)
 
     def limit(self, request, m, stamp_ns: int, latched_speed_limit_mps: float) -> Decision:
-        """``request`` limited with the measurement ``m`` at ``stamp_ns`` (and the drawworks'
-        and the choke's frames stamped before it), under the
+        """``request`` limited with the measurement ``m`` at ``stamp_ns`` (its gauges
+        screened as the last ``observe`` found them; the drawworks' and the choke's frames
+        stamped before it), under the
         operator's trip-speed limit the advisor planned it under (it rides on the command,
         so every run applies it at the same stamp), else ``latched_speed_limit_mps`` (the
         latched setpoints'; the open-loop sequencer sends none) [m/s]."""
+        m = self.screen.of(m)
         limit = min(request.trip_speed_limit_in_mps, request.trip_speed_limit_out_mps)
         operator_speed_limit_mps = limit if math.isfinite(limit) and limit > 0.0 \
             else latched_speed_limit_mps
@@ -161,7 +171,9 @@ class ProtectionTick:
             advisor_bhp_ref_pa=request.bhp_ref_pa, choke_dp_pa=m.choke_dp_pa,
             block_not_following=self.drawworks.not_following(stamp_ns * 1e-9),
             choke_not_following=self.choke.not_following(stamp_ns * 1e-9),
-            choke_moving=self.choke.moving(stamp_ns * 1e-9))
+            choke_moving=self.choke.moving(stamp_ns * 1e-9),
+            bpp_not_delivering=self.bpp.not_delivering)
+        self.bpp.command(decision.command[U_BPP_FLOW])
         self.choke_on_flow_loop = decision.manual_choke_opening is None and \
             decision.choke_dp_setpoint is None and not decision.emergency_stop
         return decision
@@ -216,9 +228,10 @@ class ProtectionTick:
                 notices += self.set_emergency_stop(action.action == "emergency_stop", by)
         return notices
 
-    def check_window(self, bhp_pa: float) -> list[Notice]:
-        """The measured BHP against the pore/fracture window: a notice as it leaves or
-        returns (a non-finite reading is judged on the next one)."""
+    def check_window(self, m) -> list[Notice]:
+        """The measured BHP of ``m`` against the pore/fracture window: a notice as it leaves
+        or returns (a reading without a usable BHP is judged on the next one)."""
+        bhp_pa = self.screen.of(m).bhp_pa
         if not math.isfinite(bhp_pa):
             return []
         p = self.formation

@@ -82,7 +82,8 @@ class MeasurementWatch:
             notices.append(narrowed)
         self.protection.window_pa = self.window.window_pa
         self.protection.well_control = self.window.hold()
-        change = self.circulation.observe(time_s, m.string_flow_valid, m.choke_dp_pa, m.bhp_pa)
+        change = self.circulation.observe(time_s, m.string_flow_valid, m.choke_dp_pa, m.bhp_pa,
+                                          m.return_flow_m3s - m.bpp_flow_m3s, self.velocity_mps)
         if change:
             self.alarm_count += self.circulation.lost
             notices.append(change)
@@ -95,5 +96,7 @@ class MeasurementWatch:
     @property
     def velocity_mps(self) -> float:
         """The block's velocity over the last second [m/s] (0 before two samples)."""
+        if len(self.positions) < 2:
+            return 0.0
         (t0, x0), (t1, x1) = self.positions[0], self.positions[-1]
         return (x1 - x0) / ((t1 - t0) * 1e-9) if t1 > t0 else 0.0

@@ -9,8 +9,9 @@ import pytest
 
 from drill_core import hydraulics as hy
 from drill_core.config import FollowingWatch as Config
-from drill_plant.actuators import Choke, Drawworks
-from drill_protection.actuator_watch import ActuatorWatch, StuckValveWatch
+from drill_core.config import PumpWatch
+from drill_plant.actuators import Choke, Drawworks, Pump
+from drill_protection.actuator_watch import ActuatorWatch, PumpDeliveryWatch, StuckValveWatch
 
 DT = 0.1          # one frame [s]
 STEPS = 2         # output samples per frame
@@ -99,3 +100,28 @@ def test_a_stuck_valve_with_its_error_standing_is_caught_and_moving_again_is_see
     for k in range(40, 60):                 # off the flow loop: not judged
         watch.frame(k * DT, math.nan, [0.08] * STEPS)
     assert not watch.not_following(6.0)
+
+
+def test_a_pump_that_delivers_through_its_lag_is_never_judged_and_a_tripped_one_is(cfg):
+    """The back-pressure pump asked from 0 to 600 L/min: through its 30 s lag its measured
+    flow (1 L/min of noise) is never 30 L/min short of the lag's answer; a tripped pump
+    (nothing measured) is, 1 s after it falls that far short; a NaN sample is not judged."""
+    watch_config = PumpWatch(flow_error_m3s=5.0e-4, window_s=1.0)
+    lag = cfg.actuators.bpp
+    pump, healthy, tripped = Pump(lag, 0.0), PumpDeliveryWatch(watch_config, lag, 0.0), \
+        PumpDeliveryWatch(watch_config, lag, 0.0)
+    rng = np.random.default_rng(1)
+    short_from = None
+    for k in range(600):
+        t = k * DT
+        out = pump.frame(0.01, 0.01, 10).output
+        for w in (healthy, tripped):
+            w.command(0.01)
+        healthy.observe(t, float(out[0]) + 1.7e-5 * rng.normal())
+        tripped.observe(t, 0.0 if k != 50 else math.nan)
+        assert not healthy.not_delivering
+        if tripped.expected_m3s >= 5.0e-4 and short_from is None:
+            short_from = t
+        if tripped.not_delivering:
+            assert t >= short_from + watch_config.window_s - 1e-9
+    assert tripped.not_delivering and short_from is not None

@@ -1,4 +1,5 @@
 """Process protection: command it past each limit and check the limit holds and is reported."""
+import itertools
 import math
 import numpy as np
 import pytest
@@ -183,13 +184,25 @@ def test_manual_choke_held_on_a_non_finite_request_and_the_emergency_stop_takes_
 def test_choke_dp_set_point_passes_and_a_manual_opening_wins(setup):
     p = fresh(setup)
     cmd = [0.0, CIRCULATION, 0.0, 1.06e7]
-    d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(2.3e6, 1.0e5))
+    d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(2.3e6, 1.0e5),
+                choke_dp_pa=2.3e6)
     assert d.choke_dp_setpoint == (2.3e6, 1.0e5) and d.clamps == ()
     d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, manual_choke_opening=0.4,
                 choke_dp_setpoint=(2.3e6, 0.0))
     assert d.choke_dp_setpoint is None and d.manual_choke_opening == 0.4
     d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5)
     assert d.choke_dp_setpoint is None and d.manual_choke_opening is None   # the flow loop
+
+
+def test_a_choke_dp_set_point_without_a_choke_dp_reading_falls_back_to_the_flow_loop(setup):
+    """The choke's pressure loop cannot follow a set-point on a gauge that does not read (a
+    dropout, a frozen gauge): the choke goes on its flow loop at the advisor's flow."""
+    p = fresh(setup)
+    cmd = [0.0, 0.9 * CIRCULATION, 0.0, 1.06e7]
+    d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(2.3e6, 0.0),
+                choke_dp_pa=float("nan"))
+    assert d.choke_dp_setpoint is None and d.command[1] == pytest.approx(0.9 * CIRCULATION)
+    assert [c.code for c in d.clamps] == ["dp_setpoint_unread"]
 
 
 def test_non_finite_choke_dp_set_point_falls_back_to_the_flow_loop(setup):
@@ -205,7 +218,8 @@ def test_non_finite_choke_dp_set_point_falls_back_to_the_flow_loop(setup):
 def test_choke_dp_set_point_held_without_its_ramp_outside_closed_loop(setup):
     p = fresh(setup)
     cmd = [0.0, CIRCULATION, 0.0, 1.06e7]
-    p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(2.3e6, 1.0e5))
+    p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(2.3e6, 1.0e5),
+            choke_dp_pa=2.3e6)
     p.automation_level = "advisory"
     d = p.apply(cmd, 0.0, 0.0, 6.85e7, CIRCULATION, 0.5, choke_dp_setpoint=(3.0e6, 2.0e5))
     assert d.choke_dp_setpoint == (2.3e6, 0.0)               # held, no longer ramping
@@ -334,11 +348,16 @@ def test_on_a_multi_stand_trip_a_racked_stand_moves_the_references_and_a_connect
         return FloorCommand(TripStep(phase, 1, phase != MOVING, phase == MOVING, 0.0, 28.0, 1),
                             0.0, *racked)
 
+    samples = itertools.count()
+
     def m(position_m, flowing):
-        return SimpleNamespace(block_position_m=position_m, choke_dp_pa=2.0e6, bhp_pa=6.85e7,
+        live = 1.0e-9 * next(samples)           # a live gauge's noise: never frozen
+        return SimpleNamespace(block_position_m=position_m + live, choke_dp_pa=2.0e6 + live,
+                               bhp_pa=6.85e7 + live,
                                string_flow_m3s=CIRCULATION if flowing else math.nan,
-                               string_flow_valid=flowing, return_flow_m3s=CIRCULATION,
-                               pit_volume_m3=50.0, bpp_flow_m3s=0.0, trip_tank_volume_m3=6.0)
+                               string_flow_valid=flowing, return_flow_m3s=CIRCULATION + live,
+                               pit_volume_m3=50.0 + live, bpp_flow_m3s=live,
+                               trip_tank_volume_m3=6.0)
 
     def pump_stopped(phase):
         """The codes the protection raises when the pump stops in the floor's ``phase``."""
@@ -390,3 +409,41 @@ def test_on_a_multi_stand_trip_the_trip_tank_against_the_steel_raises_the_swabbe
                        if n.code.startswith("trip_tank")]
         tank_m3 -= steel_m3 - 0.06               # the hole took 60 L less than the steel
     assert raised == [(3, "trip_tank_gain")]     # 120 L over the limit at stand 2's end
+
+
+def test_without_a_bhp_reading_the_guard_judges_the_bhp_from_the_surface(setup):
+    """A BHP gauge out: the window guard reads the BHP as the mud column, the measured choke
+    dp and the model's annular friction at the measured flow up the annulus (return flow
+    less the back-pressure pump's), and relieves a BHP it puts over the fracture edge."""
+    config, _ = setup
+    _, high = config.pressure_window_pa
+    p = fresh(setup)
+    flows = (CIRCULATION, 0.0)
+    friction = p.surface.friction_pa(CIRCULATION, 0.0)
+    over_dp = high + 1.0e5 - p.surface.column_pa - friction
+    d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, float("nan"), CIRCULATION, 0.5,
+                surface_flows=flows, choke_dp_pa=over_dp)
+    guard = [c for c in d.clamps if c.code == "window_guard"]
+    assert guard and guard[0].value == pytest.approx(high + 1.0e5)
+    assert d.command[1] > CIRCULATION                       # the choke lets more out
+    inside = fresh(setup).apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, float("nan"),
+                                CIRCULATION, 0.5, surface_flows=flows, choke_dp_pa=2.0e6)
+    assert not any(c.code == "window_guard" for c in inside.clamps)
+
+
+def test_circulation_lost_and_a_back_pressure_pump_that_does_not_deliver_stop_the_trip(setup):
+    """Nothing then gives the choke a flow: the protective stop sets the brake and the
+    choke's BHP loop (as for a stuck choke); a pump that does not deliver while the well
+    circulates stops nothing."""
+    from drill_protection.pump_trip import TripAction
+    p = fresh(setup)
+    lost = TripAction(None, 0.01, "circulation lost 3 s ago")
+    d = p.apply([0.5, CIRCULATION, 0.01, 1.06e7], 0.0, -0.5, 6.85e7, 0.0, 0.5,
+                trip_action=lost, choke_dp_pa=2.0e6, bpp_not_delivering=True)
+    assert d.emergency_stop and d.command[0] == 0.0
+    [stop] = [c for c in d.clamps if c.code == "protective_stop"]
+    assert "back-pressure pump does not deliver" in stop.text
+    circulating = fresh(setup).apply([0.5, CIRCULATION, 0.01, 1.06e7], 0.0, 0.0, 6.85e7,
+                                     CIRCULATION, 0.5, choke_dp_pa=2.0e6,
+                                     bpp_not_delivering=True)
+    assert not circulating.emergency_stop

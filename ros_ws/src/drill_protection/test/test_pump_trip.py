@@ -44,7 +44,7 @@ def circulate(r: PumpTripResponse, seconds: float, start_s: float = 0.0) -> floa
 
 
 def dp_for_friction_free_bhp(r: PumpTripResponse, bhp_pa: float) -> float:
-    return bhp_pa - r.column_pa
+    return bhp_pa - r.surface.column_pa
 
 
 def test_the_mud_column_plus_the_choke_dp_is_the_bhp_without_friction(setup):
@@ -209,3 +209,28 @@ def test_a_string_coming_to_rest_is_guarded_on_the_bhp_without_friction(setup):
     d = moving.apply([-0.3, 0.02, 0.01, SPP_PA], 0.0, -0.3, 680.0e5, 0.0, 0.5,
                      surface_flows=(0.013, 0.01), trip_action=lost)
     assert d.command[1] == pytest.approx(0.02) and not any("window" in c.text for c in d.clamps)
+
+
+def test_without_the_choke_dp_the_bhp_less_the_model_friction_is_the_bhp_without_friction(setup):
+    """A choke-dp gauge that does not read (dropout or frozen): the BHP at 1000 L/min up the
+    annulus less the model's 28 bar of friction there, the same 657 bar within the model's
+    fit of the measured BHP."""
+    r, t = pumping(setup, 1.0)
+    r.observe(t, False, float("nan"), BHP_PA, 1000.0 / 60000.0, 0.0)
+    assert r.friction_free_bhp_pa() == pytest.approx(657.07e5, abs=0.5e5)
+    assert r.action(t + 1.0).choke_flow_m3s == 0.0          # under the window: held shut
+
+
+def test_without_the_bhp_the_choke_is_still_held_shut_within_the_fracture_edge(setup):
+    """A BHP gauge that does not read: the trap judges the fracture edge on the BHP from the
+    surface (column + choke dp + the model's friction), so it still holds the choke shut,
+    and not once that BHP is at the edge."""
+    config, _ = setup
+    _, high = config.pressure_window_pa
+    r, t = pumping(setup, 1.0)
+    r.observe(t, False, 2.0e6, float("nan"), 0.0, 0.0)
+    assert r.judged_bhp_pa() == pytest.approx(r.surface.column_pa + 2.0e6, abs=0.1e5)
+    assert r.action(t + 1.0).choke_flow_m3s == 0.0
+    at_edge, t = pumping(setup, 1.0)
+    at_edge.observe(t, False, dp_for_friction_free_bhp(at_edge, high), float("nan"), 0.0, 0.0)
+    assert at_edge.action(t + 1.0).choke_flow_m3s is None

@@ -4,6 +4,7 @@ the machine command it sends under an emergency stop."""
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from types import SimpleNamespace
 
@@ -47,21 +48,58 @@ def test_an_unknown_automation_level_is_refused_and_changes_nothing(setup):
 
 
 def test_the_window_is_left_and_reentered_once_each(setup):
-    config, tick, _ = setup
+    config, tick, op = setup
     f = config.well.formation
-    assert tick.check_window(0.5 * (f.pore_pressure_pa + f.fracture_pressure_pa)) == []
-    [out] = tick.check_window(f.pore_pressure_pa - 1.0e5)
+
+    def window(bhp_pa):
+        return tick.check_window(dataclasses.replace(sample(op), bhp_pa=bhp_pa))
+    assert window(0.5 * (f.pore_pressure_pa + f.fracture_pressure_pa)) == []
+    [out] = window(f.pore_pressure_pa - 1.0e5)
     assert out.code == "window_exit" and out.value == f.pore_pressure_pa - 1.0e5
-    assert tick.check_window(math.nan) == [] and tick.check_window(f.pore_pressure_pa - 2e5) == []
-    assert [n.code for n in tick.check_window(f.pore_pressure_pa)] == ["window_return"]
+    assert window(math.nan) == [] and window(f.pore_pressure_pa - 2e5) == []
+    assert [n.code for n in window(f.pore_pressure_pa)] == ["window_return"]
     assert tick.window_exits == 1
 
 
+def test_a_frozen_bhp_gauge_is_no_window_reading(setup):
+    """A gauge repeating its value is read as a dropout (drill_protection.reading): the
+    window is judged on the next live reading."""
+    config, tick, op = setup
+    low = config.well.formation.pore_pressure_pa
+    codes = [n.code for k in range(8) for n in tick.observe(
+        k * 100_000_000, dataclasses.replace(sample(op), bhp_pa=low - 1.0e5))]
+    assert codes.count("gauge_frozen") == 1
+    assert tick.check_window(dataclasses.replace(sample(op), bhp_pa=low - 1.0e5)) == []
+    assert [n.code for n in tick.check_window(dataclasses.replace(sample(op),
+                                                                  bhp_pa=low - 2.0e5))] == []
+    live = dataclasses.replace(sample(op), bhp_pa=low - 3.0e5)
+    assert "gauge_live" in [n.code for n in tick.observe(800_000_000, live)]
+    assert [n.code for n in tick.check_window(live)] == ["window_exit"]
+
+
+_SAMPLES = itertools.count()     # each sample's gauges move a little: a live gauge's noise
+
+
+@dataclasses.dataclass(frozen=True)
+class Sample:
+    """drill_msgs/RigMeasurement's fields the protection reads (SI)."""
+    return_flow_m3s: float
+    string_flow_m3s: float
+    string_flow_valid: bool
+    bpp_flow_m3s: float
+    block_position_m: float
+    choke_dp_pa: float
+    bhp_pa: float
+    pit_volume_m3: float
+    trip_tank_volume_m3: float
+
+
 def sample(op):
-    return SimpleNamespace(return_flow_m3s=float(op.choke_flow_m3s),
-                           string_flow_m3s=float(op.string_flow_m3s), string_flow_valid=True,
-                           bpp_flow_m3s=0.0, block_position_m=0.0, choke_dp_pa=2.0e6,
-                           bhp_pa=6.85e7, pit_volume_m3=0.0)
+    live = 1.0e-9 * next(_SAMPLES)
+    return Sample(return_flow_m3s=float(op.choke_flow_m3s) + live, string_flow_m3s=float(op.string_flow_m3s),
+                  string_flow_valid=True, bpp_flow_m3s=live, block_position_m=live,
+                  choke_dp_pa=2.0e6 + live, bhp_pa=6.85e7 + live, pit_volume_m3=live,
+                  trip_tank_volume_m3=6.0)
 
 
 def test_under_the_emergency_stop_the_machine_command_starts_the_choke_bhp_loop(setup):

@@ -104,10 +104,19 @@ def base_scenario() -> dict:
     return yaml.safe_load(runs.scenario_path(BASE_SCENARIO).read_text())
 
 
-def write_cells(directory: Path, pairs: str, base: dict) -> list[tuple[str, tuple[str, ...], Path]]:
+def planned_cells(pairs: str = "actuators", with_fault: str | None = None
+                  ) -> list[tuple[str, tuple[str, ...]]]:
+    """The cells of ``pairs`` (``with_fault``: only those with that fault)."""
+    return [(phase, faults) for phase, faults in cells(pairs)
+            if with_fault is None or with_fault in faults]
+
+
+def write_cells(directory: Path, planned: list[tuple[str, tuple[str, ...]]], base: dict
+                ) -> list[tuple[str, tuple[str, ...], Path]]:
+    """Each planned cell's scenario file in ``directory``: (phase, faults, its path)."""
     directory.mkdir(parents=True, exist_ok=True)
     out = []
-    for phase, faults in cells(pairs):
+    for phase, faults in planned:
         scenario = cell_scenario(base, phase, faults)
         path = directory / f"{scenario['name']}.yaml"
         path.write_text(yaml.safe_dump(scenario, sort_keys=False))
@@ -144,8 +153,8 @@ def run_matrix(pairs: str = "actuators", controllers=CONTROLLERS, run=batch.run_
     but those whose (phase, faults, controller) is in ``skip``; the table's rows.
     ``on_row`` sees each row as its run finishes."""
     base = base_scenario()
-    scenarios = [c for c in write_cells(runs.ROOT / "runs" / "fault-matrix", pairs, base)
-                 if with_fault is None or with_fault in c[1]]
+    scenarios = write_cells(runs.ROOT / "runs" / "fault-matrix", planned_cells(pairs, with_fault),
+                            base)
     seed = base["seed"]
     specs = {(path.stem, controller): (phase, faults, batch.RunSpec(path.stem, str(path), controller, seed))
              for phase, faults, path in scenarios for controller in controllers
@@ -317,8 +326,8 @@ def main(output: Path, pairs: str = "actuators", with_fault: str | None = None,
         raise ValueError(f"fault {with_fault!r}: expected one of {', '.join(FAULTS)}")
     table = output.with_suffix(".json")
     old = json.loads(table.read_text()) if table.exists() else []
-    plan = {(phase, faults, c) for phase, faults in cells(pairs) for c in controllers
-            if with_fault is None or with_fault in faults}
+    plan = {(phase, faults, c) for phase, faults in planned_cells(pairs, with_fault)
+            for c in controllers}
     skip = plan & {row_key(r) for r in old} if resume else set()
     planned = plan - skip
     kept = [r for r in old if run_of(r) not in planned]

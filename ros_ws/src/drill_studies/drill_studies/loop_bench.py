@@ -240,7 +240,7 @@ class Protection:
         self.notices += [(t, n) for n in self.tick.press_due(t)]
         d = self.tick.limit(request, m, stamp_ns, self.latched_speed_limit_mps)
         self.clamps += [(t, notice) for notice in d.clamps]
-        self.notices += [(t, n) for n in self.tick.check_window(m.bhp_pa)]
+        self.notices += [(t, n) for n in self.tick.check_window(m)]
         self.answer = self.tick.machine_command(d, request)
         return self.answer
 

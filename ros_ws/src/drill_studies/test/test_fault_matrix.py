@@ -32,8 +32,12 @@ def test_every_fault_alone_and_the_pairs_asked_for_in_every_phase():
 
 
 def test_a_cell_is_a_valid_case2_scenario_with_its_faults_at_the_phase_time(tmp_path):
-    written = fm.write_cells(tmp_path, "actuators", fm.base_scenario())
+    written = fm.write_cells(tmp_path, fm.planned_cells("actuators"), fm.base_scenario())
     assert len({path for _, _, path in written}) == len(written)        # one file per cell
+    assert [(phase, faults) for phase, faults, _ in written] == fm.cells("actuators")
+    frozen = fm.planned_cells("all", "BHP frozen")
+    assert frozen and all("BHP frozen" in faults for _, faults in frozen)
+    assert len(frozen) == len(fm.PHASES) * len(fm.FAULTS)     # alone, and with each other one
     base = yaml.safe_load(runs.scenario_path(fm.BASE_SCENARIO).read_text())
     for phase, faults, path in written:
         scenario, _ = load_scenario(path)             # validated like every scenario
