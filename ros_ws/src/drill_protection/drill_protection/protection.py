@@ -298,9 +298,9 @@ class ProcessProtection:
         trip = None if not_applied and not stop else trip_action
         friction_free = trip.friction_free_bhp_pa if trip is not None else float("nan")
         resting = abs(self.previous_speed_mps) < RESTING_REFERENCE_SPEED_MPS
-        judged = bhp_pa if np.isfinite(bhp_pa) else self.surface.bhp_pa(
-            choke_dp_pa, float(np.subtract(*(surface_flows or (np.nan, np.nan)))),
-            string_velocity_mps)
+        returns_m3s, bpp_m3s = surface_flows or (np.nan, np.nan)
+        judged = bhp_pa if np.isfinite(bhp_pa) else self.surface.bhp_pa(     # flow up the annulus
+            choke_dp_pa, returns_m3s - bpp_m3s, string_velocity_mps)
         guard = self._window_guard(judged, clamps, friction_free if resting else float("nan"))
         shut = trip is not None and trip.choke_flow_m3s is not None and not stop
         if guard or shut:

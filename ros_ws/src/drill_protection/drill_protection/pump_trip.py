@@ -107,10 +107,10 @@ class PumpTripResponse:
         return self.bhp_pa - self.friction_pa
 
     def judged_bhp_pa(self) -> float:
-        """The BHP [Pa]: measured, else the BHP without friction plus the model's."""
+        """The BHP [Pa]: measured, else the BHP without friction plus the model's friction."""
         if math.isfinite(self.bhp_pa):
             return self.bhp_pa
-        return self.surface.column_pa + self.choke_dp_pa + self.friction_pa
+        return self.friction_free_bhp_pa() + self.friction_pa
 
     def action(self, time_s: float) -> TripAction | None:
         """What to apply with the command at ``time_s`` (None: circulation is not lost, or
