@@ -40,11 +40,6 @@ class ChannelWatch:
                 self._fresh_s[i] = time_s
         return y, tuple(frozen)
 
-    def frozen_now(self) -> tuple[str, ...]:
-        """The channels flagged frozen at the last ``screen``."""
-        return tuple(name for name, repeats in zip(self.names, self._repeats)
-                     if 0 < self.frozen_after <= repeats)
-
     def oldest_age_s(self, time_s: float, used: tuple[str, ...] | None = None) -> float:
         """Seconds since the stalest channel (of ``used``, default all) last gave a usable
         sample (0 before any)."""

@@ -153,7 +153,9 @@ class PumpDeliveryWatch:
         self.last_s = time_s
         if not math.isfinite(measured_m3s):
             return
-        short = self.expected_m3s - measured_m3s >= self.config.flow_error_m3s
-        self.short_since_s = (self.short_since_s if self.short_since_s is not None
-                              else time_s) if short else None
-        self.not_delivering = short and time_s - self.short_since_s >= self.config.window_s
+        if self.expected_m3s - measured_m3s < self.config.flow_error_m3s:
+            self.short_since_s = None
+        elif self.short_since_s is None:
+            self.short_since_s = time_s
+        self.not_delivering = self.short_since_s is not None \
+            and time_s - self.short_since_s >= self.config.window_s

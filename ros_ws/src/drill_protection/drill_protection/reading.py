@@ -38,8 +38,7 @@ class ReadingScreen:
 
     def observe(self, time_s: float, m) -> list[Notice]:
         """Take one measurement: a notice for each gauge found frozen or live again."""
-        self.watch.screen(time_s, [getattr(m, name) for name in SCREENED])
-        now = self.watch.frozen_now()
+        _, now = self.watch.screen(time_s, [getattr(m, name) for name in SCREENED])
         notices = [Notice("gauge_frozen", f"{name} repeats its value: read as a dropout")
                    for name in now if name not in self.frozen]
         notices += [Notice("gauge_live", f"{name} moves again")
