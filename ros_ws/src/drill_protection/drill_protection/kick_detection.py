@@ -93,12 +93,13 @@ class KickDetector:
 
     def update(self, s: FlowSample) -> Detection:
         """Take one sample; the reading after it."""
-        needed = (s.time_s, s.return_flow_m3s, s.bpp_flow_m3s, s.string_position_m)
+        needed = (s.time_s, s.return_flow_m3s, s.bpp_flow_m3s)
         if not all(math.isfinite(v) for v in needed):
             self.rejected += 1
             return self._reading(False)
         pressures_ok = math.isfinite(s.choke_dp_pa) and math.isfinite(s.bhp_pa)
-        self.rejected += not pressures_ok
+        position_ok = math.isfinite(s.string_position_m)
+        self.rejected += not (pressures_ok and position_ok)
         if not math.isfinite(s.string_flow_m3s):          # pump off: no balance to keep
             self._first = None
             self._history.clear()
@@ -107,12 +108,11 @@ class KickDetector:
             return self._reading(False)
         for median, value in zip(self._pressures, (s.choke_dp_pa, s.bhp_pa)):
             median.add(s.time_s, value if pressures_ok else math.nan)
-        if all(self._pressures):
+        current = all(self._pressures)
+        if current:
             self._held_pressures = [median.value for median in self._pressures]
-        if self._first is None and not all(m.full(s.time_s) for m in self._pressures):
+        if self._first is None and not (position_ok and all(m.full(s.time_s) for m in self._pressures)):
             return self._reading(False)           # the balance starts on a second of readings
-        # without a pressure reading for a second the flows still count; the compliance
-        # term holds the last pressures and catches up when they come back
         pressures = self._held_pressures
         if self._first is None:                           # (re)start the balance here
             self._first, self._last_time_s, self._integral_m3 = s, s.time_s, 0.0
@@ -120,6 +120,10 @@ class KickDetector:
         dt = s.time_s - self._last_time_s
         self._last_time_s = s.time_s
         self._integral_m3 += delta_flow_m3s(s) * dt
+        if not (position_ok and current):
+            # a gauge out: the flows still count, and the known terms catch up with them
+            # when it is back; nothing is judged meanwhile
+            return self._reading(False)
         known = (self.area_m2 * (s.string_position_m - self._first.string_position_m)
                  + sum(c * (p - p0) for c, p, p0 in zip(self.compliance_m3_pa, pressures,
                                                          self._first_pressures)))
