@@ -71,7 +71,6 @@ from drill_core.input_layout import COMMAND_NAMES, U_BLOCK, U_BPP_FLOW, U_CHOKE,
 from drill_core.units import PA_PER_BAR
 from drill_protection.pump_trip import TripAction
 from drill_protection.recent_median import BHP_MEDIAN_S, RecentMedian
-from drill_protection.surface_bhp import SurfaceBhp
 from drill_protection.well_control import Hold
 
 _SPEED_GRID_POINTS = 61
@@ -127,7 +126,6 @@ class ProcessProtection:
     def __init__(self, config: RigConfig, wm: hy.WellModel, initial_command: np.ndarray):
         self.config = config
         self.wm = wm
-        self.surface = SurfaceBhp(wm)
         self.previous = np.asarray(initial_command, dtype=float).copy()
         self.previous_manual_opening: float | None = None
         self.previous_dp_setpoint: tuple[float, float] | None = None
@@ -213,7 +211,8 @@ class ProcessProtection:
               advisor_bhp_ref_pa: float = float("nan"),
               choke_dp_pa: float = float("nan"), block_not_following: bool = False,
               choke_not_following: bool = False, choke_moving: bool = True,
-              bpp_not_delivering: bool = False) -> Decision:
+              bpp_not_delivering: bool = False,
+              surface_bhp_pa: float = float("nan")) -> Decision:
         """Limit ``request`` [u_r, q_c, q_bpp, p_spp], the requested manual choke opening and
         choke-dp set-point (dp Pa, ramp Pa/s) (both None: the choke on its PI flow
         controller; a manual opening wins); ``surface_flows`` are the measured return and
@@ -222,7 +221,9 @@ class ProcessProtection:
         none; ``advisor_bhp_ref_pa`` the BHP the advisor aims at (NaN: none);
         ``choke_dp_pa`` the measured choke dp (the emergency stop's feedforward);
         ``block_not_following``, ``choke_not_following``, ``choke_moving`` and
-        ``bpp_not_delivering`` the actuator watches' judgements. Returns the command to
+        ``bpp_not_delivering`` the actuator watches' judgements; ``surface_bhp_pa`` the
+        BHP judged from the surface (drill_protection.surface_bhp, kept by the circulation
+        watch) the window guard reads when ``bhp_pa`` is unread. Returns the command to
         send and why."""
         p = self.config.protection
         period = p.command_period_s
@@ -298,9 +299,7 @@ class ProcessProtection:
         trip = None if not_applied and not stop else trip_action
         friction_free = trip.friction_free_bhp_pa if trip is not None else float("nan")
         resting = abs(self.previous_speed_mps) < RESTING_REFERENCE_SPEED_MPS
-        returns_m3s, bpp_m3s = surface_flows or (np.nan, np.nan)
-        judged = bhp_pa if np.isfinite(bhp_pa) else self.surface.bhp_pa(     # flow up the annulus
-            choke_dp_pa, returns_m3s - bpp_m3s, string_velocity_mps)
+        judged = bhp_pa if np.isfinite(bhp_pa) else surface_bhp_pa
         guard = self._window_guard(judged, clamps, friction_free if resting else float("nan"))
         shut = trip is not None and trip.choke_flow_m3s is not None and not stop
         if guard or shut:

@@ -74,8 +74,8 @@ class PumpTripResponse:
                 bhp_pa: float, annulus_flow_m3s: float = math.nan,
                 string_velocity_mps: float = 0.0) -> Notice | None:
         """Take one measurement (the flow up the annulus [m^3/s] and the string's speed, up
-        [m/s], are read only while circulation is lost); the alarm when circulation is
-        found lost or back (None otherwise)."""
+        [m/s], are read only while circulation is lost or the BHP is unread); the alarm
+        when circulation is found lost or back (None otherwise)."""
         self.choke_dp_pa, self.bhp_pa = choke_dp_pa, bhp_pa
         notice = None
         if string_flow_valid:
@@ -89,8 +89,9 @@ class PumpTripResponse:
             notice = Notice("circulation_lost", "circulation lost: the mud pump is asked for "
                                                 "but the string-flow meter reads nothing "
                                                 "(pump trip)")
+        needed = self.lost_at_s is not None or not math.isfinite(bhp_pa)
         self.friction_pa = self.surface.friction_pa(annulus_flow_m3s, string_velocity_mps) \
-            if self.lost_at_s is not None else math.nan
+            if needed else math.nan
         return notice
 
     @property
@@ -107,7 +108,8 @@ class PumpTripResponse:
         return self.bhp_pa - self.friction_pa
 
     def judged_bhp_pa(self) -> float:
-        """The BHP [Pa]: measured, else the BHP without friction plus the model's friction."""
+        """The BHP [Pa] of the last measurement: measured, else the BHP without friction
+        plus the model's friction (the window guard's BHP, too)."""
         if math.isfinite(self.bhp_pa):
             return self.bhp_pa
         return self.friction_free_bhp_pa() + self.friction_pa

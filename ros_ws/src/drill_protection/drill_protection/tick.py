@@ -172,7 +172,8 @@ class ProtectionTick:
             block_not_following=self.drawworks.not_following(stamp_ns * 1e-9),
             choke_not_following=self.choke.not_following(stamp_ns * 1e-9),
             choke_moving=self.choke.moving(stamp_ns * 1e-9),
-            bpp_not_delivering=self.bpp.not_delivering)
+            bpp_not_delivering=self.bpp.not_delivering,
+            surface_bhp_pa=self.watch.circulation.judged_bhp_pa())
         self.bpp.command(decision.command[U_BPP_FLOW])
         self.choke_on_flow_loop = decision.manual_choke_opening is None and \
             decision.choke_dp_setpoint is None and not decision.emergency_stop

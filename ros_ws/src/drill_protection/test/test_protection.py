@@ -411,26 +411,6 @@ def test_on_a_multi_stand_trip_the_trip_tank_against_the_steel_raises_the_swabbe
     assert raised == [(3, "trip_tank_gain")]     # 120 L over the limit at stand 2's end
 
 
-def test_without_a_bhp_reading_the_guard_judges_the_bhp_from_the_surface(setup):
-    """A BHP gauge out: the window guard reads the BHP as the mud column, the measured choke
-    dp and the model's annular friction at the measured flow up the annulus (return flow
-    less the back-pressure pump's), and relieves a BHP it puts over the fracture edge."""
-    config, _ = setup
-    _, high = config.pressure_window_pa
-    p = fresh(setup)
-    flows = (CIRCULATION, 0.0)
-    friction = p.surface.friction_pa(CIRCULATION, 0.0)
-    over_dp = high + 1.0e5 - p.surface.column_pa - friction
-    d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, float("nan"), CIRCULATION, 0.5,
-                surface_flows=flows, choke_dp_pa=over_dp)
-    guard = [c for c in d.clamps if c.code == "window_guard"]
-    assert guard and guard[0].value == pytest.approx(high + 1.0e5)
-    assert d.command[1] > CIRCULATION                       # the choke lets more out
-    inside = fresh(setup).apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, float("nan"),
-                                CIRCULATION, 0.5, surface_flows=flows, choke_dp_pa=2.0e6)
-    assert not any(c.code == "window_guard" for c in inside.clamps)
-
-
 def test_circulation_lost_and_a_back_pressure_pump_that_does_not_deliver_stop_the_trip(setup):
     """Nothing then gives the choke a flow: the protective stop sets the brake and the
     choke's BHP loop (as for a stuck choke); a pump that does not deliver while the well

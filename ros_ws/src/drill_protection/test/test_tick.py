@@ -14,6 +14,7 @@ from drill_core.operating_point import initial_operating_point
 from drill_core.operator_actions import OperatorAction
 from drill_core.rig_root import config_dir
 from drill_core.scenario import load_scenario
+from drill_protection.surface_bhp import SurfaceBhp
 from drill_protection.tick import MachineCommand, ProtectionTick
 
 CONFIG = config_dir()
@@ -102,14 +103,43 @@ def sample(op):
                   trip_tank_volume_m3=6.0)
 
 
-def test_under_the_emergency_stop_the_machine_command_starts_the_choke_bhp_loop(setup):
-    _, tick, op = setup
-    request = SimpleNamespace(      # an advisor's, as drill_msgs/RigCommand carries it
+def advisor_request(**fields):
+    """An advisor's command, as drill_msgs/RigCommand carries it (SI)."""
+    return SimpleNamespace(**{**dict(
         block_position_ref_m=3.0, choke_flow_ref_m3s=0.0167, bpp_flow_m3s=0.0, spp_pa=2.0e7,
         mud_pump_on=True, choke_manual=False, choke_opening_ref=0.0,
         choke_pressure_control=False, choke_dp_ref_pa=0.0, choke_dp_ref_rate_pa_s=0.0,
         bhp_ref_pa=6.85e7, bhp_window_low_pa=math.nan, bhp_window_high_pa=math.nan,
-        trip_speed_limit_in_mps=math.nan, trip_speed_limit_out_mps=math.nan)
+        trip_speed_limit_in_mps=math.nan, trip_speed_limit_out_mps=math.nan), **fields})
+
+
+def test_without_a_bhp_reading_the_guard_judges_the_bhp_from_the_surface(setup, wm):
+    """A BHP gauge out: the window guard reads the BHP as the mud column, the measured choke
+    dp and the model's annular friction at the measured flow up the annulus (return flow
+    less the back-pressure pump's), and relieves a BHP it puts over the fracture edge; a
+    choke dp that puts it inside leaves the choke alone."""
+    config, _, op = setup
+    _, high = config.pressure_window_pa
+    surface = SurfaceBhp(wm)
+    over_dp = high + 1.0e5 - surface.column_pa - surface.friction_pa(op.choke_flow_m3s, 0.0)
+
+    def guarded(choke_dp_pa):
+        tick = ProtectionTick(config, wm, load_scenario(CONFIG / "scenarios" / "short_trip.yaml")[0], op)
+        for k in range(12):
+            last = dataclasses.replace(sample(op), bhp_pa=math.nan, choke_dp_pa=choke_dp_pa + k)
+            tick.observe(k * 100_000_000, last)
+        decision = tick.limit(advisor_request(choke_flow_ref_m3s=float(op.choke_flow_m3s)),
+                              last, 11 * 100_000_000, 0.5)
+        return decision, [c for c in decision.clamps if c.code == "window_guard"]
+    decision, guard = guarded(over_dp)
+    assert guard and guard[0].value == pytest.approx(high + 1.0e5, abs=0.1e5)
+    assert decision.command[1] > op.choke_flow_m3s                 # the choke lets more out
+    assert guarded(2.0e6)[1] == []
+
+
+def test_under_the_emergency_stop_the_machine_command_starts_the_choke_bhp_loop(setup):
+    _, tick, op = setup
+    request = advisor_request()
     for k in range(12):
         tick.observe(k * 100_000_000, sample(op))
     free = tick.machine_command(tick.limit(request, sample(op), 11 * 100_000_000, 0.5), request)
