@@ -525,6 +525,10 @@ class KickDetection:
         "s", 0.0, 1.0e5, default=0.0,
         doc="forgetting time of the compliances' errors learnt while the well is quiet "
             "(drill_protection.flow_baseline); 0: none")
+    pressure_gap_judged_after_s: float = param(
+        "s", 0.0, 3600.0, default=30.0,
+        doc="a pressure gauge out this long: the balance is judged again with its last "
+            "reading held (a gauge out for good does not leave the well unwatched)")
 
 
 @dataclass(frozen=True)

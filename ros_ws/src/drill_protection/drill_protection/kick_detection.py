@@ -14,9 +14,13 @@ into an *excess flow* over a window, less the baseline learnt while the well is 
 (drill_protection.flow_baseline: the compliances' errors, when ``baseline_time_constant_s``
 is set), raises a kick alarm when it stays above the
 threshold for the confirmation time, a losses alarm when it stays below minus the
-threshold, and clears once it has stayed within half the threshold as long. A sample with a non-finite flow or position is rejected, a
-non-finite pressure left out of its median, both counted; a sample without a
-string-flow reading (mud pump off) adds nothing to the balance, so detection pauses.
+threshold, and clears once it has stayed within half the threshold as long. A sample with
+a non-finite flow is rejected; one without a block position or a pressure (its median
+empty) keeps the flows in the balance and is not judged: the position and compliance
+terms catch up with the flows once the gauge is back. A pressure gauge out for
+``pressure_gap_judged_after_s`` is judged again with its last reading held. Bad samples
+are counted; a sample without a string-flow reading (mud pump off) adds nothing to the
+balance, so detection pauses.
 """
 from __future__ import annotations
 
@@ -79,6 +83,7 @@ class KickDetector:
         self._first_pressures: list[float] = []  # the pressures' medians when the balance began
         self._held_pressures: list[float] = []   # the last medians (choke dp, BHP) [Pa]
         self._last_time_s: float | None = None
+        self._pressure_gap_since_s: float | None = None  # the first sample without a pressure
         self._history: deque = deque()          # (time s, excess volume m^3, choke dp Pa,
                                                 # BHP Pa: the pressures' medians)
         self.baseline = FlowBaseline(config.baseline_time_constant_s,
@@ -111,7 +116,13 @@ class KickDetector:
         current = all(self._pressures)
         if current:
             self._held_pressures = [median.value for median in self._pressures]
-        if self._first is None and not (position_ok and all(m.full(s.time_s) for m in self._pressures)):
+            self._pressure_gap_since_s = None
+        elif self._pressure_gap_since_s is None:
+            self._pressure_gap_since_s = s.time_s
+        held_long = not current and bool(self._held_pressures) and s.time_s \
+            - self._pressure_gap_since_s >= self.config.pressure_gap_judged_after_s
+        ready = held_long or all(m.full(s.time_s) for m in self._pressures)
+        if self._first is None and not (position_ok and ready):
             return self._reading(False)           # the balance starts on a second of readings
         pressures = self._held_pressures
         if self._first is None:                           # (re)start the balance here
@@ -120,7 +131,7 @@ class KickDetector:
         dt = s.time_s - self._last_time_s
         self._last_time_s = s.time_s
         self._integral_m3 += delta_flow_m3s(s) * dt
-        if not (position_ok and current):
+        if not (position_ok and (current or held_long)):
             # a gauge out: the flows still count, and the known terms catch up with them
             # when it is back; nothing is judged meanwhile
             return self._reading(False)

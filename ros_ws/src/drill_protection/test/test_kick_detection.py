@@ -303,3 +303,18 @@ def test_a_bhp_dropout_while_the_pressures_move_reads_no_excess():
     assert not any(r.alarm for r in readings)
     flows = np.array([r.excess_flow_m3s for r in readings[FIRST_WINDOW:]])
     assert np.isfinite(flows[-1]) and np.nanmax(np.abs(flows)) < 0.2 * CONFIG.flow_threshold_m3s
+
+
+def test_a_bhp_gauge_out_for_good_still_has_a_kick_raised():
+    """The BHP gauge goes out at 30 s and stays out; a 30 L/min influx starts at 40 s. The
+    balance is not judged through a short gap, but once the gauge has been out for
+    pressure_gap_judged_after_s it is judged again on the last reading held: the kick is
+    raised while the gauge is still out (without that rule, never)."""
+    config = KickDetection(**{**CONFIG.__dict__, "pressure_gap_judged_after_s": 30.0})
+    samples = _out(well(150.0, influx=lambda t: 5.0e-4 if t >= 40.0 else 0.0, noise=8.3e-5,
+                        seed=5), range(300, 1500), bhp=True)
+    detector = KickDetector(config, AREA, *COMPLIANCE)
+    raised = [s.time_s for s in samples if detector.update(s).raised]
+    judged_again_s = 30.0 + 30.0          # the window fills again from there, then confirms
+    assert len(raised) == 1
+    assert judged_again_s <= raised[0] <= judged_again_s + CONFIG.window_s + CONFIG.confirm_s + 1.0
