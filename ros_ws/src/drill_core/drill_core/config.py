@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -227,15 +226,6 @@ class Lag:
     def validate(self) -> None:
         if self.minimum >= self.maximum:
             raise ValueError(f"minimum {self.minimum} must be below maximum {self.maximum}")
-
-    def answer(self, value: float, command: float, dt_s: float) -> float:
-        """The output ``dt_s`` after ``value`` under ``command`` held (clamped to the range),
-        its change within the rate limit over the step: what a watch or a controller expects
-        of the machine (the plant's own lag: drill_plant.actuators.FirstOrderLag)."""
-        command = min(max(command, self.minimum), self.maximum)
-        change = (command - value) * (1.0 - math.exp(-dt_s / self.time_constant_s))
-        limit = self.rate_limit_per_s * dt_s
-        return value + min(max(change, -limit), limit)
 
 
 @dataclass(frozen=True)

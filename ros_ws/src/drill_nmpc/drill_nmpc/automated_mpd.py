@@ -23,9 +23,7 @@ Each sample (t_s) the controller
    so the BHP follows the choke slowly and the set-point overdrives it in proportion;
 3. sends the set-point at t_k with its rate toward the value at t_k+1, so the choke
    controller ramps it between samples, and the steady choke flow of that motion (plus the
-   mud stored by the rising pressure, and the back-pressure pump's flow as its lag
-   delivers the commands: started for a connection it comes over half a minute) as the
-   valve's flow feedforward.
+   mud stored by the rising pressure) as the valve's flow feedforward.
 
 The pumps hold the initial operating point: circulation stays up through the trip.
 """
@@ -85,8 +83,6 @@ class AutomatedMpd:
         self.storage_m3_per_pa = sum(g.annulus_volume_m3) / w.mud.bulk_modulus_pa
         self.downstream_pa = w.choke_downstream_pressure_pa
         self.bpp = bpp_flow_m3s
-        self.bpp_lag = config.actuators.bpp
-        self.bpp_delivered_m3s = bpp_flow_m3s   # the pump's flow one sample on, as its lag has it
         self.spp = spp_pa
         self.string_lag_s = config.actuators.drawworks.time_constant_s
         self.profile: MotionProfile | None = None
@@ -150,8 +146,6 @@ class AutomatedMpd:
             self.profile = MotionProfile(est.string_position_m)
             self.string_speed_mps = 0.0
         theta = est.friction_factor
-        self.bpp_delivered_m3s = self.bpp_lag.answer(self.bpp_delivered_m3s, self.bpp,
-                                                     self.sample_s)
         held = self.string_held and math.isfinite(est.bottom_annulus_flow_m3s)
         # held: not below nothing - mud flowing down the annulus at rest is mud the choke's
         # own rise compresses, and a set-point chasing the friction it makes runs away
@@ -204,8 +198,7 @@ class AutomatedMpd:
 
         dp_now = bounded(v_now)
         rate = (bounded(v_next) - dp_now) / self.sample_s
-        flow = self.model.choke_flow_m3s(q, self.bpp_delivered_m3s, v_now) \
-            - self.storage_m3_per_pa * rate
+        flow = self.model.choke_flow_m3s(q, self.bpp, v_now) - self.storage_m3_per_pa * rate
         return MpdCommand(block_position_ref_m=profile.position_m, choke_dp_ref_pa=dp_now,
                           choke_dp_ref_rate_pa_s=rate, choke_flow_feedforward_m3s=max(flow, 0.0),
                           bpp_flow_m3s=self.bpp, spp_pa=self.spp,

@@ -269,19 +269,3 @@ def test_the_tick_runs_the_back_pressure_pump_while_the_floor_has_the_string(rig
     for phase in (SET_SLIPS, PUMP_DOWN, PUMP_UP, PICK_UP):
         assert seen[phase] == (CONNECTION_BPP_FLOW_M3S, True, False)
     assert seen[CONNECTION] == (CONNECTION_BPP_FLOW_M3S, True, True)
-
-
-def test_the_valve_feedforward_takes_the_back_pressure_pump_as_its_lag_delivers_it(rig, em):
-    """Started for a connection, the back-pressure pump's flow comes over its lag: the
-    choke's flow feedforward carries what the pump delivers by the next sample, not the
-    command (which opened the choke before the flow came: a 4 bar dip as the slips were
-    set, on the trip bench)."""
-    sp = _setpoints()
-    mpd = AutomatedMpd(rig, em, 0.0, 1.06e7)
-    base = mpd.step(_estimate(em, 6.85e7), sp, 6.85e7).choke_flow_feedforward_m3s
-    mpd.bpp = 0.01
-    added = [mpd.step(_estimate(em, 6.85e7), sp, 6.85e7).choke_flow_feedforward_m3s - base
-             for _ in range(60)]
-    lag_s = rig.actuators.bpp.time_constant_s
-    assert added == pytest.approx([0.01 * (1.0 - math.exp(-(k + 1) * mpd.sample_s / lag_s))
-                                   for k in range(60)], abs=1e-9)

@@ -148,8 +148,8 @@ class PumpDeliveryWatch:
 
     def observe(self, time_s: float, measured_m3s: float) -> None:
         if self.last_s is not None:
-            self.expected_m3s = self.pump.answer(self.expected_m3s, self.command_m3s,
-                                                 time_s - self.last_s)
+            gain = 1.0 - math.exp(-(time_s - self.last_s) / self.pump.time_constant_s)
+            self.expected_m3s += (self.command_m3s - self.expected_m3s) * gain
         self.last_s = time_s
         if not math.isfinite(measured_m3s):
             return
