@@ -2,6 +2,7 @@
 the learnt baseline) on a synthetic well whose flows are its own balance run forward. The
 physics it must take out is judged on the truth plant's sensors in
 test_kick_detection_on_the_plant.py."""
+import dataclasses
 import math
 
 import numpy as np
@@ -310,7 +311,7 @@ def test_a_bhp_gauge_out_for_good_still_has_a_kick_raised():
     balance is not judged through a short gap, but once the gauge has been out for
     pressure_gap_judged_after_s it is judged again on the last reading held: the kick is
     raised while the gauge is still out (without that rule, never)."""
-    config = KickDetection(**{**CONFIG.__dict__, "pressure_gap_judged_after_s": 30.0})
+    config = dataclasses.replace(CONFIG, pressure_gap_judged_after_s=30.0)
     samples = _out(well(150.0, influx=lambda t: 5.0e-4 if t >= 40.0 else 0.0, noise=8.3e-5,
                         seed=5), range(300, 1500), bhp=True)
     detector = KickDetector(config, AREA, *COMPLIANCE)
