@@ -103,9 +103,10 @@ class SpeedLimits:
     pulling_out: tuple[float, str]
     standing_mps: tuple[float, float]   # (running in, pulling out): the limits that last -
                                         # the operator's and machine cap, 0 for a trip held on
-                                        # an alarm, the pull-out limit while circulation is
-                                        # lost - not the surge/swab clamp of each BHP reading
-                                        # nor the hold for a reading without a BHP
+                                        # an alarm, the limits from the BHP without friction
+                                        # while circulation is lost - not the surge/swab
+                                        # clamp of each BHP reading nor the hold for a
+                                        # reading without a BHP
 
 
 def surge_swab_pa(wm: hy.WellModel, speeds_mps: np.ndarray, circulation_m3s: float) -> np.ndarray:
@@ -159,11 +160,14 @@ class ProcessProtection:
 
         The measured BHP is first referred back to the string at rest with the model at
         the measured string velocity, then the model predicts BHP at each candidate speed.
-        While circulation is lost, the pull-out side also starts from
-        ``friction_free_bhp_pa`` (the BHP once the winding-down pump's friction is gone:
-        drill_protection.pump_trip), so the string is not pulled on friction that is going;
-        that limit stands until the choke has made the friction good, as a held trip and
-        the operator's and machine limits do (``SpeedLimits.standing_mps``).
+        While circulation is lost, both sides also start from ``friction_free_bhp_pa`` (the
+        BHP once the winding-down pump's friction is gone: drill_protection.pump_trip), so
+        the string is not pulled on friction that is going, nor run in on a surge the model
+        credits the measurement with: without circulation the model's surge is the mud's
+        yield, almost all of it at the first cm/s (20.6 of 26.8 bar at 0.035 of 0.5 m/s),
+        while the measured BHP builds it only as the mud moves. Those limits stand until the
+        choke has made the friction good, as a held trip and the operator's and machine
+        limits do (``SpeedLimits.standing_mps``).
         """
         p = self.config.protection
         if self.trip_hold:
@@ -195,12 +199,13 @@ class ProcessProtection:
                            f"only up to {speed:.2f} m/s")
 
         down, up = allowed(surge, static_bhp, "surge"), allowed(swab, static_bhp, "swab")
-        standing_up = float(cap)
+        standing = (float(cap), float(cap))
         if np.isfinite(friction_free_bhp_pa):
-            lost = allowed(swab, friction_free_bhp_pa, "circulation lost: swab")
-            standing_up = lost[0]
-            up = min(up, lost)
-        return SpeedLimits(down, up, (float(cap), standing_up))
+            lost_down = allowed(surge, friction_free_bhp_pa, "circulation lost: surge")
+            lost_up = allowed(swab, friction_free_bhp_pa, "circulation lost: swab")
+            standing = (lost_down[0], lost_up[0])
+            down, up = min(down, lost_down), min(up, lost_up)
+        return SpeedLimits(down, up, standing)
 
     def apply(self, request, position_m: float, string_velocity_mps: float, bhp_pa: float,
               circulation_m3s: float, operator_speed_limit_mps: float,

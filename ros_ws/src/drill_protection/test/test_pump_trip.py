@@ -173,6 +173,24 @@ def test_while_circulation_is_lost_the_pull_out_limit_stands_on_the_bhp_without_
     assert d.command[0] == 0.0 and d.standing_speed_limits_mps == (0.5, 0.0)
 
 
+def test_while_circulation_is_lost_running_in_stands_on_the_bhp_without_friction_too(setup):
+    """The string just set off downwards (0.035 m/s) with no circulation, 695.5 bar
+    measured, the choke holding 711 bar once the surge is gone (over the 705 bar high
+    edge): the surge model puts 20.6 bar of yield at that speed and would read the reading
+    back to 675 bar, letting the string run in at the operator's 0.5 m/s (26.8 bar); from
+    the BHP without friction no run-in keeps the well inside, so running in is held, and
+    that limit stands. The fault matrix's pull-out with a mud-pump trip and a position
+    dropout went 0.06 bar over the fracture pressure that way under the baseline."""
+    config, wm = setup
+    p = ProcessProtection(config, wm, np.array([0.0, 0.01, 0.01, SPP_PA]))
+    measured, free_bhp = 695.5e5, 711.1e5
+    credited = p.speed_limits(measured, -0.035, 0.0, 0.5)
+    assert credited.running_in[0] == 0.5                  # the model's referral alone
+    lost = p.speed_limits(measured, -0.035, 0.0, 0.5, friction_free_bhp_pa=free_bhp)
+    assert lost.running_in[0] == 0.0 and "circulation lost: surge" in lost.running_in[1]
+    assert lost.standing_mps[0] == 0.0
+
+
 def test_a_held_trip_is_a_standing_limit_and_the_surge_clamp_is_not(setup):
     config, wm = setup
     p = ProcessProtection(config, wm, np.array([0.0, 0.01, 0.01, SPP_PA]))
