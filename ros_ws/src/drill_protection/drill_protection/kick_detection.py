@@ -119,8 +119,9 @@ class KickDetector:
             self._pressure_gap_since_s = None
         elif self._pressure_gap_since_s is None:
             self._pressure_gap_since_s = s.time_s
-        held_long = not current and bool(self._held_pressures) and s.time_s \
-            - self._pressure_gap_since_s >= self.config.pressure_gap_judged_after_s
+        gap_s = 0.0 if current else s.time_s - self._pressure_gap_since_s
+        held_long = not current and bool(self._held_pressures) \
+            and gap_s >= self.config.pressure_gap_judged_after_s
         ready = held_long or all(m.full(s.time_s) for m in self._pressures)
         if self._first is None and not (position_ok and ready):
             return self._reading(False)           # the balance starts on a second of readings

@@ -233,6 +233,15 @@ def test_a_loss_present_from_the_start_is_not_learnt_away():
         assert readings[-1].alarm == "losses"
 
 
+def _out(samples, ks, position=False, bhp=False):
+    """The samples ``ks`` without a block position and/or a BHP (a dropout)."""
+    gone = {**({"string_position_m": math.nan} if position else {}),
+            **({"bhp_pa": math.nan} if bhp else {})}
+    for k in ks:
+        samples[k] = dataclasses.replace(samples[k], **gone)
+    return samples
+
+
 def test_a_bhp_dropout_keeps_the_flows_counted():
     """The BHP gauge reads NaN for 5 s of a pull-out: the balance goes on counting the
     flows and the compliance term catches up with them when the gauge is back, so nothing
@@ -240,11 +249,8 @@ def test_a_bhp_dropout_keeps_the_flows_counted():
     were once left out and put back as one sample times the gap."""
     def speed(t):
         return 0.5 if 20.0 <= t < 80.0 else 0.0
-    samples = well(120.0, speed=speed, noise=8.3e-5, seed=3)
-    for k in range(400, 450):                        # 40-45 s, the string moving
-        s = samples[k]
-        samples[k] = FlowSample(s.time_s, s.return_flow_m3s, s.string_flow_m3s, s.bpp_flow_m3s,
-                                s.string_position_m, s.choke_dp_pa, math.nan)
+    samples = _out(well(120.0, speed=speed, noise=8.3e-5, seed=3), range(400, 450),
+                   bhp=True)                         # 40-45 s, the string moving
     detector, readings = run(samples)
     assert not any(r.alarm for r in readings) and detector.rejected == 50
     flows = np.array([r.excess_flow_m3s for r in readings[FIRST_WINDOW:]])
@@ -262,16 +268,6 @@ def test_the_balance_starts_on_a_full_second_of_pressures():
     flows = np.array([r.excess_flow_m3s for r in readings])
     assert np.all(np.isnan(flows[:FIRST_WINDOW])) and np.all(np.isfinite(flows[FIRST_WINDOW:]))
     assert np.abs(flows[FIRST_WINDOW:]).max() < 1.0e-6
-
-
-def _out(samples, ks, position=False, bhp=False):
-    """The samples ``ks`` without a block position and/or a BHP (a dropout)."""
-    for k in ks:
-        s = samples[k]
-        samples[k] = FlowSample(s.time_s, s.return_flow_m3s, s.string_flow_m3s, s.bpp_flow_m3s,
-                                math.nan if position else s.string_position_m, s.choke_dp_pa,
-                                math.nan if bhp else s.bhp_pa)
-    return samples
 
 
 def test_a_block_position_dropout_on_a_trip_reads_no_excess():

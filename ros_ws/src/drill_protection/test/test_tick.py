@@ -123,8 +123,10 @@ def test_without_a_bhp_reading_the_guard_judges_the_bhp_from_the_surface(setup, 
     surface = SurfaceBhp(wm)
     over_dp = high + 1.0e5 - surface.column_pa - surface.friction_pa(op.choke_flow_m3s, 0.0)
 
+    scenario = load_scenario(CONFIG / "scenarios" / "short_trip.yaml")[0]
+
     def guarded(choke_dp_pa):
-        tick = ProtectionTick(config, wm, load_scenario(CONFIG / "scenarios" / "short_trip.yaml")[0], op)
+        tick = ProtectionTick(config, wm, scenario, op)
         for k in range(12):
             last = dataclasses.replace(sample(op), bhp_pa=math.nan, choke_dp_pa=choke_dp_pa + k)
             tick.observe(k * 100_000_000, last)
