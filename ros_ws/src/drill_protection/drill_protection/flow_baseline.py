@@ -12,11 +12,13 @@ pressures move but
 forgetting over ``time_constant_s``, learning only from samples the detector reads as
 quiet (no alarm raised or pending, the corrected excess within half the threshold), each
 term bounded at WEIGHT_LIMIT prior standard deviations; the detector judges e less the
-fit. It learns no constant term: a loss or an influx that is
-there when the balance starts would look like a meter's offset and be learnt away (a
-weak zone met 10 s into a trip was, in a first version); a meter that reads off shows as
-an alarm, which is what the crew must see. What it can take for compressibility is a
-formation flow that follows the pressure's rate over the forgetting time.
+fit. Successive windowed excesses share their window (``correlation_s``): each sample
+counts as dt / correlation_s of an independent reading. It learns no constant term: a
+loss or an influx that is there when the balance starts would look like a meter's offset
+and be learnt away (a weak zone met 10 s into a trip was, in a first version); a meter
+that reads off shows as an alarm, which is what the crew must see. What it can take for
+compressibility is a formation flow that follows the pressure's rate over the forgetting
+time.
 """
 from __future__ import annotations
 
@@ -37,9 +39,10 @@ WEIGHT_LIMIT = 2.0
 class FlowBaseline:
     """Recursive least squares of the quiet excess flow on [dp_top/dt, dp_bottom/dt]."""
 
-    def __init__(self, time_constant_s: float, noise_m3s: float):
+    def __init__(self, time_constant_s: float, noise_m3s: float, correlation_s: float):
         self.time_constant_s = time_constant_s
         self.noise_var = noise_m3s ** 2
+        self.correlation_s = correlation_s
         self.weights = np.zeros(2)
         self.covariance = np.diag(PRIOR_STD ** 2)
 
@@ -57,7 +60,10 @@ class FlowBaseline:
             return
         keep = math.exp(-dt_s / self.time_constant_s)
         P = self.covariance / keep
-        gain = P @ phi / (self.noise_var + phi @ P @ phi)
+        # samples of one window share its error: each tells dt / correlation_s of an
+        # independent one
+        noise_var = self.noise_var * max(1.0, self.correlation_s / dt_s)
+        gain = P @ phi / (noise_var + phi @ P @ phi)
         self.weights = np.clip(self.weights + gain * (excess_m3s - self.weights @ phi),
                                -WEIGHT_LIMIT * PRIOR_STD, WEIGHT_LIMIT * PRIOR_STD)
         P = P - np.outer(gain, phi @ P)

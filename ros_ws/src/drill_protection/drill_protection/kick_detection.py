@@ -87,7 +87,8 @@ class KickDetector:
         self._history: deque = deque()          # (time s, excess volume m^3, choke dp Pa,
                                                 # BHP Pa: the pressures' medians)
         self.baseline = FlowBaseline(config.baseline_time_constant_s,
-                                     BASELINE_NOISE_SHARE * config.flow_threshold_m3s) \
+                                     BASELINE_NOISE_SHARE * config.flow_threshold_m3s,
+                                     config.window_s) \
             if config.baseline_time_constant_s > 0.0 else None
         self._pit = LeastSquaresSlope()         # (time s from its start, the pit's excess
                                                 # volume m^3) over its window

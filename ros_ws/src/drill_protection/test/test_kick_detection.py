@@ -10,6 +10,7 @@ import pytest
 
 from drill_core.config import KickDetection
 from drill_core.rig_root import config_dir
+from drill_protection.flow_baseline import FlowBaseline
 from drill_protection.kick_detection import FlowSample, KickDetector
 
 CONFIG = KickDetection(window_s=10.0, pressure_average_s=1.0, flow_threshold_m3s=3.3e-4,
@@ -315,3 +316,20 @@ def test_a_bhp_gauge_out_for_good_still_has_a_kick_raised():
     judged_again_s = 30.0 + 30.0          # the window fills again from there, then confirms
     assert len(raised) == 1
     assert judged_again_s <= raised[0] <= judged_again_s + CONFIG.window_s + CONFIG.confirm_s + 1.0
+
+
+def test_two_seconds_of_one_window_do_not_teach_the_baseline_its_bound():
+    """Twenty samples of one windowed excess (6 L/min while the choke dp rises 0.1 bar/s,
+    as a brake's transient gave) are about one reading, not twenty: the fit moves a few
+    percent of its bound and reads under 4 L/min at a 1.5 bar/s swing (counted as
+    independent it had learnt 8.8e-9 m^3/Pa, 79 L/min there); a true compliance error the
+    pressures swing through for 5 minutes is still learnt to within 10 %."""
+    window_s, noise_m3s = 20.0, 0.25 * 3.3e-4
+    fit = FlowBaseline(300.0, noise_m3s, window_s)
+    for _ in range(20):
+        fit.learn(fit.regressors(1.0e4, 0.0), 1.0e-4, 0.1)
+    assert abs(fit.baseline_m3s(fit.regressors(1.5e5, 0.0))) < 4.0 / 60000.0
+    for k in range(3000):
+        rate_pa_s = 2.0e4 * math.sin(2.0 * math.pi * k * 0.1 / 60.0)
+        fit.learn(fit.regressors(rate_pa_s, 0.0), 2.0e-9 * rate_pa_s, 0.1)
+    assert fit.weights[0] == pytest.approx(2.0e-9, rel=0.1)
