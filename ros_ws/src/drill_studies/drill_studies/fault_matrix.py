@@ -230,11 +230,30 @@ def _envelope(bounds: list[dict]) -> list[str]:
 
 
 def _bound_cell(bounds: list[dict]) -> str:
-    """The bound column of one cell: each bounded controller's fastest answer."""
+    """The bound column of one cell: each bounded controller's fastest answer (which, and
+    from when)."""
     if not bounds:
         return "–"
-    return "; ".join(f"after {r['prefix']}: {_cell(r)}"
+    return "; ".join(f"after {r['prefix']} ({r['answer']} from {r['start_s']:g} s): {_cell(r)}"
                      for r in sorted(bounds, key=lambda r: CONTROLLERS.index(r["prefix"])))
+
+
+def _outside_s(row: dict) -> float:
+    return row["bhp_under_pore_s"] + row["bhp_over_fracture_s"]
+
+
+def past_bound(rows: list[dict], bounds: list[dict]) -> list[dict]:
+    """The runs that left the window for longer than their bound at the cells' speed (a
+    run without a bound row counts)."""
+    speed = cell_speed_mps()
+    at_speed = {(r["phase"], tuple(r["faults"]), r["prefix"]): r for r in bounds
+                if r["speed_mps"] == speed}
+    left = []
+    for r in rows:
+        bound = at_speed.get((r["phase"], tuple(r["faults"]), r["controller"]))
+        if _outside_s(r) > 0.0 and (bound is None or _outside_s(r) > _outside_s(bound) + 1e-9):
+            left.append(r)
+    return left
 
 
 def markdown(rows: list[dict], made: str, window_pa: tuple[float, float]) -> str:
@@ -272,12 +291,20 @@ def markdown(rows: list[dict], made: str, window_pa: tuple[float, float]) -> str
         "the sensors show.", "",
         f"**{len(outside)} of {len(rows)} runs left the window.**", ""]
     if bounds:
+        over = past_bound(rows, bounds)
         lines += [
+            f"**{len(over)} of them left it for longer than their bound**" + (
+                ": " + "; ".join(f"{r['phase']}, {' + '.join(r['faults'])}, {r['controller']}"
+                                 for r in over) if over else "") + ".", "",
             "Where a controller left the window, the column *bound* gives the machines' "
-            "fastest answer from the fault on, in process (`python -m drill_studies.fault_bound`"
-            "): the drawworks brake set, the back-pressure pump commanded to its maximum, the "
-            "choke on its own BHP loop at the window's middle, whatever a controller would "
-            "know; before the fault the trip runs under that controller and the protection "
+            "fastest answers from the first command after the fault (the first a sensor's "
+            "reading of it can reach), in process (`python -m drill_studies.fault_bound`), "
+            "whatever a controller would know, the one that leaves BHP less time outside: "
+            "*brake* (the drawworks brake set, the back-pressure pump commanded to its "
+            "maximum, the choke on its own BHP loop at the window's middle) or *shut* (the "
+            "same, but while the BHP is under the window's middle the choke shut, the "
+            "back-pressure pump at its maximum and the block held where the string was). "
+            "Before that command the trip runs under that controller and the protection "
             "(*after* it: how open a choke sticks and how fast the string moves when the "
             "fault comes are its). Not a proven optimum: what is left when every machine does "
             "at once the most it can (– : not taken).", ""]

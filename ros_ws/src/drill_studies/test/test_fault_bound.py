@@ -21,11 +21,15 @@ class Command:
     choke_dp_ref_pa: float = 0.0
     choke_manual: bool = True
     choke_pressure_control: bool = True
+    choke_opening_ref: float = 0.5
+    block_position_ref_m: float = 3.5
 
 
 @dataclass(frozen=True)
 class Measurement:
     choke_dp_pa: float
+    bhp_pa: float = 6.9e7
+    block_position_m: float = 3.0
 
 
 def test_the_fastest_answer_acts_from_the_fault_on_only():
@@ -38,6 +42,30 @@ def test_the_fastest_answer_acts_from_the_fault_on_only():
                             choke_pressure_control=False)
     blank = machines(21.0, Measurement(math.nan), replace(before, choke_dp_ref_pa=1.0e6))
     assert blank.choke_dp_ref_pa == 1.0e6            # a blank gauge: the command's own
+
+
+def test_the_shut_answer_shuts_the_choke_while_the_bhp_is_under_the_target_once():
+    """Above the target the brake answer; from the first BHP under it the choke shut, the
+    back-pressure pump at its maximum and the block held where the string was then (no
+    brake); once the BHP is back at the target the brake answer for good."""
+    machines = fb.shut_answer(21.0, 0.025, 6.85e7)
+    before = Command()
+    assert machines(20.0, Measurement(2.5e6, bhp_pa=6.6e7), before) is before
+    assert machines(21.0, Measurement(2.5e6), before).emergency_stop
+    shut = machines(22.0, Measurement(2.5e6, bhp_pa=6.7e7, block_position_m=4.0),
+                    replace(before, emergency_stop=True))
+    assert (shut.emergency_stop, shut.choke_manual, shut.choke_opening_ref, shut.bpp_flow_m3s,
+            shut.block_position_ref_m) == (False, True, 0.0, 0.025, 4.0)
+    still = machines(23.0, Measurement(2.5e6, bhp_pa=6.7e7, block_position_m=4.2), before)
+    assert still.block_position_ref_m == 4.0          # held where the string was
+    assert machines(24.0, Measurement(2.5e6, bhp_pa=6.86e7), before).emergency_stop
+    assert machines(25.0, Measurement(2.5e6, bhp_pa=6.7e7), before).emergency_stop
+
+
+def test_the_answers_start_at_the_first_command_that_can_see_the_fault():
+    assert fb.first_command_after(20.0, 1.0) == 21.0      # that command reads the frame before
+    assert fb.first_command_after(20.3, 1.0) == 21.0
+    assert fb.first_command_after(85.0, 0.5) == 85.5
 
 
 def row(phase, faults, controller, under, **extra):
@@ -58,15 +86,20 @@ def test_the_page_shows_the_bound_column_and_the_envelope():
     speed = fm.cell_speed_mps()
     rows = [row(*cell, c, 9.5) for c in fm.CONTROLLERS] + [row("rest", ("BHP dropout",), c, 0.0)
                                                            for c in fm.CONTROLLERS]
-    rows += [row(*cell, fm.BOUND, under, speed_mps=v, prefix="automated_mpd")
-             for v, under in ((speed, 0.0), (0.3, 1.5))]
-    rows += [row(*cell, fm.BOUND, 0.5, speed_mps=speed, prefix="baseline")]
+    rows += [row(*cell, fm.BOUND, under, speed_mps=v, prefix="automated_mpd", answer="brake",
+                 start_s=21.0) for v, under in ((speed, 0.0), (0.3, 1.5))]
+    rows += [row(*cell, fm.BOUND, 9.5, speed_mps=speed, prefix="baseline", answer="shut",
+                 start_s=21.0)]
     page = fm.markdown(rows, "now", (6.6e7, 7.1e7))
     assert f"**3 of {len(rows) - 3} runs left the window.**" in page   # bounds are not runs
     assert "| phase | faults | nmpc | automated_mpd | baseline | bound |" in page
     assert "| pull-out | choke stuck + mud pump trip | **9.5 s under (2.0 bar)** | " \
-           "**9.5 s under (2.0 bar)** | **9.5 s under (2.0 bar)** | after automated_mpd: 0; " \
-           "after baseline: **0.5 s under (2.0 bar)** |" in page
+           "**9.5 s under (2.0 bar)** | **9.5 s under (2.0 bar)** | after automated_mpd " \
+           "(brake from 21 s): 0; after baseline (shut from 21 s): **9.5 s under (2.0 bar)** |" \
+           in page
+    # the NMPC's run has no bound, automated MPD's is 0: past theirs; the baseline's at it
+    assert "**2 of them left it for longer than their bound**: pull-out, choke stuck + mud " \
+           "pump trip, nmpc; pull-out, choke stuck + mud pump trip, automated_mpd." in page
     assert "| rest | BHP dropout | 0 | 0 | 0 | – |" in page
     assert "*pull-out, choke stuck + mud pump trip, after automated_mpd*" in page
     assert f"| {speed:g} m/s | 0 |" in page and "| 0.3 m/s | **1.5 s under (2.0 bar)** |" in page
@@ -82,7 +115,8 @@ def test_a_string_at_rest_is_bounded_at_its_own_speed_only(tmp_path, monkeypatch
 
     def fake_bound(phase, faults, speed_mps, prefix):
         asked.append((phase, speed_mps))
-        return row(phase, faults, fm.BOUND, 1.0, speed_mps=speed_mps, prefix=prefix)
+        return row(phase, faults, fm.BOUND, 1.0, speed_mps=speed_mps, prefix=prefix,
+                   answer="brake", start_s=21.0)
     monkeypatch.setattr(fb, "bound", fake_bound)
     fb.main(output, speeds=(0.3, 0.1))
     speed = fm.cell_speed_mps()
