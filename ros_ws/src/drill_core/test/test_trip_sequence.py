@@ -187,7 +187,8 @@ def test_a_connection_waits_for_the_block_at_the_new_top(well):
 
 
 @pytest.mark.parametrize("change, key, words", [
-    ({"controller": "nmpc"}, "trip", "automated_mpd, not nmpc"),
+    ({"controller": "open_loop", "schedule": [{"time_s": 0.0, "choke_opening": 0.5}]},
+     "trip", "automated_mpd, not open_loop"),
     ({"schedule": [{"time_s": 0.0, "bhp_ref_pa": 6.85e7, "block_position_target_m": 28.0}]},
      "schedule[0].block_position_target_m", "the rig floor's"),
     ({"trip": {"direction": "up", "stands": 2}}, "trip.direction", "out, in"),

@@ -17,6 +17,10 @@ the node graph (no process protection, no DDS: ``rig run trip_out``). ``automate
 its tick (drill_nmpc.advisor_ticks.AutomatedMpdTick) once a second on the UKF's estimate,
 given the floor's command as its node gives it, its choke on the choke's pressure loop,
 its back-pressure pump command through the pump's lag, its model the full string's.
+``nmpc``: its tick (drill_nmpc.advisor_ticks.NmpcTick) once a second on the UKF's
+estimate with the floor's command (the inputs the floor decides pinned over its horizon,
+its model the string's as racked), its choke flow reference through the choke's flow
+loop, its back-pressure pump through the pump's lag.
 
     python -m drill_studies.trip_bench [--stands 2] [--round-trip] [--controller baseline]
                                        [--connection-s 90] [--settle-s 180] [--seed 12]
