@@ -72,7 +72,7 @@ class SetpointChange:
                 if v is not None and not (isinstance(v, float) and math.isnan(v))}
 
 
-MULTI_STAND_CONTROLLERS = ("baseline", "automated_mpd")   # those that plan a multi-stand trip
+MULTI_STAND_CONTROLLERS = ("nmpc", "baseline", "automated_mpd")   # those that plan a multi-stand trip
 CLOSED_LOOP_FIELDS = ("bhp_ref_pa", "bhp_band_pa", "choke_dp_ref_pa", "choke_dp_band_pa",
                       "choke_dp_band_upper_pa",
                       "trip_speed_limit_mps", "controller_enabled")

@@ -11,7 +11,8 @@ from drill_core.tripping.hoist import buoyed_weight_n, hoist_forces
 from drill_core.tripping.programme import TripProgramme
 from drill_core.tripping.sequence import (ARRIVAL_TOLERANCE_M, CONNECTION, DONE, MOVING,
                                           PICK_UP, PUMP_DOWN, PUMP_UP, SET_SLIPS,
-                                          StandSequencer, position_after_connection)
+                                          StandSequencer, position_after_connection,
+                                          pump_factor_ahead)
 from drill_core.tripping.stands import StandVolumes, tripped_geometry
 from drill_core.tripping.trip_sheet import TripSheet, stands_per_hour
 from drill_core.tripping.trip_tank import TripTank
@@ -186,7 +187,8 @@ def test_a_connection_waits_for_the_block_at_the_new_top(well):
 
 
 @pytest.mark.parametrize("change, key, words", [
-    ({"controller": "nmpc"}, "trip", "automated_mpd, not nmpc"),
+    ({"controller": "open_loop", "schedule": [{"time_s": 0.0, "choke_opening": 0.5}]},
+     "trip", "automated_mpd, not open_loop"),
     ({"schedule": [{"time_s": 0.0, "bhp_ref_pa": 6.85e7, "block_position_target_m": 28.0}]},
      "schedule[0].block_position_target_m", "the rig floor's"),
     ({"trip": {"direction": "up", "stands": 2}}, "trip.direction", "out, in"),
@@ -213,3 +215,17 @@ def test_a_run_in_starts_with_its_stands_racked_and_a_pull_out_with_none():
     scenarios = config_dir() / "scenarios"
     assert load_scenario(scenarios / "trip_in.yaml")[0].pulled_at_start_m == 280.0
     assert load_scenario(scenarios / "case2.yaml")[0].pulled_at_start_m == 0.0
+
+
+def test_the_pump_share_ahead_follows_the_programmed_ramps_and_connection():
+    """Hand-worked on 30 s ramps and a 90 s connection, 10 s into the ramp-down: 5 s on,
+    half the rate; 25 s on, 5 s into the connection (none); 130 s on, 20 s into the
+    ramp-up (two thirds); 200 s on, picking up (all of it). A phase of no set time (setting
+    the slips) is taken to last."""
+    out = TripProgramme(direction="out", stands=2, connection_s=90.0, pump_ramp_down_s=30.0,
+                        pump_ramp_up_s=30.0)
+    ahead = [pump_factor_ahead(out, PUMP_DOWN, 10.0, s) for s in (0.0, 5.0, 25.0, 130.0, 200.0)]
+    assert ahead == pytest.approx([2.0 / 3.0, 0.5, 0.0, 2.0 / 3.0, 1.0])
+    assert pump_factor_ahead(out, SET_SLIPS, 3.0, 500.0) == 1.0
+    running_in = TripProgramme(direction="in", stands=2, connection_s=90.0)
+    assert pump_factor_ahead(running_in, CONNECTION, 80.0, 15.0) == pytest.approx(5.0 / 30.0)

@@ -14,10 +14,12 @@ from drill_core.channel_watch import ChannelWatch
 from drill_core.config import RigConfig
 from drill_core.estimation_model import EstimationModel
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_PUMP_PRESSURE
-from drill_core.tripping.sequence import CONNECTION, CONNECTION_PHASES, MOVING
+from drill_core.tripping.sequence import (CONNECTION, CONNECTION_PHASES, MOVING,
+                                          SET_SLIPS, pump_factor_ahead)
 from drill_nmpc.automated_mpd import AutomatedMpd, EstimateView, MpdCommand
 from drill_nmpc.baseline import Baseline
 from drill_nmpc.inputs import choke_command, choke_input
+from drill_nmpc.prediction_model import nmpc_estimation_model
 from drill_nmpc.setpoint_book import adopt_applied_block, within_speed_limits
 from drill_nmpc.soft_constraints import SLACK_NAMES
 from drill_nmpc.solve_result import SolveResult
@@ -94,19 +96,50 @@ class NmpcTick:
     """The NMPC supervisor as the nmpc node runs it: u_{-1} at the first usable estimate
     (hold the string where it is estimated, the other inputs at the start point), the
     block reference the drawworks was given adopted, a hold on an unusable estimate, the
-    hand-back to manual while the controller is disabled."""
+    hand-back to manual while the controller is disabled. On a multi-stand trip (``trip``,
+    the scenario's programme) each stand's move planned to its end, and the inputs the
+    rig floor has pinned over the horizon (:meth:`floor_plan`): the stand-pipe pressure
+    on the floor's pump ramps and connection (the floor scales the command, which stays at
+    the start's), the block reference at the estimated string while the floor has the
+    string; the choke and the back-pressure pump are the NMPC's through the connection."""
 
-    def __init__(self, config: RigConfig, em: EstimationModel, start: StartInputs):
-        self.supervisor = Supervisor(config, em)
+    def __init__(self, config: RigConfig, em: EstimationModel, start: StartInputs,
+                 trip=None):
+        self.config = config
         self.cfg = config.nmpc
         self.em = em
         self.start = start
+        self.trip = trip
+        self.pulled_m = 0.0 if trip is None else trip.pulled_at_start_m
+        self._supervisors: dict[float, Supervisor] = {}     # per string tripped to [m]
+        self.supervisor = self._supervisor_for(self.pulled_m)
         self.u_prev: np.ndarray | None = None
+        self._phase: tuple | None = None        # (stand, phase) of the floor's last step
+        self._phase_start_s = 0.0               # when the advisor first saw it [s]
 
-    def step(self, x: np.ndarray | None, setpoints, actuators: dict) -> SolveResult | None:
+    def _supervisor_for(self, pulled_m: float) -> Supervisor:
+        """The supervisor of the string ``pulled_m`` short (built once per length)."""
+        if pulled_m not in self._supervisors:
+            em = self.em if pulled_m == 0.0 else nmpc_estimation_model(self.config,
+                                                                        pulled_m=pulled_m)
+            self._supervisors[pulled_m] = Supervisor(self.config, em)
+        return self._supervisors[pulled_m]
+
+    @property
+    def fallback_count(self) -> int:
+        """Fallbacks of the run, over every string length's supervisor."""
+        return sum(s.fallback_count for s in self._supervisors.values())
+
+    @property
+    def rollouts(self) -> int:
+        return sum(s.rollouts for s in self._supervisors.values())
+
+    def step(self, x: np.ndarray | None, setpoints, actuators: dict, floor=None,
+             time_s: float = 0.0) -> SolveResult | None:
         """One sample: ``x`` the estimate in the model's layout (None: unusable, the last
         input held; None returned when there is none yet), ``setpoints`` the ones to plan
-        with, ``actuators`` the measured actuator outputs (drill_nmpc.supervisor)."""
+        with, ``actuators`` the measured actuator outputs (drill_nmpc.supervisor); on a
+        multi-stand trip ``floor`` the rig floor's command at the sample, at ``time_s``."""
         if x is None:
             if self.u_prev is None:
                 return None
@@ -115,19 +148,60 @@ class NmpcTick:
             if self.u_prev is None:
                 self.u_prev = self._initial_input(x)
             self.u_prev = adopt_applied_block(self.u_prev, actuators.get("block_reference_m"))
-            result = self.supervisor.step(x, setpoints, self.u_prev, actuators=actuators) \
+            fixed, bpp_ref = None, 0.0
+            if floor is not None:
+                bpp_ref = CONNECTION_BPP_FLOW_M3S if floor.step.phase != MOVING else 0.0
+                setpoints, fixed = self.floor_plan(x, setpoints, floor, time_s)
+                if floor.step.phase != MOVING:      # the floor drives the block: the model's
+                    actuators = {k: v for k, v in actuators.items()   # hangs the string on it
+                                 if not k.startswith("block")}
+            result = self.supervisor.step(x, setpoints, self.u_prev, actuators=actuators,
+                                          fixed_inputs=fixed, bpp_reference_m3s=bpp_ref) \
                 if setpoints.controller_enabled else self._manual(x)
         self.u_prev = result.u
         return result
 
+    def floor_plan(self, x: np.ndarray, setpoints, floor, time_s: float):
+        """The setpoints and pinned inputs (N_c x 4, NaN: free) of a multi-stand trip's
+        sample: the stand's end as the block target while it moves; the stand-pipe pressure
+        over the horizon at the start's times the floor's pump share; the block at the
+        estimated string while the floor has the string. A stand racked (or made up) since
+        the last sample: the supervisor of the new string's model, planning again from the
+        estimate in the string's new frame."""
+        position_m = float(x[self.em.position])
+        step = floor.step
+        pulled_m = step.stands_pulled * self.trip.stand_length_m
+        if pulled_m != self.pulled_m:
+            self.pulled_m = pulled_m
+            self.supervisor = self._supervisor_for(pulled_m)
+            self.supervisor.reset()
+            self.u_prev[U_BLOCK] = position_m
+        if (step.stand, step.phase) != self._phase:
+            self._phase, self._phase_start_s = (step.stand, step.phase), time_s
+        elapsed_s, ts = time_s - self._phase_start_s, self.supervisor.problem.ts
+        fixed = np.full((self.supervisor.problem.Nc, 4), np.nan)
+        fixed[:, U_PUMP_PRESSURE] = [
+            self.start.spp_pa * pump_factor_ahead(self.trip, step.phase, elapsed_s,
+                                                  (k + 0.5) * ts)
+            for k in range(fixed.shape[0])]
+        if step.phase != MOVING:
+            fixed[:, U_BLOCK] = position_m
+        if step.phase == SET_SLIPS:         # the back-pressure pump's lag passed before the
+            fixed[:, U_BPP_FLOW] = CONNECTION_BPP_FLOW_M3S   # mud pump ramps down
+        target = floor.advisor_target_m(position_m, self.trip.stand_length_m)
+        setpoints = replace(setpoints, block_position_target_m=target,
+                            mud_pump_on=bool(step.pump_factor > 0.0))
+        return setpoints, fixed
+
     def command(self, result: SolveResult, mud_pump_on: bool) -> AdvisorCommand:
-        """The command for ``result``: the choke's part per its loop (drill_nmpc.inputs)."""
+        """The command for ``result``: the choke's part per its loop (drill_nmpc.inputs);
+        on a multi-stand trip the stand-pipe pressure the start's (the floor scales it)."""
         u = np.asarray(result.u, dtype=float)
         choke = choke_command(self.cfg, result, self.start.choke_flow_m3s)
+        spp_pa = self.start.spp_pa if self.trip is not None else float(u[U_PUMP_PRESSURE])
         return AdvisorCommand(float(u[U_BLOCK]), choke.flow_m3s, float(u[U_BPP_FLOW]),
-                              float(u[U_PUMP_PRESSURE]),
-                              bool(mud_pump_on), choke.pressure_control, choke.dp_ref_pa,
-                              choke.dp_ref_rate_pa_s)
+                              spp_pa, bool(mud_pump_on), choke.pressure_control,
+                              choke.dp_ref_pa, choke.dp_ref_rate_pa_s)
 
     def _initial_input(self, x) -> np.ndarray:
         s = self.start

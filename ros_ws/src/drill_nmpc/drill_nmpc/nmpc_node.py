@@ -62,14 +62,13 @@ class NmpcNode(AdvisorNode):
         self.em = nmpc_estimation_model(cfg)
         # Build (and, with jit, compile) the solver before any subscription exists, so the
         # graph's lockstep starts only once the supervisor can answer.
-        self.tick = NmpcTick(cfg, self.em, self.start)
-        self.supervisor = self.tick.supervisor
+        self.tick = NmpcTick(cfg, self.em, self.start, trip=self.trip)
         self.pressure_control = cfg.nmpc.choke_control == "pressure"
         self.frame_ns = seconds_to_ns(cfg.plant.sensor_period_s)
         # The actuators' outputs (block position, bpp flow, stand-pipe pressure) are the
         # initial states of the modelled actuator lags; in fast mode the frames stamped
         # t_k - t_m are awaited (each carries the output up to t_k).
-        model = self.supervisor.model
+        model = self.tick.supervisor.model
         wanted = {"drawworks": ("block_m", model.block), "bpp": ("bpp_flow_m3s", model.bpp),
                   "mud_pump": ("spp_pa", model.pump)}
         self.frame_keys = {name: key for name, (key, index) in wanted.items() if index is not None}
@@ -83,8 +82,8 @@ class NmpcNode(AdvisorNode):
             self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
                                      lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
         self.create_subscription(StateEstimate, topics.ESTIMATE, self._on_estimate, topics.RELIABLE)
-        self.get_logger().info(f"nmpc ready: {self.supervisor.configuration}, solver "
-                               f"{self.supervisor.problem.solver_name}, mode {ctx.mode}")
+        self.get_logger().info(f"nmpc ready: {self.tick.supervisor.configuration}, solver "
+                               f"{self.tick.supervisor.problem.solver_name}, mode {ctx.mode}")
 
     # ------------------------------------------------------------------ setpoints
     def _on_set_setpoints(self, request, response):
@@ -169,7 +168,7 @@ class NmpcNode(AdvisorNode):
         else:
             self.publish_events(self.book.resolve_bhp(float(x[self.em.pressure(self.em.n)])), stamp)
         plan = self._plan_setpoints(msg) if x is not None else self.book.active
-        result = self.tick.step(x, plan, actuators)
+        result = self.tick.step(x, plan, actuators, self.floor_at(stamp), stamp * 1e-9)
         if result is not None:      # None: nothing to hold yet, the actuators keep their safe state
             self._publish(stamp, result)
 
@@ -190,14 +189,14 @@ class NmpcNode(AdvisorNode):
 
         st = NmpcStatus()
         st.header.stamp = from_ns(stamp)
-        st.configuration = self.supervisor.configuration
+        st.configuration = self.tick.supervisor.configuration
         st.solve_time_s = float(r.solve_time_s)
         st.iterations = int(r.iterations)
         st.solver_status = str(r.status)
         st.success = bool(r.success)
         st.fallback = r.fallback.value
         st.fallback_reasons = list(r.reasons)
-        st.fallback_count = int(self.supervisor.fallback_count)
+        st.fallback_count = int(self.tick.fallback_count)
         st.cost = float(r.cost)
         st.slack_names = list(SLACK_NAMES)
         st.slack_max = [float(r.slacks.get(n, math.nan)) for n in SLACK_NAMES]
@@ -221,12 +220,13 @@ class NmpcNode(AdvisorNode):
         if r.fallback is not Fallback.NONE:
             self.status.error(f"solve at {stamp * 1e-9:.3f} s: fallback {r.fallback.value} "
                               f"({'; '.join((r.status, *r.reasons))})")
-        mode = "manual" if not self.book.active.controller_enabled else self.supervisor.configuration
+        mode = "manual" if not self.book.active.controller_enabled \
+            else self.tick.supervisor.configuration
         self.status.mode = f"{self.ctx.mode}/{mode}"
         self.status.values = {"solve_time_s": float(r.solve_time_s),
                               "iterations": float(r.iterations),
-                              "fallback_count": float(self.supervisor.fallback_count),
-                              "rollouts": float(self.supervisor.rollouts),
+                              "fallback_count": float(self.tick.fallback_count),
+                              "rollouts": float(self.tick.rollouts),
                               "commands": float(self.commands)}
         self.status.tick(stamp)
 

@@ -373,16 +373,17 @@ class PredictionModel:
         return worst
 
 
-def nmpc_estimation_model(config: RigConfig, configuration: str | None = None) -> EstimationModel:
+def nmpc_estimation_model(config: RigConfig, configuration: str | None = None,
+                          pulled_m: float = 0.0) -> EstimationModel:
     """The estimation model the NMPC predicts with: the shared one with the influx state
     under NMPC2 (``configuration``, None: config/nmpc.yaml's) and, under scaled_rheology,
     the yield jump smoothed over ``prediction_friction_smoothing_mps`` while the mud pump
     is planned on and ``pump_off_friction_smoothing_mps`` while it is off
-    (:class:`PumpSwitchedFriction`)."""
+    (:class:`PumpSwitchedFriction`); ``pulled_m``: the string that much shorter."""
     cfg = config.nmpc
     configuration = configuration or cfg.configuration
     em = build_estimation_model(config, configuration == "NMPC2",
-                                cfg.prediction_friction_smoothing_mps)
+                                cfg.prediction_friction_smoothing_mps, pulled_m)
     if em.nominal_friction is None:
         return em
     pump_off = NominalFriction(em.wm, cfg.pump_off_friction_smoothing_mps)

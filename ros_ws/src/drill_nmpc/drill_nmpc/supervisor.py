@@ -255,25 +255,38 @@ class Supervisor:
         return np.array([s.position_m for s in self._profile.ahead(
             target_m, speed_mps, accel, self.problem.ts, self.problem.N)])
 
-    def _initial_guess(self, x0, par, u_prev, pump_on):
-        """Cold start: inputs held at u_{-1}, states simulated, slacks and multipliers zero."""
+    @staticmethod
+    def _with_plan(U, fixed):
+        """Input trajectory ``U`` (N x 4) with the pinned inputs of ``fixed`` (N_c x 4, NaN:
+        free; None: none) in it, the stages past N_c at its last row."""
+        if fixed is None:
+            return U
+        U = U.copy()
+        rows = len(fixed)
+        U[:rows] = np.where(np.isfinite(fixed), fixed, U[:rows])
+        U[rows:] = U[rows - 1]
+        return U
+
+    def _initial_guess(self, x0, par, u_prev, pump_on, fixed=None):
+        """Cold start: inputs held at u_{-1} (the pinned ones on their plan), states
+        simulated, slacks and multipliers zero."""
         pb = self.problem
-        U = np.tile(u_prev, (pb.N, 1))
+        U = self._with_plan(np.tile(u_prev, (pb.N, 1)), fixed)
         X = pb.simulate(x0, par, U, pump_on)
         if not np.all(np.isfinite(X)):
             X = np.tile(x0, (pb.N + 1, 1))
         E = np.tile(self.integral, (pb.N + 1, 1)) if pb.ne else None
         return pb.pack(x0, u_prev, X, U, E, {}, self._speed), None, None
 
-    def _rollout_guess(self, x0, par, u_prev, pump_on, y_sp):
-        """The previous solution's inputs, shifted one sample, rolled out from x_0 through
-        the prediction model: states and NMPC1's integral without dynamics gaps (the pump
-        state of now); slacks and multipliers zero."""
+    def _rollout_guess(self, x0, par, u_prev, pump_on, y_sp, fixed=None):
+        """The previous solution's inputs, shifted one sample (the pinned ones on their
+        plan), rolled out from x_0 through the prediction model: states and NMPC1's integral
+        without dynamics gaps (the pump state of now); slacks and multipliers zero."""
         pb, w = self.problem, self._warm
-        U = np.vstack([w["U"][1:], w["U"][-1:]])
+        U = self._with_plan(np.vstack([w["U"][1:], w["U"][-1:]]), fixed)
         X = pb.simulate(x0, par, U, pump_on)
         if not np.all(np.isfinite(X)):
-            return self._initial_guess(x0, par, u_prev, pump_on)
+            return self._initial_guess(x0, par, u_prev, pump_on, fixed)
         E = pb.integral_rollout(X, par, self.integral, y_sp, self.bhp_bias) if pb.ne else None
         return pb.pack(x0, u_prev, X, U, E, {}, self._speed), None, None
 
@@ -297,14 +310,18 @@ class Supervisor:
 
     # -- one sample ---------------------------------------------------------------------
     def step(self, x_hat, setpoints: ActiveSetpoints, u_prev, disturbance=None,
-             actuators: dict | None = None) -> SolveResult:
+             actuators: dict | None = None, fixed_inputs=None,
+             bpp_reference_m3s: float = 0.0) -> SolveResult:
         """Solve the OCP at estimate ``x_hat`` and return the command to apply from now.
 
         ``actuators`` holds measured actuator outputs (keys ACTUATOR_KEYS: block position,
         back-pressure pump flow, stand-pipe pressure, e.g. from /actuators/<name>/frame), the
         initial states of the modelled actuator lags; a missing one is carried over from the
         previous prediction when the last command was applied, else estimated
-        (PredictionModel.initial_state).
+        (PredictionModel.initial_state). ``fixed_inputs`` (N_c x 4, SI, NaN: free) pins
+        inputs the rig floor plans (NmpcProblem.bounds): the command takes its first row's
+        pinned values as they are; ``bpp_reference_m3s`` the back-pressure pump's input
+        reference (its reference weight pulls it there).
         """
         t0 = time.perf_counter()
         pb, em = self.problem, self.em
@@ -340,7 +357,7 @@ class Supervisor:
             y_ref[:, 0] = self.block_profile(float(x[self.em.position]), float(y_sp[0]), vlim)
         if pb.ne:
             self.integral = self.carried_integral(self.integral, y_now, dp_band, bhp_band)
-        u_ref = np.array([y_sp[0], u_prev[U_CHOKE], 0.0, self.spp_nominal])
+        u_ref = np.array([y_sp[0], u_prev[U_CHOKE], bpp_reference_m3s, self.spp_nominal])
         if self._predicted_bhp is not None:
             # offset-free: integrate the error of the last one-step BHP prediction
             error = y_now[2] - self._predicted_bhp
@@ -367,11 +384,13 @@ class Supervisor:
             if start == "shifted":
                 z0, lam_z0, lam_g0 = self._shifted_guess(x0, par, u_prev, pump_on)
             elif start == "rollout":
-                z0, lam_z0, lam_g0 = self._rollout_guess(x0, par, u_prev, pump_on, y_sp)
+                z0, lam_z0, lam_g0 = self._rollout_guess(x0, par, u_prev, pump_on, y_sp,
+                                                         fixed_inputs)
             else:
-                z0, lam_z0, lam_g0 = self._initial_guess(x0, par, u_prev, pump_on)
+                z0, lam_z0, lam_g0 = self._initial_guess(x0, par, u_prev, pump_on,
+                                                         fixed_inputs)
             lbz, ubz, lbg, ubg = pb.bounds(u_prev, vlim, bhp_band, dp_band, circulating, relaxed,
-                                           self.block_range(x, u_prev, y_sp[0]))
+                                           self.block_range(x, u_prev, y_sp[0]), fixed_inputs)
             try:
                 sol = pb.solve(p, z0, lbz, ubz, lbg, ubg, lam_z0, lam_g0)
             except RuntimeError as err:       # evaluation error inside the solver
@@ -393,6 +412,9 @@ class Supervisor:
                 self._warm = {"X": X, "U": U, "E": E, "slacks": slacks,
                               "lam_z": sol["lam_z"], "lam_g": sol["lam_g"]}
             u = self.limit(U[0], u_prev, self._speed)
+            if fixed_inputs is not None:
+                pinned = np.isfinite(fixed_inputs[0])
+                u[pinned] = np.asarray(fixed_inputs[0], dtype=float)[pinned]
             U[0] = u
             lagged = self.model.nd > self.model.nd_model
             if lagged or self.cfg.bhp_bias_gain > 0.0:      # the plant one sample ahead under u

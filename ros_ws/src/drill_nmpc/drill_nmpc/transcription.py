@@ -344,10 +344,12 @@ class NmpcProblem:
             u_ref=u_ref, bhp_bias=bhp_bias_pa)
 
     def bounds(self, u_prev, velocity_limit, bhp_band, dp_band, circulating: bool,
-               relaxed: bool = False, block_range: tuple | None = None):
+               relaxed: bool = False, block_range: tuple | None = None, fixed=None):
         """Variable and row bounds: hard input limits (the block reference also within
         ``block_range``), slew, the soft constraints' band edges (SI) and the constraints
-        dropped (relaxed retry; no circulation)."""
+        dropped (relaxed retry; no circulation). ``fixed`` (N_c x 4, SI, NaN: free) pins
+        stage inputs to a plan made elsewhere (the rig floor's pump ramp, the block held
+        in the slips): their slew and acceleration rows are dropped."""
         lbz = np.full(self.nz, -_INF)
         ubz = np.full(self.nz, _INF)
         lo = self.inputs["min"].copy()
@@ -377,7 +379,27 @@ class NmpcProblem:
                     lo, hi = edges[name]
                     lbg[rows[0]] = lo / c.slack_unit
                     ubg[rows[1]] = hi / c.slack_unit
+        if fixed is not None:
+            self._pin(np.asarray(fixed, dtype=float), u_prev, lbz, ubz, lbg, ubg)
         return lbz, ubz, lbg, ubg
+
+    def _pin(self, fixed, u_prev, lbz, ubz, lbg, ubg) -> None:
+        """Stage inputs pinned to ``fixed`` (NaN: free); the moves into and out of a pinned
+        input are not limited (the plan's own)."""
+        pinned_before = np.zeros(U_SIZE, dtype=bool)
+        for k, st in enumerate(self.stages):
+            if st.u is None:
+                break
+            pinned = np.isfinite(fixed[k])
+            idx = np.arange(st.u.start, st.u.stop)[pinned]
+            lbz[idx] = ubz[idx] = (fixed[k][pinned] - u_prev[pinned]) / self.Su[pinned]
+            free_moves = pinned | pinned_before
+            rows = np.asarray(st.rows["slew"])[free_moves]
+            lbg[rows], ubg[rows] = -_INF, _INF
+            if "acceleration" in st.rows and (free_moves[U_BLOCK] or (
+                    k >= 2 and np.isfinite(fixed[k - 2][U_BLOCK]))):
+                lbg[st.rows["acceleration"]], ubg[st.rows["acceleration"]] = -_INF, _INF
+            pinned_before = pinned
 
     def pack(self, x0, u_prev, X, U, E, slacks, reference_speed: float = 0.0) -> np.ndarray:
         """Decision vector from physical trajectories X[(N+1) x nd], U[N x 4], E[(N+1) x ne]."""

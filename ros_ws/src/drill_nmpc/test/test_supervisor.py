@@ -529,3 +529,23 @@ def test_nmpc1_integral_leaks_while_the_output_is_inside_its_band(config, em):
         kept.append(float(sup.integral[-1]))
     assert kept[0] == pytest.approx(math.exp(-config.nmpc.sample_time_s / 10.0), rel=1e-9)
     assert kept[1] == pytest.approx(1.0)
+
+
+def test_pinned_inputs_are_planned_as_given_past_the_slew(config, em, supervisor):
+    """A rig floor's pump ramp-down pinned on the stand-pipe pressure, 3.5 bar a sample (3.5
+    slews), and the block pinned where it is: the plan and the command take them as given;
+    the choke and the back-pressure pump stay the NMPC's."""
+    x, u = _steady(config, em)
+    slew = _bounds(config)[2]
+    N = supervisor.problem.Nc
+    fixed = np.full((N, 4), np.nan)
+    fixed[:, 3] = u[3] - 3.5 * slew[3] * np.arange(1, N + 1)
+    fixed[:, 0] = u[0]
+    supervisor.reset()
+    r = supervisor.step(x, trip_setpoints(0.0, 100.0, 200.0, float(outputs(em, x)[2])), u,
+                        fixed_inputs=fixed)
+    assert r.fallback == "none"
+    np.testing.assert_allclose(r.planned_inputs[:N, 3], fixed[:, 3], rtol=0, atol=1e-3)
+    np.testing.assert_allclose(r.planned_inputs[:N, 0], u[0], rtol=0, atol=1e-9)
+    assert r.u[3] == fixed[0, 3] and abs(r.u[3] - u[3]) > 3.0 * slew[3]
+    assert np.all(np.abs(np.diff(r.planned_inputs[:N, 1])) <= slew[1] * (1 + 1e-6))

@@ -142,7 +142,7 @@ NODES = (
     Node("nmpc", "drill_nmpc.nmpc_node", "NmpcNode",
          (topics.COMMAND, topics.NMPC_STATUS, topics.SETPOINTS, topics.OPERATOR_EVENTS),
          (topics.ESTIMATE, *(topics.actuator_frame(n) for n in ("drawworks", "bpp", "mud_pump")),
-          topics.MACHINE_COMMAND),
+          topics.MACHINE_COMMAND, topics.FLOOR),
          controller="nmpc"),
     Node("automated_mpd", "drill_nmpc.automated_mpd_node", "AutomatedMpdNode",
          (topics.COMMAND, topics.SETPOINTS, topics.OPERATOR_EVENTS),

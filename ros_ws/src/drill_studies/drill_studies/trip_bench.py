@@ -17,6 +17,10 @@ the node graph (no process protection, no DDS: ``rig run trip_out``). ``automate
 its tick (drill_nmpc.advisor_ticks.AutomatedMpdTick) once a second on the UKF's estimate,
 given the floor's command as its node gives it, its choke on the choke's pressure loop,
 its back-pressure pump command through the pump's lag, its model the full string's.
+``nmpc``: its tick (drill_nmpc.advisor_ticks.NmpcTick) once a second on the UKF's
+estimate with the floor's command (the inputs the floor decides pinned over its horizon,
+its model the string's as racked), its choke flow reference through the choke's flow
+loop, its back-pressure pump through the pump's lag.
 
     python -m drill_studies.trip_bench [--stands 2] [--round-trip] [--controller baseline]
                                        [--connection-s 90] [--settle-s 180] [--seed 12]
@@ -46,7 +50,8 @@ from drill_core.scenario import ActiveSetpoints
 from drill_estimator.tick import EstimatorTick
 from drill_studies.loop_bench import ukf_view
 from drill_core.estimation_model import build_estimation_model
-from drill_nmpc.advisor_ticks import AutomatedMpdTick, BaselineTick, StartInputs
+from drill_nmpc.advisor_ticks import AutomatedMpdTick, BaselineTick, NmpcTick, StartInputs
+from drill_nmpc.prediction_model import nmpc_estimation_model
 from drill_plant import plant_model as pm
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
 from drill_plant.floor_tick import FloorTick
@@ -57,7 +62,7 @@ CHOKE_DP_PA = 2.0e6
 BHP_REF_PA = 6.85e7
 BHP_BAND_PA = 2.0e5
 BRAKING_MPS2 = 0.05
-CONTROLLERS = ("held_choke", "baseline", "automated_mpd")
+CONTROLLERS = ("held_choke", "baseline", "automated_mpd", "nmpc")
 
 
 @dataclass
@@ -71,6 +76,7 @@ class TripRun:
     alarms: list
     log: dict[str, np.ndarray] = field(default_factory=dict)
     drawn_m3: float = math.nan      # the trip tank's volume before less after, settled [m^3]
+    solve_times_s: list = field(default_factory=list)   # the NMPC's, per sample
 
 
 def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
@@ -104,6 +110,9 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     bpp = Pump(config.actuators.bpp, 0.0)
     mpd = AutomatedMpdTick(config, build_estimation_model(config), start_inputs,
                            trip=floor.programme) if controller == "automated_mpd" else None
+    nmpc = NmpcTick(config, nmpc_estimation_model(config), start_inputs, trip=floor.programme) \
+        if controller == "nmpc" else None
+    solve_times: list[float] = []
     advised_at_frame = 0
     per_command = int(round(config.nmpc.sample_time_s / frame_s))
     advice = None
@@ -154,6 +163,16 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
                                  _setpoints(trip_speed_mps), True,
                                  (trip_speed_mps, trip_speed_mps), math.nan, command)
             advised_at_frame = k
+        if nmpc is not None and k % per_command == 0 and estimator.ukf.initialised:
+            block_frame = frames.get("drawworks")
+            actuators = {} if not frames else {
+                "block_m": frames["drawworks"].output[-1], "bpp_flow_m3s": frames["bpp"].output[-1],
+                "spp_pa": frames["mud_pump"].output[-1],
+                "block_command_m": block_frame.command, "block_reference_m": block_frame.reference}
+            result = nmpc.step(estimator.ukf.mean, _setpoints(trip_speed_mps), actuators,
+                               command, t)
+            solve_times.append(result.solve_time_s)
+            advice = nmpc.command(result, True)
         if step.phase == MOVING and advice is not None and controller != "held_choke":
             block = drawworks.frame(advice.block_position_ref_m, m.block_position_m, step_s,
                                     steps)
@@ -169,7 +188,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
         pump = mud_pump.frame(spp_pa * step.pump_factor, step_s, steps)
         inputs = np.repeat(u[:, None], steps, axis=1)
         valve = FrameOutput(u[1], u[1], inputs[1])
-        if baseline is not None:
+        if (baseline is not None or nmpc is not None) and advice is not None:
             valve = choke.frame(advice.choke_flow_ref_m3s, m.choke_dp_pa, step_s, steps,
                                 return_flow_m3s=m.return_flow_m3s)
         elif mpd is not None and advice is not None:
@@ -187,7 +206,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     names = ("time_s", "stand", "moving", "line_tension_n", "string_velocity_mps",
              "bit_height_m", "bhp_pa", "bhp_estimate_pa")
     log = {name: np.array(column) for name, column in zip(names, zip(*rows))}
-    return TripRun(sim, floor, sheets, alarms, log, tank_start_m3 - tank_end_m3)
+    return TripRun(sim, floor, sheets, alarms, log, tank_start_m3 - tank_end_m3, solve_times)
 
 
 def _setpoints(trip_speed_mps: float) -> ActiveSetpoints:

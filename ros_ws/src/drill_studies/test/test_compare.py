@@ -260,7 +260,8 @@ def _trip_summary(rmse_bar, outside_s, stands_per_hour, tank_m3, under_pore_s=0.
 
 def test_the_multi_stand_trip_runs_under_the_controllers_that_plan_one():
     items = compare.plan(["trip_out"], compare.CONTROLLERS, 2)
-    assert [(c, s) for _, c, s in items] == [("automated_mpd", 31), ("baseline", 31),
+    assert [(c, s) for _, c, s in items] == [("nmpc", 31), ("automated_mpd", 31),
+                                             ("baseline", 31), ("nmpc", 1031),
                                              ("automated_mpd", 1031), ("baseline", 1031)]
 
 
@@ -279,4 +280,16 @@ def test_the_multi_stand_table_gives_the_kpis_and_checks_them_per_run():
             "bhp_rmse_pa vs baseline |") in text
     assert ("| seed 31: bhp_rmse_pa, outside_band_per_stand_s; seed 1031: "
             "outside_band_per_stand_s, outside_window_s |") in text
-    assert "Not run under nmpc: the NMPC does not plan a multi-stand trip yet" in text
+    assert "Not run under" not in text
+
+
+def test_the_nmpc_is_judged_against_automated_mpd_on_its_seed():
+    """>= 10 % more stands per hour than automated MPD at equal or better BHP figures."""
+    rows = [_row("trip_out", "automated_mpd", 31, _trip_summary(2.4, 560.0, 13.0, 0.03)),
+            _row("trip_out", "nmpc", 31, _trip_summary(0.6, 90.0, 14.0, 0.02)),
+            _row("trip_out", "automated_mpd", 1031, _trip_summary(0.5, 80.0, 13.0, 0.03)),
+            _row("trip_out", "nmpc", 1031, _trip_summary(0.6, 70.0, 14.5, 0.02))]
+    text = compare.markdown(rows, None)
+    line = next(l for l in text.splitlines() if l.startswith("| trip_out | nmpc |"))
+    assert line.endswith("| seed 31: stands_per_hour vs automated_mpd; seed 1031: "
+                         "bhp_rmse_pa vs automated_mpd |")

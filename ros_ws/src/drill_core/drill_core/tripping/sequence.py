@@ -99,15 +99,7 @@ class StandSequencer:
             self.stand += 1
 
     def _pump_factor(self, time_s: float) -> float:
-        p, elapsed = self.programme, time_s - self.phase_start_s
-        phase = self.phase
-        if phase == PUMP_DOWN:
-            return max(0.0, 1.0 - elapsed / p.pump_ramp_down_s) if p.pump_ramp_down_s > 0 else 0.0
-        if phase == CONNECTION:
-            return 0.0
-        if phase == PUMP_UP:
-            return min(1.0, elapsed / p.pump_ramp_up_s) if p.pump_ramp_up_s > 0 else 1.0
-        return 1.0
+        return pump_factor(self.programme, self.phase, time_s - self.phase_start_s)
 
     def step(self, time_s: float, bit_height_m: float, velocity_mps: float,
              line_tension_n: float, block_ready: bool = True) -> TripStep:
@@ -125,6 +117,33 @@ class StandSequencer:
                         pump_factor=self._pump_factor(time_s),
                         bit_height_target_m=self.bit_height_target_m,
                         stands_pulled=self.stands_pulled)
+
+
+def pump_factor(programme: TripProgramme, phase: str, elapsed_s: float) -> float:
+    """The mud pump's share of its rate ``elapsed_s`` into ``phase``."""
+    p = programme
+    if phase == PUMP_DOWN:
+        return max(0.0, 1.0 - elapsed_s / p.pump_ramp_down_s) if p.pump_ramp_down_s > 0 else 0.0
+    if phase == CONNECTION:
+        return 0.0
+    if phase == PUMP_UP:
+        return min(1.0, elapsed_s / p.pump_ramp_up_s) if p.pump_ramp_up_s > 0 else 1.0
+    return 1.0
+
+
+def pump_factor_ahead(programme: TripProgramme, phase: str, elapsed_s: float,
+                      ahead_s: float) -> float:
+    """The pump's share of its rate ``ahead_s`` from now, ``elapsed_s`` into ``phase``: the
+    ramps and the connection taken to last their programmed time, a phase of no set time
+    (pick-up, move, setting the slips) to last beyond ``ahead_s``."""
+    phases = STAND_PHASES[programme.direction]
+    t = elapsed_s + ahead_s
+    durations = {PUMP_DOWN: programme.pump_ramp_down_s, CONNECTION: programme.connection_s,
+                 PUMP_UP: programme.pump_ramp_up_s}
+    while phase in durations and t >= durations[phase]:
+        t -= durations[phase]
+        phase = phases[(phases.index(phase) + 1) % len(phases)]
+    return pump_factor(programme, phase, t)
 
 
 def position_after_connection(position_m: float, pulled_before_m: float,
