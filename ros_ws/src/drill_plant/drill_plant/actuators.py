@@ -251,12 +251,15 @@ class Choke:
         choke a pressure wave's travel later than the choke dp does). The set-point starts
         from ``dp_start_pa`` (a feedforward of what the stop changes; NaN: the measured dp);
         the outer integral stands while the valve is at an end of its range or the
-        BHP sample is bad (the pressure loop then holds the last set-point). The frame's
-        reference is the set-point [Pa]."""
+        BHP sample is bad (the pressure loop then holds the last set-point). Entering the
+        mode the loop takes the valve where it is, not where its last command was taking
+        it (a valve closing when the stop comes stops there). The frame's reference is the
+        set-point [Pa]."""
         c = self.config
         if self.pressure_mode != "bhp":
             start = dp_start_pa if math.isfinite(dp_start_pa) else measured_dp_pa
             self.bhp_dp_integral_pa = self.bhp_dp_setpoint_pa = start
+            self.opening_command = self.lag.value       # the valve stopped where it is
         self._enter("bhp")
         error = bhp_ref_pa - measured_bhp_pa                  # BHP low: more back-pressure
         if math.isfinite(error) and math.isfinite(self.bhp_dp_integral_pa):

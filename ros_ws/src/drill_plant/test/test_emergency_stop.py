@@ -169,3 +169,18 @@ def test_the_bhp_loop_enters_bumpless_and_a_bad_sample_changes_nothing(config):
     assert choke.bhp_dp_setpoint_pa == setpoint                       # the set-point stands
     out = choke.bhp_frame(6.85e7, 6.80e7, math.nan, flow, math.nan, 0.01, 10)   # no choke dp
     assert out.command == pytest.approx(0.3) and choke.pressure_integral == integral
+
+
+def test_the_bhp_loop_takes_the_valve_where_it_is_not_where_it_was_going(config):
+    """A choke closing on its flow loop when the stop comes: the BHP loop starts from the
+    valve's opening at that moment (the valve stops there), not from the flow loop's last
+    command, which the valve's lag would have gone on closing to."""
+    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
+                             config.plant.choke_regularisation_pa)
+    choke = Choke(config.actuators, wm, 0.3)
+    flow = float(hy.choke_flow(wm, 0.3, 2.0e6))
+    choke.frame(0.5 * flow, 2.0e6, 0.01, 10, return_flow_m3s=flow)    # closing
+    moving_to, at = choke.opening_command, choke.lag.value
+    assert moving_to < at - 1e-3
+    out = choke.bhp_frame(6.85e7, 6.85e7, math.nan, flow, 2.0e6, 0.01, 10)   # on target
+    assert out.command == pytest.approx(at, abs=1e-9)
