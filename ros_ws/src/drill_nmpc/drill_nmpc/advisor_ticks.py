@@ -150,8 +150,7 @@ class NmpcTick:
             self.u_prev = adopt_applied_block(self.u_prev, actuators.get("block_reference_m"))
             fixed, bpp_ref = None, 0.0
             if floor is not None:
-                bpp_ref = CONNECTION_BPP_FLOW_M3S if floor.step.phase != MOVING else 0.0
-                setpoints, fixed = self.floor_plan(x, setpoints, floor, time_s)
+                setpoints, fixed, bpp_ref = self.floor_plan(x, setpoints, floor, time_s)
                 if floor.step.phase != MOVING:      # the floor drives the block: the model's
                     actuators = {k: v for k, v in actuators.items()   # hangs the string on it
                                  if not k.startswith("block")}
@@ -162,12 +161,14 @@ class NmpcTick:
         return result
 
     def floor_plan(self, x: np.ndarray, setpoints, floor, time_s: float):
-        """The setpoints and pinned inputs (N_c x 4, NaN: free) of a multi-stand trip's
-        sample: the stand's end as the block target while it moves; the stand-pipe pressure
-        over the horizon at the start's times the floor's pump share; the block at the
-        estimated string while the floor has the string. A stand racked (or made up) since
-        the last sample: the supervisor of the new string's model, planning again from the
-        estimate in the string's new frame."""
+        """The setpoints, pinned inputs (N_c x 4, NaN: free) and back-pressure pump
+        reference [m^3/s] of a multi-stand trip's sample: the stand's end as the block
+        target while it moves; the stand-pipe pressure over the horizon at the start's times
+        the floor's pump share; while the floor has the string the block at the estimated
+        string and the pump's reference the conventional connection's flow (pinned there
+        while the slips are set). A stand racked (or made up) since the last sample: the
+        supervisor of the new string's model, planning again from the estimate in the
+        string's new frame."""
         position_m = float(x[self.em.position])
         step = floor.step
         pulled_m = step.stands_pulled * self.trip.stand_length_m
@@ -184,14 +185,15 @@ class NmpcTick:
             self.start.spp_pa * pump_factor_ahead(self.trip, step.phase, elapsed_s,
                                                   (k + 0.5) * ts)
             for k in range(fixed.shape[0])]
-        if step.phase != MOVING:
+        held = step.phase != MOVING
+        if held:
             fixed[:, U_BLOCK] = position_m
         if step.phase == SET_SLIPS:         # the back-pressure pump's lag passed before the
             fixed[:, U_BPP_FLOW] = CONNECTION_BPP_FLOW_M3S   # mud pump ramps down
         target = floor.advisor_target_m(position_m, self.trip.stand_length_m)
         setpoints = replace(setpoints, block_position_target_m=target,
                             mud_pump_on=bool(step.pump_factor > 0.0))
-        return setpoints, fixed
+        return setpoints, fixed, CONNECTION_BPP_FLOW_M3S if held else 0.0
 
     def command(self, result: SolveResult, mud_pump_on: bool) -> AdvisorCommand:
         """The command for ``result``: the choke's part per its loop (drill_nmpc.inputs);

@@ -50,7 +50,7 @@ from drill_studies import fault_matrix, loop_bench
 SLOWER_SPEEDS_MPS = (0.4, 0.3, 0.2, 0.1)         # the envelope's speeds below the cells' own
 
 
-def fastest_answer(start_s: float, bpp_max_m3s: float, bhp_target_pa: float):
+def brake_answer(start_s: float, bpp_max_m3s: float, bhp_target_pa: float):
     """The *brake* answer's machine command from ``start_s`` on: the brake, the
     back-pressure pump at ``bpp_max_m3s``, the choke's BHP loop at ``bhp_target_pa`` (from
     the measured choke dp); before it the command as it is."""
@@ -70,26 +70,29 @@ def shut_answer(start_s: float, bpp_max_m3s: float, bhp_target_pa: float):
     the choke shut, the back-pressure pump at ``bpp_max_m3s`` and the block reference
     held at the string's position then (the brake off); before ``start_s`` the command
     as it is."""
-    brake = fastest_answer(start_s, bpp_max_m3s, bhp_target_pa)
-    state: dict = {}
+    brake = brake_answer(start_s, bpp_max_m3s, bhp_target_pa)
+    shut: dict = {}         # "block_m": where the string was when the BHP fell under the
+                            # target; "over": the BHP has been back at the target since
 
     def machines(time_s: float, m, command):
         if time_s < start_s:
             return command
-        if "block_m" not in state and m.bhp_pa < bhp_target_pa:
-            state["block_m"] = m.block_position_m if math.isfinite(m.block_position_m) \
-                else command.block_position_ref_m
-        if "block_m" not in state or state.get("back") or m.bhp_pa >= bhp_target_pa:
-            state["back"] = "block_m" in state
+        if "block_m" not in shut:
+            if m.bhp_pa < bhp_target_pa:
+                shut["block_m"] = m.block_position_m if math.isfinite(m.block_position_m) \
+                    else command.block_position_ref_m
+        elif m.bhp_pa >= bhp_target_pa:
+            shut["over"] = True
+        if "block_m" not in shut or "over" in shut:
             return brake(time_s, m, command)
-        return dataclasses.replace(command, block_position_ref_m=state["block_m"],
+        return dataclasses.replace(command, block_position_ref_m=shut["block_m"],
                                    bpp_flow_m3s=bpp_max_m3s, choke_manual=True,
                                    choke_opening_ref=0.0, choke_pressure_control=False,
                                    emergency_stop=False)
     return machines
 
 
-ANSWERS = {"brake": fastest_answer, "shut": shut_answer}
+ANSWERS = {"brake": brake_answer, "shut": shut_answer}
 
 
 def first_command_after(fault_time_s: float, period_s: float) -> float:
@@ -131,14 +134,14 @@ def bound(phase: str, faults: tuple[str, ...], speed_mps: float, prefix: str) ->
                          "controller": fault_matrix.BOUND, "prefix": prefix,
                          "speed_mps": speed_mps, "answer": name, "start_s": start_s,
                          "seed": scenario["seed"], "run_dir": None, **figures(out)})
-    return min(rows, key=lambda r: r["bhp_under_pore_s"] + r["bhp_over_fracture_s"])
+    return min(rows, key=fault_matrix.outside_s)
 
 
 def runs_left(rows: list[dict]) -> list[tuple[str, tuple[str, ...], str]]:
     """(phase, faults, controller) of each graph run that left the window."""
     return [(r["phase"], tuple(r["faults"]), r["controller"]) for r in rows
             if r["controller"] in fault_matrix.CONTROLLERS
-            and (r["bhp_under_pore_s"] > 0.0 or r["bhp_over_fracture_s"] > 0.0)]
+            and fault_matrix.outside_s(r) > 0.0]
 
 
 def main(output: Path, speeds=None) -> int:

@@ -164,11 +164,11 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
                                  (trip_speed_mps, trip_speed_mps), math.nan, command)
             advised_at_frame = k
         if nmpc is not None and k % per_command == 0 and estimator.ukf.initialised:
-            block_frame = frames.get("drawworks")
+            hoist = frames.get("drawworks")
             actuators = {} if not frames else {
-                "block_m": frames["drawworks"].output[-1], "bpp_flow_m3s": frames["bpp"].output[-1],
+                "block_m": hoist.output[-1], "bpp_flow_m3s": frames["bpp"].output[-1],
                 "spp_pa": frames["mud_pump"].output[-1],
-                "block_command_m": block_frame.command, "block_reference_m": block_frame.reference}
+                "block_command_m": hoist.command, "block_reference_m": hoist.reference}
             result = nmpc.step(estimator.ukf.mean, _setpoints(trip_speed_mps), actuators,
                                command, t)
             solve_times.append(result.solve_time_s)

@@ -32,8 +32,8 @@ class Measurement:
     block_position_m: float = 3.0
 
 
-def test_the_fastest_answer_acts_from_the_fault_on_only():
-    machines = fb.fastest_answer(20.0, 0.025, 6.85e7)
+def test_the_brake_answer_acts_from_the_fault_on_only():
+    machines = fb.brake_answer(20.0, 0.025, 6.85e7)
     before = Command()
     assert machines(19.9, Measurement(2.5e6), before) is before
     after = machines(20.0, Measurement(2.5e6), before)
