@@ -441,6 +441,10 @@ class Nmpc:
     slack_weight_string_pressure: float = param("1", 0.0)
     slack_weight_choke_dp: float = param("1", 0.0)
     slack_weight_bhp: float = param("1", 0.0)
+    slack_weight_stand_end: float = param("1", 0.0, doc="a multi-stand trip: the string past "
+                                          "the stand's end by more than stand_end_allowance_m")
+    stand_end_allowance_m: float = param("m", 0.0, 5.0, doc="how far past the stand's end the "
+                                         "string may run before its slack is paid")
     max_iterations: int = param("1", 1, 10000)
     solver: str = param(choices=("rti", "sqpmethod", "ipopt", "fatrop"),
                         doc="rti: one Gauss-Newton step per sample (QP by HPIPM); the others "

@@ -6,9 +6,10 @@ first sample with finite readings initialises the filter. The estimator node and
 in-process loop bench both run it.
 
 On a multi-stand trip the rig floor says two things the model must follow: while the
-slips hold the string the block moves free, so the model's block input is a virtual
-block that holds the estimated string at rest on the line
-(``ModelInputs.holding_block_m``) instead of the drawworks' output; and at a connection
+slips hold the string the block moves free, so the time update holds each sigma point's
+string at rest where it is (``RigUkf.predict_frame(..., held=True)``) instead of driving it
+with the drawworks' output (the held input is a virtual block that holds the estimated
+string at rest on the line, ``ModelInputs.holding_block_m``); and at a connection
 the string is a stand shorter or longer, so the model becomes the new string's and the
 estimate's position counts from its new top (``rack``).
 """
@@ -106,7 +107,7 @@ class EstimatorTick:
             frames = self._string_held(frames, steps)
         inputs, problems = self.inputs.frame(frames, steps)
         try:
-            ukf.predict_frame(inputs)
+            ukf.predict_frame(inputs, string_held)
         except ValueError as err:          # non-finite input slipped through: skip the frame
             problems.append(f"time update skipped: {err}")
         result = ukf.update(y, circulating)

@@ -149,13 +149,15 @@ class RigUkf:
                              self.est.measurement_noise.bhp_pa ** 2)
 
     # --------------------------------------------------------------- filtering
-    def predict_frame(self, inputs) -> None:
+    def predict_frame(self, inputs, held: bool = False) -> None:
         """One time update over the N plant steps of ``inputs`` [4 x N] (a column per step).
 
         The sigma points are drawn once and carried through the interval's RK4 model steps
         (``model_steps_per_frame`` per frame; each takes the mean of its plant-step inputs),
         eqs. 6-8 with the sampling interval N h; the per-plant-step process noise Q
-        accumulates to N Q.
+        accumulates to N Q. ``held``: the rig floor's slips hold the string over the frame,
+        so each sigma point's string is at rest where that point has it (the held steps of
+        :meth:`_build_transition`; the block input ``inputs[0]`` is not used).
         """
         self._require_initialised()
         inputs = np.asarray(inputs, dtype=float)
@@ -172,7 +174,7 @@ class RigUkf:
         self._condition()
         self._set_process_noise()
         q_interval = plant_steps * ukf.Q
-        transition = self._transition_for(model_steps)
+        transition = self._transition_for(model_steps, held)
 
         def fx(sigmas):
             propagated = np.asarray(transition(sigmas.T, model_inputs)).T
@@ -251,13 +253,29 @@ class RigUkf:
 
     def _build_transition(self) -> None:
         """The discrete model on scaled states: one RK4 model step of ``em``, chained per
-        interval (the frame's transition built now, others on first use)."""
-        F = build_discrete_model(self.em, self.model_step_s, 1, "rk4")
+        interval (the frame's transition built now, others on first use).
+
+        The held step (the slips hold the string) starts each point's string at rest
+        (velocity zero: the slips grip it) on a line that holds it there: the block input
+        is the point's own position plus the static stretch (``block_input`` "reference":
+        its position; drill_estimator.model_inputs.ModelInputs.holding_block_m), not one
+        block for all points. A block at the mean's position would pull every point to the
+        mean: the position's variance collapses within seconds and an offset of the mean
+        (an estimated string that coasted on as the real one was gripped, an initial
+        position a sensor noise off) stays for the whole connection."""
+        em = self.em
+        F = build_discrete_model(em, self.model_step_s, 1, "rk4")
         s, u = ca.SX.sym("s", self.n_x), ca.SX.sym("u", 4)
         scale = ca.DM(self.scale)
         x = s * scale
         self._step = ca.Function("ukf_step", [s, u], [F(x, self._model_input(x, u)) / scale])
-        self._transition: dict[int, ca.Function] = {}
+        rest = ca.vertcat(x[:em.velocity], ca.SX(0.0), x[em.velocity + 1:])
+        block = rest[em.position] + (em.wm.geometry.static_stretch_m
+                                     if self.block_input == "block_position" else 0.0)
+        u_held = ca.vertcat(*[block if i == U_BLOCK else u[i] for i in range(4)])
+        self._step_held = ca.Function("ukf_step_held", [s, u],
+                                      [F(rest, self._model_input(rest, u_held)) / scale])
+        self._transition: dict[tuple[int, bool], ca.Function] = {}
         self._transition_for(self.model_steps_per_frame)
 
     def use_model(self, em: EstimationModel) -> None:
@@ -366,20 +384,23 @@ class RigUkf:
         self._ukf.Q[tuning.theta_block] = tuning.theta_process(
             speed, self.est.motion_reference_speed_mps)
 
-    def _transition_for(self, steps: int) -> ca.Function:
+    def _transition_for(self, steps: int, held: bool = False) -> ca.Function:
         """All sigma points (columns, scaled) through ``steps`` model steps with inputs
-        [4 x steps]: the chained step function mapped over the points (built once per N)."""
-        fn = self._transition.get(steps)
+        [4 x steps]: the chained step function (``held``: the held one) mapped over the
+        points (built once per N)."""
+        fn = self._transition.get((steps, held))
         if fn is None:
+            step = self._step_held if held else self._step
             s, inputs = ca.SX.sym("s", self.n_x), ca.SX.sym("u", 4, steps)
             x = s
             for k in range(steps):
-                x = self._step(x, inputs[:, k])
-            name = f"ukf_transition_{steps}"
+                x = step(x, inputs[:, k])
+            name = f"ukf_{'held_' if held else ''}transition_{steps}"
             fn = ca.Function(name, [s, inputs], [x])
             if self._jit:
                 fn = compiled([fn], name)[name]
-            fn = self._transition[steps] = fn.map(f"{name}_all", "serial", self._n_sigma, [1], [])
+            fn = self._transition[steps, held] = fn.map(f"{name}_all", "serial",
+                                                        self._n_sigma, [1], [])
         return fn
 
     def _condition(self) -> None:

@@ -17,6 +17,7 @@ and the block-controller integrator z3).
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -363,3 +364,22 @@ def test_the_bulk_modulus_factor_reads_a_softer_mud_not_an_influx(cfg):
     without = dataclasses.replace(em, with_bulk_modulus=False)
     b = _choke_opened_on_a_softer_mud(cfg, without).arrays()
     assert np.max(b["mean"][:, without.disturbance]) > 12.0 * LPM
+
+
+def test_a_string_held_in_the_slips_settles_on_its_measured_position(cfg):
+    """The filter starts 5 cm off the string (one noisy reading) as the slips hold it: the
+    held time update keeps each sigma point's string at rest where it is, so the position
+    readings pull the estimate onto the gripped string and the velocity stays zero (a block
+    input shared by the points pulled every point to the mean and kept the offset)."""
+    ukf, ss, y = _started(cfg)
+    em = ukf.em
+    u = [ss.inputs[0], ss.choke_flow_m3s, 0.0, ss.inputs[3]]
+    ukf.initialise(ukf.initial_state([0.05, *y[1:]], True))
+    assert ukf.mean[em.position] == pytest.approx(0.05)
+    for _ in range(100):                                  # 10 s in the slips at 0 m
+        ukf.predict_frame(_held(u, cfg), held=True)
+        ukf.update(y, True)
+    position_std_m = math.sqrt(ukf.covariance_diagonal[em.position])
+    assert abs(ukf.mean[em.position]) < min(0.002, 3.0 * position_std_m)   # shared: 5.2 mm, 7 std
+    assert abs(ukf.mean[em.velocity]) < 1e-3
+    assert abs(ukf.bhp_pa - y[2]) < 0.5e5

@@ -101,7 +101,11 @@ class NmpcTick:
     rig floor has pinned over the horizon (:meth:`floor_plan`): the stand-pipe pressure
     on the floor's pump ramps and connection (the floor scales the command, which stays at
     the start's), the block reference at the estimated string while the floor has the
-    string; the choke and the back-pressure pump are the NMPC's through the connection."""
+    string; the choke and the back-pressure pump are the NMPC's through the connection,
+    the pump's input reference the conventional connection's flow through the whole trip
+    (its 30 s lag is twice the horizon: kept running, it is there when the mud pump ramps
+    down), and each move pays for running past its stand's end (the OCP's ``stand_end``
+    rows: the floor takes a stand as arrived only with the string at rest near its end)."""
 
     def __init__(self, config: RigConfig, em: EstimationModel, start: StartInputs,
                  trip=None):
@@ -122,7 +126,8 @@ class NmpcTick:
         if pulled_m not in self._supervisors:
             em = self.em if pulled_m == 0.0 else nmpc_estimation_model(self.config,
                                                                         pulled_m=pulled_m)
-            self._supervisors[pulled_m] = Supervisor(self.config, em)
+            self._supervisors[pulled_m] = Supervisor(self.config, em,
+                                                     floor_trip=self.trip is not None)
         return self._supervisors[pulled_m]
 
     @property
@@ -149,8 +154,9 @@ class NmpcTick:
                 self.u_prev = self._initial_input(x)
             self.u_prev = adopt_applied_block(self.u_prev, actuators.get("block_reference_m"))
             fixed, bpp_ref = None, 0.0
-            if floor is not None:
-                setpoints, fixed, bpp_ref = self.floor_plan(x, setpoints, floor, time_s)
+            if floor is not None:     # the back-pressure pump kept running through the trip
+                setpoints, fixed = self.floor_plan(x, setpoints, floor, time_s)
+                bpp_ref = CONNECTION_BPP_FLOW_M3S
                 if floor.step.phase != MOVING:      # the floor drives the block: the model's
                     actuators = {k: v for k, v in actuators.items()   # hangs the string on it
                                  if not k.startswith("block")}
@@ -161,12 +167,11 @@ class NmpcTick:
         return result
 
     def floor_plan(self, x: np.ndarray, setpoints, floor, time_s: float):
-        """The setpoints, pinned inputs (N_c x 4, NaN: free) and back-pressure pump
-        reference [m^3/s] of a multi-stand trip's sample: the stand's end as the block
-        target while it moves; the stand-pipe pressure over the horizon at the start's times
-        the floor's pump share; while the floor has the string the block at the estimated
-        string and the pump's reference the conventional connection's flow (pinned there
-        while the slips are set). A stand racked (or made up) since the last sample: the
+        """The setpoints and pinned inputs (N_c x 4, NaN: free) of a multi-stand trip's
+        sample: the stand's end as the block target while it moves; the stand-pipe pressure
+        over the horizon at the start's times the floor's pump share; while the floor has
+        the string the block at the estimated string; the back-pressure pump at the
+        conventional connection's flow while the slips are set. A stand racked (or made up) since the last sample: the
         supervisor of the new string's model, planning again from the estimate in the
         string's new frame."""
         position_m = float(x[self.em.position])
@@ -193,7 +198,7 @@ class NmpcTick:
         target = floor.advisor_target_m(position_m, self.trip.stand_length_m)
         setpoints = replace(setpoints, block_position_target_m=target,
                             mud_pump_on=bool(step.pump_factor > 0.0))
-        return setpoints, fixed, CONNECTION_BPP_FLOW_M3S if held else 0.0
+        return setpoints, fixed
 
     def command(self, result: SolveResult, mud_pump_on: bool) -> AdvisorCommand:
         """The command for ``result``: the choke's part per its loop (drill_nmpc.inputs);

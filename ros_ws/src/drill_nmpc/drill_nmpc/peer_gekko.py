@@ -81,7 +81,7 @@ from drill_core.input_layout import U_BLOCK
 from drill_core.scenario import ActiveSetpoints
 from drill_nmpc.peer_base import BHP, NmpcPeer
 from drill_nmpc.prediction_model import outputs
-from drill_nmpc.soft_constraints import SOFT_CONSTRAINTS, StageValues
+from drill_nmpc.soft_constraints import StageValues, soft_constraints
 from drill_nmpc.solve_result import SolveResult
 
 FMAX_SMOOTHING_PA = 10.0     # the smooth max's corner width (its one use: a pressure drop)
@@ -205,7 +205,7 @@ class GekkoPeer(NmpcPeer):
                  "bhp_band": (p["bhp_low_pa"], p["bhp_high_pa"]),
                  "choke_dp_band": (p["dp_low_pa"], p["dp_high_pa"])}
         self.slacks = {}           # constraint name -> its slack variables (slack units)
-        for c in SOFT_CONSTRAINTS:
+        for c in soft_constraints():
             v = c.value(stage)
             if c.band:
                 lo, hi = edges[c.name]
@@ -282,7 +282,7 @@ class GekkoPeer(NmpcPeer):
                             for v, k in zip(self.scaled_inputs, span)]).T
         slacks = {c.name: max(float(np.max(values(v)[m_sub:self.N * m_sub:m_sub]))
                               for v in self.slacks[c.name]) * c.slack_unit
-                  for c in SOFT_CONSTRAINTS}
+                  for c in soft_constraints()}
         return self.result(s, planned[0], success, status, ITERATIONS_NOT_REPORTED, t0,
                            slacks, planned, cost=float(m.options.OBJFCNVAL))
 

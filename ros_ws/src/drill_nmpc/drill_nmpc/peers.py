@@ -104,7 +104,7 @@ from drill_nmpc.bench import closed_loop, distribution
 from drill_nmpc.peer_base import BHP, NmpcPeer
 from drill_nmpc.peer_gekko import GekkoPeer
 from drill_nmpc.prediction_model import nmpc_estimation_model, outputs
-from drill_nmpc.soft_constraints import SOFT_CONSTRAINTS, StageValues
+from drill_nmpc.soft_constraints import StageValues, soft_constraints
 from drill_nmpc.solve_result import SolveResult
 from drill_nmpc.supervisor import Supervisor
 
@@ -182,7 +182,7 @@ class DoMpcPeer(NmpcPeer):
                  "bhp_band": (tv["bhp_low_pa"], tv["bhp_high_pa"]),
                  "choke_dp_band": (tv["dp_low_pa"], tv["dp_high_pa"])}
         self._soft = []       # (name, expression <= 0 in slack units, weight)
-        for c in SOFT_CONSTRAINTS:
+        for c in soft_constraints():
             v = c.value(values)
             weight = getattr(cfg, c.weight)
             if c.band:
@@ -292,7 +292,7 @@ class DoMpcPeer(NmpcPeer):
         planned = np.array([np.asarray(mpc.opt_x_num_unscaled["_u", k, 0]).ravel()
                             for k in range(self.N)])
         slacks = {}
-        for c in SOFT_CONSTRAINTS:
+        for c in soft_constraints():
             names = [f"{c.name}_low", f"{c.name}_high"] if c.band else [c.name]
             slacks[c.name] = max(float(mpc.opt_x_num["_eps", k, 0, n]) for n in names
                                  for k in range(1, self.N)) * c.slack_unit

@@ -51,7 +51,7 @@ class Supervisor:
                  solver: str | None = None, hessian: str | None = None, jit: bool | None = None,
                  substeps: int | None = None, integrator: str | None = None,
                  solver_options: dict | None = None, actuator_lags: bool | None = None,
-                 cache_dir: str | None = None):
+                 cache_dir: str | None = None, floor_trip: bool = False):
         rig = config if isinstance(config, RigConfig) else None
         cfg: Nmpc = rig.nmpc if rig is not None else config
         self.cfg = cfg
@@ -69,7 +69,8 @@ class Supervisor:
             return NmpcProblem(cfg, em, configuration=configuration, solver=solver, jit=jit,
                                cache_dir=cache_dir, substeps=substeps, integrator=integrator,
                                solver_options=solver_options, hessian=hessian, lags=lags,
-                               acceleration_limit_mps2=accel, friction_pump_on=friction_pump_on)
+                               acceleration_limit_mps2=accel, friction_pump_on=friction_pump_on,
+                               floor_trip=floor_trip)
 
         # one problem per pump state where the friction law follows it (the same OCP as
         # one with the law selected by its pump_on parameter, at one law's cost); the one
@@ -97,7 +98,7 @@ class Supervisor:
         self._speed = 0.0                            # block-reference speed of the last period
         self.theta_clamps = 0                        # estimates whose theta had to be capped
         self.rollouts = 0                            # solves from the rolled-out warm start
-        self._trip: tuple[float, float] | None = None  # (block target m, furthest string position on the way m)
+        self._trip: tuple | None = None  # (block target m, furthest string position on the way m, its direction)
         self._profile: MotionProfile | None = None     # block reference's motion profile (block_reference profile)
         self.bhp_bias = 0.0                            # model's BHP offset (bhp_bias_gain > 0) [Pa]
         self.choke_flow_m3s = math.nan                 # the last solve's choke flow (held with its input)
@@ -207,14 +208,14 @@ class Supervisor:
         stays allowed (no infeasible bounds)."""
         target, position = float(target), float(x[self.em.position])
         if self._trip is None or self._trip[0] != target:
-            self._trip = (target, position)
+            self._trip = (target, position, float(np.sign(target - position)))
         direction = np.sign(target - self._trip[1])
         progress = self._trip[1]
         if direction * (position - progress) > 0.0 and direction * (target - position) > 0.0:
             progress = position                      # further along, not past the target
         elif direction * (position - target) >= 0.0:
             progress = target
-        self._trip = (target, progress)
+        self._trip = (target, progress, self._trip[2])
         lo = min(progress, target) - TRIP_RANGE_MARGIN_M
         hi = max(progress, target) + TRIP_RANGE_MARGIN_M
         ts = self.problem.ts
@@ -225,6 +226,15 @@ class Supervisor:
         else:
             lo, hi = min(lo, float(u_prev[U_BLOCK])), max(hi, float(u_prev[U_BLOCK]))
         return lo, hi
+
+    def stand_end_band(self) -> tuple[float, float]:
+        """The string's band on a multi-stand trip (its OCP's ``stand_end`` rows) [m]: at most
+        ``stand_end_allowance_m`` past the target in the corridor's direction of travel
+        (block_range sets the corridor); unbounded while no move is under way."""
+        if self._trip is None or self._trip[2] == 0.0:
+            return -math.inf, math.inf
+        end = self._trip[0] + self._trip[2] * self.cfg.stand_end_allowance_m
+        return (-math.inf, end) if self._trip[2] > 0.0 else (end, math.inf)
 
     def carried_integral(self, integral, y_now, dp_band, bhp_band) -> np.ndarray:
         """NMPC1's integral states one sample on: the estimated error *outside the band*
@@ -372,6 +382,8 @@ class Supervisor:
                           self._speed, self.bhp_bias)
         circulating = pump_on
 
+        block_range = self.block_range(x, u_prev, y_sp[0])
+        stand_end = self.stand_end_band()
         last = None
         reasons: list[str] = []
         # warm starts in turn: the shifted previous solution, its inputs rolled out again
@@ -390,7 +402,7 @@ class Supervisor:
                 z0, lam_z0, lam_g0 = self._initial_guess(x0, par, u_prev, pump_on,
                                                          fixed_inputs)
             lbz, ubz, lbg, ubg = pb.bounds(u_prev, vlim, bhp_band, dp_band, circulating, relaxed,
-                                           self.block_range(x, u_prev, y_sp[0]), fixed_inputs)
+                                           block_range, fixed_inputs, stand_end)
             try:
                 sol = pb.solve(p, z0, lbz, ubz, lbg, ubg, lam_z0, lam_g0)
             except RuntimeError as err:       # evaluation error inside the solver

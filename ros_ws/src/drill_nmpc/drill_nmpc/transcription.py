@@ -22,7 +22,7 @@ from drill_nmpc.inputs import choke_time_constant, input_arrays
 from drill_nmpc.parameter_layout import ParameterLayout
 from drill_nmpc.prediction_model import (ActuatorLags, PredictionModel, StringFrictionTable,
                                          outputs)
-from drill_nmpc.soft_constraints import BY_NAME, SLACK_NAMES, SOFT_CONSTRAINTS, StageValues
+from drill_nmpc.soft_constraints import BY_NAME, SLACK_NAMES, StageValues, soft_constraints
 from drill_nmpc.solver_options import Structure, hpipm_options, solver_options
 
 INTEGRAL_OUTPUTS = (1, 2)        # NMPC1 integrates the pressure outputs (see docs/nmpc.md)
@@ -72,8 +72,9 @@ class NmpcProblem:
                  tabulate_string_friction: bool = True, hessian: str = "exact",
                  lags: ActuatorLags | None = None, terminal_constraints: bool = False,
                  cache_dir: str | None = None, acceleration_limit_mps2: float | None = None,
-                 friction_pump_on: float | None = None):
+                 friction_pump_on: float | None = None, floor_trip: bool = False):
         self.cfg = cfg
+        self.soft_constraints = soft_constraints(floor_trip)
         self.configuration = configuration or cfg.configuration
         if self.configuration == "NMPC2" and not em.with_disturbance:
             em = dataclasses.replace(em, with_disturbance=True)
@@ -155,8 +156,8 @@ class NmpcProblem:
     def _stage_slacks(self, k: int) -> tuple[str, ...]:
         """The soft constraints of stage k (path ones first: the slack order)."""
         path = 1 <= k < self.N or (k == self.N and self.terminal_constraints)
-        return tuple(c.name for c in SOFT_CONSTRAINTS if not c.on_input_stages and path) \
-            + tuple(c.name for c in SOFT_CONSTRAINTS if c.on_input_stages and k < self.N)
+        return tuple(c.name for c in self.soft_constraints if not c.on_input_stages and path) \
+            + tuple(c.name for c in self.soft_constraints if c.on_input_stages and k < self.N)
 
     def _build(self, extra_options: dict) -> None:
         em, cfg, N, Nc, nd = self.em, self.cfg, self.N, self.Nc, self.nd
@@ -164,7 +165,7 @@ class NmpcProblem:
         r_c = self.inputs["move_weight"]
         r_r = self.inputs["reference_weight"]
         q_e = cfg.integral_weight_factor * w_y[list(INTEGRAL_OUTPUTS)]
-        t_w = {c.name: getattr(cfg, c.weight) for c in SOFT_CONSTRAINTS}
+        t_w = {c.name: getattr(cfg, c.weight) for c in self.soft_constraints}
         P = ca.MX.sym("p", self.parameter_layout.size)
         p = self.parameter_layout.split(P)
         x0, par, pump_on, u_prev = p["x0"], p["par"], p["pump_on"], p["u_prev"]
@@ -344,12 +345,14 @@ class NmpcProblem:
             u_ref=u_ref, bhp_bias=bhp_bias_pa)
 
     def bounds(self, u_prev, velocity_limit, bhp_band, dp_band, circulating: bool,
-               relaxed: bool = False, block_range: tuple | None = None, fixed=None):
+               relaxed: bool = False, block_range: tuple | None = None, fixed=None,
+               stand_end: tuple = (-_INF, _INF)):
         """Variable and row bounds: hard input limits (the block reference also within
         ``block_range``), slew, the soft constraints' band edges (SI) and the constraints
         dropped (relaxed retry; no circulation). ``fixed`` (N_c x 4, SI, NaN: free) pins
         stage inputs to a plan made elsewhere (the rig floor's pump ramp, the block held
-        in the slips): their slew and acceleration rows are dropped."""
+        in the slips): their slew and acceleration rows are dropped. ``stand_end``: the
+        string position's band on a multi-stand trip [m]."""
         lbz = np.full(self.nz, -_INF)
         ubz = np.full(self.nz, _INF)
         lo = self.inputs["min"].copy()
@@ -360,7 +363,7 @@ class NmpcProblem:
         u_hi = (hi - u_prev) / self.Su
         lbg, ubg = self._lbg0.copy(), self._ubg0.copy()
         edges = {"velocity": (-velocity_limit, velocity_limit), "bhp_band": bhp_band,
-                 "choke_dp_band": dp_band}
+                 "choke_dp_band": dp_band, "stand_end": stand_end}
         for st in self.stages:
             if st.s.stop > st.s.start:         # trust region on the predicted states
                 box = self._state_box

@@ -47,19 +47,15 @@ def _estimate(tick, position_m):
 
 def test_the_floor_pins_the_pump_ramp_and_holds_the_block_in_the_slips(tick):
     tick.u_prev = np.array([27.6, 0.0, 0.0, SPP_PA])
-    sp, fixed, bpp_ref = tick.floor_plan(_estimate(tick, 27.6), _setpoints(), _floor(MOVING),
-                                         100.0)
+    sp, fixed = tick.floor_plan(_estimate(tick, 27.6), _setpoints(), _floor(MOVING), 100.0)
     assert sp.block_position_target_m == 28.0              # the stand's end, in its frame
-    assert bpp_ref == 0.0
     assert np.isnan(fixed[:, [U_BLOCK, 1, U_BPP_FLOW]]).all()
     assert (fixed[:, U_PUMP_PRESSURE] == SPP_PA).all()
-    sp, fixed, bpp_ref = tick.floor_plan(_estimate(tick, 27.9), _setpoints(),
-                                         _floor(SET_SLIPS), 160.0)
+    sp, fixed = tick.floor_plan(_estimate(tick, 27.9), _setpoints(), _floor(SET_SLIPS), 160.0)
     assert sp.block_position_target_m == 27.9 and (fixed[:, U_BLOCK] == 27.9).all()
-    assert bpp_ref == CONNECTION_BPP_FLOW_M3S
     assert (fixed[:, U_BPP_FLOW] == CONNECTION_BPP_FLOW_M3S).all()   # its lag passes first
     tick.floor_plan(_estimate(tick, 27.9), _setpoints(), _floor(PUMP_DOWN), 170.0)
-    sp, fixed, _ = tick.floor_plan(_estimate(tick, 27.9), _setpoints(),
+    sp, fixed = tick.floor_plan(_estimate(tick, 27.9), _setpoints(),
                                    _floor(PUMP_DOWN, 0.5), 185.0)
     ts = tick.supervisor.problem.ts
     expected = [SPP_PA * pump_factor_ahead(TRIP, PUMP_DOWN, 15.0, (k + 0.5) * ts)
@@ -69,9 +65,8 @@ def test_the_floor_pins_the_pump_ramp_and_holds_the_block_in_the_slips(tick):
     assert fixed[-1, U_PUMP_PRESSURE] == pytest.approx(SPP_PA * 0.5 / 30.0)   # 29.5 s in
     assert np.isnan(fixed[:, U_BPP_FLOW]).all()
     assert sp.mud_pump_on
-    sp, _, bpp_ref = tick.floor_plan(_estimate(tick, 27.9), _setpoints(), _floor(CONNECTION, 0.0),
-                                     200.0)
-    assert not sp.mud_pump_on and bpp_ref == CONNECTION_BPP_FLOW_M3S
+    sp, _ = tick.floor_plan(_estimate(tick, 27.9), _setpoints(), _floor(CONNECTION, 0.0), 200.0)
+    assert not sp.mud_pump_on
 
 
 def test_a_racked_stand_plans_on_the_new_strings_model_in_its_frame(tick):

@@ -462,6 +462,28 @@ def test_trip_corridor_is_monotone_and_does_not_ratchet(config, em):
     assert sup.block_range(x, held, 0.0) == pytest.approx((-0.5, 10.1))   # a new trip: from 9.6 m
 
 
+def test_only_a_multi_stand_trip_pays_for_running_past_the_stands_end(config, em):
+    """A multi-stand trip's OCP bounds the string to the allowance past its target in the
+    direction of travel (the floor takes a stand as arrived only at rest near its end);
+    no other OCP carries the rows, and no band applies while no move is under way."""
+    single = Supervisor(config, em, configuration="NMPC0", jit=False)
+    trip = Supervisor(config, em, configuration="NMPC0", jit=False, floor_trip=True)
+    rows = lambda sup: {name for st in sup.problem.stages for name in st.rows}
+    assert "stand_end" not in rows(single) and "stand_end" in rows(trip)
+    allowance = config.nmpc.stand_end_allowance_m
+    x = np.zeros(em.size)
+    assert trip.stand_end_band() == (-math.inf, math.inf)
+    trip.block_range(x, np.zeros(4), 28.0)                      # pulling out: up to 28 m
+    assert trip.stand_end_band() == pytest.approx((-math.inf, 28.0 + allowance))
+    x[em.position] = 28.4                                       # past it: the band stays
+    trip.block_range(x, np.array([28.0, 0, 0, 0]), 28.0)
+    assert trip.stand_end_band() == pytest.approx((-math.inf, 28.0 + allowance))
+    trip.block_range(x, np.array([28.0, 0, 0, 0]), 0.0)         # running in: down to 0 m
+    assert trip.stand_end_band() == pytest.approx((-allowance, math.inf))
+    trip.block_range(x, np.array([28.0, 0, 0, 0]), 28.4)        # held where it is
+    assert trip.stand_end_band() == (-math.inf, math.inf)
+
+
 def test_block_integral_comes_from_the_drawworks_command(config, em):
     """The UKF (fed the block position) cannot observe the block controller's integral; the
     prediction takes it from the drawworks' last command: c = block_command(u_r, z1, z3)."""
