@@ -49,6 +49,15 @@ def frame_inputs(wm: hy.WellModel, block_m, choke_opening, bpp_flow_m3s, pump_pr
     return np.vstack([ref, choke_flow_input(wm, opening, dp, return_flow_m3s), bpp, pump])
 
 
+def holding_block(em: EstimationModel, block_input: str, position_m):
+    """The block input [m] that holds the model's string at rest at ``position_m`` (a
+    number or a CasADi expression): the drawworks output carrying its weight (position plus
+    the static stretch), or with block_input "reference" the reference the model's block
+    controller holds it on (the position)."""
+    stretch = em.wm.geometry.static_stretch_m
+    return position_m + (stretch if block_input == "block_position" else 0.0)
+
+
 class ModelInputs:
     """Turns each frame's actuator samples into the model's inputs, holding the last good
     sample of each actuator (drawworks, choke opening, back-pressure pump flow, mud-pump
@@ -66,12 +75,9 @@ class ModelInputs:
         self.valve_law_frames = 0     # frames whose choke flow came from the valve law
 
     def holding_block_m(self, position_m: float) -> float:
-        """The block input [m] that holds the model's string at rest at ``position_m``:
-        the drawworks output carrying its weight (position plus the static stretch), or
-        with block_input "reference" the reference the model's block controller holds it
-        on (the position)."""
-        stretch = self.em.wm.geometry.static_stretch_m
-        return position_m + (stretch if self.block_input == "block_position" else 0.0)
+        """The block input [m] that holds the model's string at rest at ``position_m``
+        (:func:`holding_block`)."""
+        return holding_block(self.em, self.block_input, position_m)
 
     def start(self, x0: np.ndarray, choke_dp_pa: float) -> None:
         """Hold the inputs that keep the estimation model's steady state ``x0``."""

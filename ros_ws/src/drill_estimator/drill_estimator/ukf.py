@@ -22,7 +22,7 @@ from drill_core.estimation_model import (MEASUREMENT_NAMES, EstimationModel, bui
                                          measurement, measurement_map)
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_estimator.initial_state import initial_state
-from drill_estimator.model_inputs import BLOCK_INPUTS
+from drill_estimator.model_inputs import BLOCK_INPUTS, holding_block
 from drill_estimator.tuning import build_tuning
 
 _JITTER = (1e-12, 1e-10, 1e-8, 1e-6)     # relative to the largest diagonal entry (scaled P)
@@ -257,12 +257,12 @@ class RigUkf:
 
         The held step (the slips hold the string) starts each point's string at rest
         (velocity zero: the slips grip it) on a line that holds it there: the block input
-        is the point's own position plus the static stretch (``block_input`` "reference":
-        its position; drill_estimator.model_inputs.ModelInputs.holding_block_m), not one
-        block for all points. A block at the mean's position would pull every point to the
-        mean: the position's variance collapses within seconds and an offset of the mean
-        (an estimated string that coasted on as the real one was gripped, an initial
-        position a sensor noise off) stays for the whole connection."""
+        is the one that holds the point's own position
+        (drill_estimator.model_inputs.holding_block), not one block for all points. A
+        block at the mean's position would pull every point to the mean: the position's
+        variance collapses within seconds and an offset of the mean (an estimated string
+        that coasted on as the real one was gripped, an initial position a sensor noise
+        off) stays for the whole connection."""
         em = self.em
         F = build_discrete_model(em, self.model_step_s, 1, "rk4")
         s, u = ca.SX.sym("s", self.n_x), ca.SX.sym("u", 4)
@@ -270,8 +270,7 @@ class RigUkf:
         x = s * scale
         self._step = ca.Function("ukf_step", [s, u], [F(x, self._model_input(x, u)) / scale])
         rest = ca.vertcat(x[:em.velocity], ca.SX(0.0), x[em.velocity + 1:])
-        block = rest[em.position] + (em.wm.geometry.static_stretch_m
-                                     if self.block_input == "block_position" else 0.0)
+        block = holding_block(em, self.block_input, rest[em.position])
         u_held = ca.vertcat(*[block if i == U_BLOCK else u[i] for i in range(4)])
         self._step_held = ca.Function("ukf_step_held", [s, u],
                                       [F(rest, self._model_input(rest, u_held)) / scale])

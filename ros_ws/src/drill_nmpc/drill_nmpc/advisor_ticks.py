@@ -171,9 +171,9 @@ class NmpcTick:
         sample: the stand's end as the block target while it moves; the stand-pipe pressure
         over the horizon at the start's times the floor's pump share; while the floor has
         the string the block at the estimated string; the back-pressure pump at the
-        conventional connection's flow while the slips are set. A stand racked (or made up) since the last sample: the
-        supervisor of the new string's model, planning again from the estimate in the
-        string's new frame."""
+        conventional connection's flow while the slips are set. A stand racked (or made up)
+        since the last sample: the supervisor of the new string's model, planning again from
+        the estimate in the string's new frame."""
         position_m = float(x[self.em.position])
         step = floor.step
         pulled_m = step.stands_pulled * self.trip.stand_length_m

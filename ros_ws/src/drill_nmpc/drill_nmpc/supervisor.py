@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -33,6 +34,13 @@ from drill_nmpc.transcription import INTEGRAL_OUTPUTS, NmpcProblem
 TRIP_RANGE_MARGIN_M = 0.5         # the block reference may pass the string / target by this
 THETA_STIFFNESS_LIMIT = 2.0       # |lambda| h of the annular flow modes kept below this (RK4: 2.78)
 THETA_SPEED_FLOOR_MPS = 0.1       # quadratic law: effective annular speed used for the cap near zero flow
+
+
+class TripCorridor(NamedTuple):
+    """The block reference's corridor to one target (Supervisor.block_range)."""
+    target_m: float
+    progress_m: float      # the furthest the string has reached on its way [m]
+    direction: float       # +1 up, -1 down, 0 held where the corridor began
 
 
 class Supervisor:
@@ -98,7 +106,7 @@ class Supervisor:
         self._speed = 0.0                            # block-reference speed of the last period
         self.theta_clamps = 0                        # estimates whose theta had to be capped
         self.rollouts = 0                            # solves from the rolled-out warm start
-        self._trip: tuple | None = None  # (block target m, furthest string position on the way m, its direction)
+        self._trip: TripCorridor | None = None         # the block's trip corridor (block_range)
         self._profile: MotionProfile | None = None     # block reference's motion profile (block_reference profile)
         self.bhp_bias = 0.0                            # model's BHP offset (bhp_bias_gain > 0) [Pa]
         self.choke_flow_m3s = math.nan                 # the last solve's choke flow (held with its input)
@@ -207,15 +215,15 @@ class Supervisor:
         acceleration limit cannot stop the reference in time, the hardest braking step
         stays allowed (no infeasible bounds)."""
         target, position = float(target), float(x[self.em.position])
-        if self._trip is None or self._trip[0] != target:
-            self._trip = (target, position, float(np.sign(target - position)))
-        direction = np.sign(target - self._trip[1])
-        progress = self._trip[1]
+        if self._trip is None or self._trip.target_m != target:
+            self._trip = TripCorridor(target, position, float(np.sign(target - position)))
+        progress = self._trip.progress_m
+        direction = np.sign(target - progress)
         if direction * (position - progress) > 0.0 and direction * (target - position) > 0.0:
             progress = position                      # further along, not past the target
         elif direction * (position - target) >= 0.0:
             progress = target
-        self._trip = (target, progress, self._trip[2])
+        self._trip = self._trip._replace(progress_m=progress)
         lo = min(progress, target) - TRIP_RANGE_MARGIN_M
         hi = max(progress, target) + TRIP_RANGE_MARGIN_M
         ts = self.problem.ts
@@ -231,10 +239,10 @@ class Supervisor:
         """The string's band on a multi-stand trip (its OCP's ``stand_end`` rows) [m]: at most
         ``stand_end_allowance_m`` past the target in the corridor's direction of travel
         (block_range sets the corridor); unbounded while no move is under way."""
-        if self._trip is None or self._trip[2] == 0.0:
+        if self._trip is None or self._trip.direction == 0.0:
             return -math.inf, math.inf
-        end = self._trip[0] + self._trip[2] * self.cfg.stand_end_allowance_m
-        return (-math.inf, end) if self._trip[2] > 0.0 else (end, math.inf)
+        end = self._trip.target_m + self._trip.direction * self.cfg.stand_end_allowance_m
+        return (-math.inf, end) if self._trip.direction > 0.0 else (end, math.inf)
 
     def carried_integral(self, integral, y_now, dp_band, bhp_band) -> np.ndarray:
         """NMPC1's integral states one sample on: the estimated error *outside the band*
@@ -382,7 +390,7 @@ class Supervisor:
                           self._speed, self.bhp_bias)
         circulating = pump_on
 
-        block_range = self.block_range(x, u_prev, y_sp[0])
+        corridor = self.block_range(x, u_prev, y_sp[0])
         stand_end = self.stand_end_band()
         last = None
         reasons: list[str] = []
@@ -402,7 +410,7 @@ class Supervisor:
                 z0, lam_z0, lam_g0 = self._initial_guess(x0, par, u_prev, pump_on,
                                                          fixed_inputs)
             lbz, ubz, lbg, ubg = pb.bounds(u_prev, vlim, bhp_band, dp_band, circulating, relaxed,
-                                           block_range, fixed_inputs, stand_end)
+                                           corridor, fixed_inputs, stand_end)
             try:
                 sol = pb.solve(p, z0, lbz, ubz, lbg, ubg, lam_z0, lam_g0)
             except RuntimeError as err:       # evaluation error inside the solver

@@ -55,8 +55,8 @@ def test_the_floor_pins_the_pump_ramp_and_holds_the_block_in_the_slips(tick):
     assert sp.block_position_target_m == 27.9 and (fixed[:, U_BLOCK] == 27.9).all()
     assert (fixed[:, U_BPP_FLOW] == CONNECTION_BPP_FLOW_M3S).all()   # its lag passes first
     tick.floor_plan(_estimate(tick, 27.9), _setpoints(), _floor(PUMP_DOWN), 170.0)
-    sp, fixed = tick.floor_plan(_estimate(tick, 27.9), _setpoints(),
-                                   _floor(PUMP_DOWN, 0.5), 185.0)
+    sp, fixed = tick.floor_plan(_estimate(tick, 27.9), _setpoints(), _floor(PUMP_DOWN, 0.5),
+                                185.0)
     ts = tick.supervisor.problem.ts
     expected = [SPP_PA * pump_factor_ahead(TRIP, PUMP_DOWN, 15.0, (k + 0.5) * ts)
                 for k in range(len(fixed))]
@@ -83,3 +83,20 @@ def test_a_racked_stand_plans_on_the_new_strings_model_in_its_frame(tick):
     assert tick.supervisor.em.wm.geometry.bit_depth_m == pytest.approx(
         one.em.wm.geometry.bit_depth_m - 28.0)
     assert tick.u_prev[U_BLOCK] == -0.1 and tick.supervisor._warm is None
+
+
+def test_the_trip_plans_with_the_stand_end_rows_and_the_back_pressure_pump_kept_running(
+        tick, monkeypatch):
+    """A trip's supervisors carry the stand_end rows, and every sample of the trip, moving
+    or not, asks the back-pressure pump for the connection's flow (its 30 s lag is twice
+    the horizon: it is there when the mud pump ramps down)."""
+    asked = []
+    for phase in (MOVING, SET_SLIPS, PUMP_DOWN, CONNECTION):
+        tick.u_prev = np.array([27.9, 0.0, 0.0, SPP_PA])
+        floor = _floor(phase, 0.0 if phase == CONNECTION else 1.0)
+        sup = tick._supervisor_for(floor.step.stands_pulled * TRIP.stand_length_m)
+        assert any("stand_end" in st.rows for st in sup.problem.stages)
+        monkeypatch.setattr(sup, "step", lambda *a, **k: asked.append(k["bpp_reference_m3s"])
+                            or sup.hold(tick.u_prev, "test"))
+        tick.step(_estimate(tick, 27.9), _setpoints(), {}, floor, 300.0)
+    assert asked == [CONNECTION_BPP_FLOW_M3S] * 4
