@@ -18,7 +18,7 @@ from drill_bringup.progress_display import ProgressDisplay
 from drill_core.config import ConfigError
 from drill_core.mismatch import resolve, truth_config, write_truth_file
 from drill_core.rig_root import rig_root
-from drill_ros import graph as graph_decl
+from drill_ros import graph as graph_decl, progress
 from drill_core.scenario import (MULTI_STAND_CONTROLLERS, load_scenario, load_scenario_config,
                                  scenario_kind, scenario_truth, without_truth)
 
@@ -123,6 +123,14 @@ def stage_truth(path: Path, run_dir: Path, truth) -> None:
     ``run_dir/truth.json`` (the plant's mismatch, for the plant's side alone)."""
     (run_dir / "scenario.yaml").write_text(yaml.safe_dump(without_truth(path), sort_keys=False))
     write_truth_file(run_dir / TRUTH_FILE, *truth)
+
+
+def _simulated_s(run_dir: Path, plant_process: str | None, duration_s: float) -> float:
+    """The run's simulated time: the plant's last progress marker's end (a multi-stand
+    trip's run ends after the trip, drill_core.tripping.run_end), else ``duration_s``."""
+    last = progress.last_marker(run_dir / "logs" / f"{plant_process}.log") \
+        if plant_process else None
+    return last[1] if last is not None else duration_s
 
 
 def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = None,
@@ -240,8 +248,9 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     if not ok:
         print(f"[rig] FAILED: {message}", file=sys.stderr, flush=True)
         return 1, run_dir
-    say(f"[rig] finished in {wall:.1f} s wall for {scenario.duration_s:.0f} s simulated "
-        f"(real-time factor {wall / scenario.duration_s:.3f})")
+    simulated_s = _simulated_s(run_dir, plant_process, scenario.duration_s)
+    say(f"[rig] finished in {wall:.1f} s wall for {simulated_s:.0f} s simulated "
+        f"(real-time factor {wall / simulated_s:.3f})")
     if "recorder" not in names:
         say(f"[rig] this host's share ({', '.join(sorted(names))}) finished; the recording "
             "and the report are on the host that runs the recorder")

@@ -445,6 +445,11 @@ class Nmpc:
                                           "the stand's end by more than stand_end_allowance_m")
     stand_end_allowance_m: float = param("m", 0.0, 5.0, doc="how far past the stand's end the "
                                          "string may run before its slack is paid")
+    floor_pump_on_share: float = param(
+        "1", 0.0, 1.0, doc="a multi-stand trip: the OCP plans with the mud pump on (its "
+        "stand-pipe pressure, the circulating friction law) while the rig floor runs it above "
+        "this share of its rate, else as stopped (the bit's flow stops and starts near the "
+        "ramps' middle)")
     max_iterations: int = param("1", 1, 10000)
     solver: str = param(choices=("rti", "sqpmethod", "ipopt", "fatrop"),
                         doc="rti: one Gauss-Newton step per sample (QP by HPIPM); the others "

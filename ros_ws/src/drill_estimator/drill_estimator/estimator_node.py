@@ -42,6 +42,7 @@ from drill_ros.runner import run
 from drill_ros.stamps import to_ns
 from drill_ros.status import StatusReporter
 from drill_core.estimation_model import MEASUREMENT_NAMES
+from drill_core.tripping.run_end import RunEnd
 from drill_estimator.tick import EstimatorTick
 from drill_estimator.ukf import UpdateResult
 
@@ -57,8 +58,8 @@ class EstimatorNode(RigNode):
         self.frozen: tuple[str, ...] = ()
         self.steps = cfg.plant.steps_per_frame
         self.step_ns = int(round(cfg.plant.step_s * 1e9))
-        frame_ns = int(round(cfg.plant.sensor_period_s * 1e9))
-        self.end_ns = int(round(ctx.scenario.duration_s / cfg.plant.sensor_period_s)) * frame_ns
+        self.frame_ns = int(round(cfg.plant.sensor_period_s * 1e9))
+        self.end = RunEnd(ctx.scenario.duration_s, cfg.plant.sensor_period_s, ctx.scenario.trip)
         self.exit_code = 0
         self.status = StatusReporter(self, ctx.mode)
 
@@ -122,10 +123,13 @@ class EstimatorNode(RigNode):
                                       "lost (a later one came first): their inputs held")
                 frames = {name: self.frames.take(name, self.previous_ns)
                           for name in self.awaited if name not in lost}
+                if "floor" in frames:
+                    self.end.floor_frame(self.previous_ns // self.frame_ns,
+                                         frames["floor"].phase)
             else:
                 frames = {}
             self._process(self.pending.pop(stamp), frames)
-            if stamp == self.end_ns:
+            if stamp == self.end.last_k * self.frame_ns:
                 self._finish()
                 return
 
@@ -134,7 +138,7 @@ class EstimatorNode(RigNode):
         reader) has acknowledged it, exit, so a run never ends with the estimator behind
         (nothing waits for it in open-loop and baseline runs)."""
         self.pub.wait_for_all_acked(Duration(seconds=5.0))
-        self.get_logger().info(f"last sample estimated (t = {self.end_ns * 1e-9:.1f} s); exiting")
+        self.get_logger().info(f"last sample estimated (t = {self.end.end_s:.1f} s); exiting")
         self.finish()
 
     # -------------------------------------------------------------- filtering

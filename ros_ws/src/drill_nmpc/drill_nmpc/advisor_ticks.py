@@ -169,7 +169,10 @@ class NmpcTick:
     def floor_plan(self, x: np.ndarray, setpoints, floor, time_s: float):
         """The setpoints and pinned inputs (N_c x 4, NaN: free) of a multi-stand trip's
         sample: the stand's end as the block target while it moves; the stand-pipe pressure
-        over the horizon at the start's times the floor's pump share; while the floor has
+        over the horizon at the start's times the floor's pump share, the pump planned on
+        only above ``floor_pump_on_share`` of its rate (below, the bit's flow has stopped
+        going down and not started coming up: the annulus' back-pressure and the gelled
+        mud hold it, which the prediction's friction laws do not); while the floor has
         the string the block at the estimated string; the back-pressure pump at the
         conventional connection's flow while the slips are set. A stand racked (or made up)
         since the last sample: the supervisor of the new string's model, planning again from
@@ -197,7 +200,7 @@ class NmpcTick:
             fixed[:, U_BPP_FLOW] = CONNECTION_BPP_FLOW_M3S   # mud pump ramps down
         target = floor.advisor_target_m(position_m, self.trip.stand_length_m)
         setpoints = replace(setpoints, block_position_target_m=target,
-                            mud_pump_on=bool(step.pump_factor > 0.0))
+                            mud_pump_on=bool(step.pump_factor > self.cfg.floor_pump_on_share))
         return setpoints, fixed
 
     def command(self, result: SolveResult, mud_pump_on: bool) -> AdvisorCommand:

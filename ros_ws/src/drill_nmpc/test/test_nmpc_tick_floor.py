@@ -64,7 +64,12 @@ def test_the_floor_pins_the_pump_ramp_and_holds_the_block_in_the_slips(tick):
     assert fixed[0, U_PUMP_PRESSURE] == pytest.approx(SPP_PA * (1.0 - 15.5 / 30.0))
     assert fixed[-1, U_PUMP_PRESSURE] == pytest.approx(SPP_PA * 0.5 / 30.0)   # 29.5 s in
     assert np.isnan(fixed[:, U_BPP_FLOW]).all()
-    assert sp.mud_pump_on
+    share = tick.cfg.floor_pump_on_share          # the ramp planned with the pump on above it
+    assert 0.0 < share < 1.0
+    for factor, on in ((1.0, True), (share + 0.01, True), (share, False), (share - 0.01, False)):
+        sp, _ = tick.floor_plan(_estimate(tick, 27.9), _setpoints(), _floor(PUMP_DOWN, factor),
+                                190.0)
+        assert sp.mud_pump_on is on
     sp, _ = tick.floor_plan(_estimate(tick, 27.9), _setpoints(), _floor(CONNECTION, 0.0), 200.0)
     assert not sp.mud_pump_on
 

@@ -7,7 +7,8 @@ rig floor's command stamped t_k), integrate the frame and go on with t_{k+1}. Be
 connected, so no message is published into the void. realtime mode: a wall timer at
 the sensor rate integrates each frame with the latest actuator frames.
 The node exits (code 0) once every node has acted on the last sample of the scenario
-(the actuator frames stamped t_end have arrived). It is the world of the scenario's events
+(the actuator frames stamped t_end have arrived; a multi-stand trip's run may end before
+its duration, drill_core.tripping.run_end). It is the world of the scenario's events
 (drill_core.events): formation and choke-plugging events change the plant's parameters,
 sensor faults the published samples, and it announces every event on /rig/events when it
 starts and when it ends.
@@ -22,6 +23,7 @@ from drill_msgs.msg import ActuatorFrame, OperatorEvent, PlantTruth, RigFloor, R
 from rosgraph_msgs.msg import Clock
 
 from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
+from drill_core.tripping.run_end import RunEnd
 from drill_ros import progress, topics
 from drill_ros.context import load_context
 from drill_ros.events import event_message
@@ -54,7 +56,8 @@ class PlantNode(RigNode):
         self._pressure_rows = [self.layout.pressure(i) for i in range(1, n + 1)]
         self._flow_rows = [self.layout.flow(i) for i in range(2, n + 1)]
         self.frame_ns = seconds_to_ns(ctx.config.plant.sensor_period_s)
-        self.last_k = int(round(ctx.scenario.duration_s / ctx.config.plant.sensor_period_s))
+        self.end = RunEnd(ctx.scenario.duration_s, ctx.config.plant.sensor_period_s,
+                          ctx.scenario.trip)
         self.progress = progress.PlantProgress(ctx.config.plant.sensor_period_s, ctx.scenario.duration_s)
         self.k = 0
         self.inputs = (*topics.ACTUATORS, "floor") if self.tick.multi_stand else topics.ACTUATORS
@@ -101,7 +104,10 @@ class PlantNode(RigNode):
         if not self.frames.ready(stamp):
             return
         frames = {name: self.frames.take(name, stamp) for name in self.inputs}
-        if self.k < self.last_k:
+        if "floor" in frames:
+            self.end.floor_frame(self.k, frames["floor"].phase)
+            self.progress.duration_s = self.end.end_s
+        if self.k < self.end.last_k:
             self._advance(frames)
             return
         self._finish(stamp)     # the frames of the last sample: every node has acted on it
@@ -168,7 +174,7 @@ class PlantNode(RigNode):
         self.status.tick(stamp_ns)
         if self.ctx.fast:
             self._try_advance()
-        elif self.k >= self.last_k:
+        elif self.k >= self.end.last_k:
             self._finish(stamp_ns)
 
     def _truth_msg(self, stamp) -> PlantTruth:

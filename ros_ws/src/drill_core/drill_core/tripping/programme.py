@@ -29,6 +29,10 @@ class TripProgramme:
     discrepancy_alarm_m3: float = param(
         "m^3", 0.0, 10.0, lo_open=True, default=0.3,
         doc="the trip sheet alarms when measured and expected fill differ by more")
+    settle_s: float | None = param(
+        "s", 0.1, 3600.0, default=None,
+        doc="the run ends this long after the trip is done (unset: at the scenario's "
+            "duration_s, which caps it in any case)")
 
     @property
     def stands_pulled_at_start(self) -> int:
