@@ -300,21 +300,27 @@ def plant_text(mismatch: dict | None) -> str:
 
 
 def format_table(name: str, summary: dict, baseline: dict | None = None,
-                 units: Display = METRIC_DISPLAY) -> str:
-    """Human-readable summary in drilling units (``units``: metric or field)."""
+                 units: Display = METRIC_DISPLAY, multi_stand: bool = False) -> str:
+    """Human-readable summary in drilling units (``units``: metric or field). A multi-stand
+    trip's (``multi_stand``) leaves out the block's distance, position error and legs: the
+    string's position counts from a new top after each connection, so each stand's move
+    is read in the trip sheet instead."""
     p, bar = units.factor("pressure"), units.symbol("pressure")
     rows = [
         f"Run: {name}",
         f"  duration                      {summary['duration_s']:.0f} s",
         f"  plant                         {plant_text(summary.get('plant_mismatch'))}",
+        f"  string speed                  max {summary['max_string_speed_mps']:.2f} m/s "
+        "(each stand's move: the trip sheet below)" if multi_stand else
         f"  trip distance                 {summary['trip_distance_m']:.1f} m "
         f"(max string speed {summary['max_string_speed_mps']:.2f} m/s)",
     ]
     if "bhp_rmse_pa" in summary:
         rows += [
             "  Table 7 form                  mean error      RMSE",
-            f"    block position [m]         {summary['block_position_mean_error_m']:10.3f}  "
-            f"{summary['block_position_rmse_m']:9.3f}",
+            *(() if multi_stand else (
+                f"    block position [m]         {summary['block_position_mean_error_m']:10.3f}  "
+                f"{summary['block_position_rmse_m']:9.3f}",)),
             f"    BHP [{bar}]                  {summary['bhp_mean_error_pa'] * p:10.3f}  "
             f"{summary['bhp_rmse_pa'] * p:9.3f}  (after the first {SETTLE_S:.0f} s: "
             f"{summary['bhp_rmse_settled_pa'] * p:.3f})",
@@ -322,8 +328,9 @@ def format_table(name: str, summary: dict, baseline: dict | None = None,
             f"(worst {summary['bhp_worst_excursion_pa'] * p:.2f} {bar} outside, "
             f"{summary['bhp_time_outside_s']:.1f} s outside, "
             f"{summary['bhp_time_outside_settled_s']:.1f} s after the first {SETTLE_S:.0f} s)",
-            f"  trip legs                     {format_legs(summary['trip_legs'])} "
-            f"(past the target by {summary['trip_overshoot_m']:.2f} m at most)",
+            *(() if multi_stand else (
+                f"  trip legs                     {format_legs(summary['trip_legs'])} "
+                f"(past the target by {summary['trip_overshoot_m']:.2f} m at most)",)),
         ]
     else:
         rows.append("  Table 7 form, BHP window      n/a (open loop: no setpoints to track)")
@@ -480,8 +487,8 @@ def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | Non
         recorded = mcap_io.read_metadata(mcap_path, mcap_io.TRUTH_METADATA)
         summary["plant_mismatch"] = json.loads(recorded["truth"]) if recorded else None
         plots = plot(series, out_dir / "plots", units)
-        table = format_table(name, summary, baseline, units)
         sheet = trip_sheet_report.trip_sheet(mcap_path, load_rig(run_config_dir(out_dir)))
+        table = format_table(name, summary, baseline, units, multi_stand=sheet is not None)
         if sheet is not None:                   # a multi-stand trip
             summary.update(sheet)
             table += "\n" + "\n".join(trip_sheet_report.format_sheet(sheet))

@@ -47,7 +47,7 @@ from drill_ros.runner import run
 from drill_ros.stamps import from_ns, seconds_to_ns, to_ns
 from drill_nmpc.advisor_node import AdvisorNode
 from drill_nmpc.advisor_ticks import NmpcTick
-from drill_nmpc.prediction_model import nmpc_estimation_model
+from drill_nmpc.prediction_model import frame_measurements, nmpc_estimation_model
 from drill_nmpc.setpoint_book import as_delivered, within_speed_limits
 from drill_nmpc.setpoint_messages import merge_request, to_msg
 from drill_nmpc.soft_constraints import SLACK_NAMES
@@ -69,16 +69,15 @@ class NmpcNode(AdvisorNode):
         # initial states of the modelled actuator lags; in fast mode the frames stamped
         # t_k - t_m are awaited (each carries the output up to t_k).
         model = self.tick.supervisor.model
-        wanted = {"drawworks": ("block_m", model.block), "bpp": ("bpp_flow_m3s", model.bpp),
-                  "mud_pump": ("spp_pa", model.pump)}
-        self.frame_keys = {name: key for name, (key, index) in wanted.items() if index is not None}
-        self.frames: dict[str, dict[int, dict]] = {name: {} for name in self.frame_keys}
+        lagged = {"drawworks": model.block, "bpp": model.bpp, "mud_pump": model.pump}
+        self.framed = tuple(name for name, index in lagged.items() if index is not None)
+        self.frames: dict[str, dict[int, dict]] = {name: {} for name in self.framed}
         self.last_estimate_ns: int | None = None
         self.commands = 0
 
         self.status_pub = self.create_publisher(NmpcStatus, topics.NMPC_STATUS, topics.RELIABLE)
         self.create_service(SetSetpoints, topics.SET_SETPOINTS, self._on_set_setpoints)
-        for name in wanted:      # all three, as drill_ros.graph declares; unmodelled ones unused
+        for name in lagged:      # all three, as drill_ros.graph declares; unmodelled ones unused
             self.create_subscription(ActuatorFrame, topics.actuator_frame(name),
                                      lambda msg, n=name: self._on_frame(n, msg), topics.RELIABLE)
         self.create_subscription(StateEstimate, topics.ESTIMATE, self._on_estimate, topics.RELIABLE)
@@ -125,14 +124,11 @@ class NmpcNode(AdvisorNode):
         self.offer(msg, stamp)
 
     def _on_frame(self, name: str, msg: ActuatorFrame) -> None:
-        if name in self.frame_keys and len(msg.output):
+        if name in self.framed and len(msg.output):
             stamp = to_ns(msg.header.stamp)
             slot = self.frames[name]
-            values = {self.frame_keys[name]: float(msg.output[-1])}   # output at t + t_m - dt
-            if name == "drawworks":         # the block controller's state behind the output
-                values.update(block_command_m=float(msg.command),
-                              block_reference_m=float(msg.reference))
-            slot[stamp] = values
+            slot[stamp] = frame_measurements(name, msg.output[-1], float(msg.command),
+                                             float(msg.reference))   # output at t + t_m - dt
             for old in [k for k in slot if k < stamp - 10 * self.frame_ns]:
                 del slot[old]
         self.try_pending()
@@ -140,7 +136,7 @@ class NmpcNode(AdvisorNode):
     def _actuators(self, stamp: int):
         """(ready, measured actuator outputs) for the estimate stamped ``stamp``."""
         out = {}
-        for name in self.frame_keys:
+        for name in self.framed:
             slot = self.frames[name]
             if self.ctx.fast:
                 due = stamp - self.frame_ns

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import casadi as ca
@@ -86,6 +87,30 @@ class ActuatorLags:
 
 
 ACTUATOR_KEYS = ("block_m", "bpp_flow_m3s", "spp_pa")    # measured actuator outputs
+# the actuator whose frame's last output is each of them
+FRAME_OUTPUTS = {"drawworks": "block_m", "bpp": "bpp_flow_m3s", "mud_pump": "spp_pa"}
+
+
+def frame_measurements(name: str, last_output: float, command: float | None = None,
+                       reference: float | None = None) -> dict:
+    """What actuator ``name``'s frame tells the NMPC (``Supervisor.step``'s ``actuators``):
+    its output at the frame's end, and the drawworks' the block controller's command and
+    reference behind it (None: not known)."""
+    values = {FRAME_OUTPUTS[name]: float(last_output)}
+    if name == "drawworks":
+        values.update(block_command_m=command, block_reference_m=reference)
+    return values
+
+
+def measured_actuators(frames: Mapping) -> dict:
+    """``frame_measurements`` of every actuator frame in ``frames`` (by actuator name;
+    each with ``output``, ``command`` and ``reference``) that the NMPC reads."""
+    out = {}
+    for name, frame in frames.items():
+        if name in FRAME_OUTPUTS:
+            out.update(frame_measurements(name, frame.output[-1], frame.command,
+                                          frame.reference))
+    return out
 # The lagged actuator outputs' state names, in the prediction state's order after the
 # estimation model's evolving states, and the lag each needs.
 LAGGED_OUTPUTS = (("drawworks_output_m", "drawworks_s"), ("bpp_flow_output_m3s", "bpp_s"),

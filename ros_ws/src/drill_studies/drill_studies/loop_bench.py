@@ -34,7 +34,7 @@ from drill_core.estimation_model import (BLOCK_INTEGRAL, BULK_MODULUS, DENSITY_O
                                          fitted_friction_parameters)
 from drill_core.event_codes import Notice
 from drill_core.events import ACTUATORS
-from drill_core.input_layout import U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
+from drill_core.input_layout import U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
 from drill_core.mismatch import Mismatch, resolve, truth_config
 from drill_core.operating_point import initial_operating_point
 from drill_ros.stamps import NS_PER_S, seconds_to_ns
@@ -44,7 +44,7 @@ from drill_estimator.tick import EstimatorTick
 from drill_nmpc.advisor_ticks import (AdvisorCommand, AutomatedMpdTick, BaselineTick, NmpcTick,
                                       StartInputs, SupervisorRequest)
 from drill_nmpc.automated_mpd import EstimateView
-from drill_nmpc.prediction_model import nmpc_estimation_model
+from drill_nmpc.prediction_model import measured_actuators, nmpc_estimation_model
 from drill_nmpc.setpoint_book import SetpointBook, as_delivered, within_speed_limits
 from drill_nmpc.setpoint_validation import Envelope
 from drill_nmpc.solve_result import Fallback
@@ -195,14 +195,11 @@ class NmpcController:
         self.solve_times: list[float] = []
         self.statuses: list[tuple] = []        # per fallback: (t, fallback, status, reasons)
 
-    def step(self, x_hat, sp, inputs, t: float, flow_observable: bool,
+    def step(self, x_hat, sp, t: float, flow_observable: bool,
              mud_pump_on: bool) -> AdvisorCommand:
-        frame = self.rig.frames.get("drawworks") if self.block_integral else None
-        actuators = {} if not self.rig.frames else {     # the node's: no frame before t_0
-            "block_m": inputs[U_BLOCK, -1], "bpp_flow_m3s": inputs[U_BPP_FLOW, -1],
-            "spp_pa": inputs[U_PUMP_PRESSURE, -1],
-            "block_command_m": frame.command if frame else None,
-            "block_reference_m": frame.reference if frame else None}
+        actuators = measured_actuators(self.rig.frames)     # the node's: no frame before t_0
+        if not self.block_integral and actuators:
+            actuators.update(block_command_m=None, block_reference_m=None)
         r = self.tick.step(x_hat, as_delivered(sp, flow_observable), actuators)
         self.solve_times.append(r.solve_time_s)
         if r.fallback is not Fallback.NONE:
@@ -303,7 +300,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
             applied = math.nan if answer is None else answer.block_position_ref_m
             if nmpc is not None:
                 advised = nmpc.step(x_hat, within_speed_limits(sp, limits, view.string_position_m),
-                                    inputs, t, bool(m.string_flow_valid), sp.mud_pump_on)
+                                    t, bool(m.string_flow_valid), sp.mud_pump_on)
             elif baseline is not None:
                 advised, _ = baseline.step(m.block_position_m, m.bhp_pa, sp, book.bhp_resolved,
                                            applied, m.return_flow_m3s)

@@ -51,7 +51,7 @@ from drill_estimator.tick import EstimatorTick
 from drill_studies.loop_bench import ukf_view
 from drill_core.estimation_model import build_estimation_model
 from drill_nmpc.advisor_ticks import AutomatedMpdTick, BaselineTick, NmpcTick, StartInputs
-from drill_nmpc.prediction_model import nmpc_estimation_model
+from drill_nmpc.prediction_model import measured_actuators, nmpc_estimation_model
 from drill_plant import plant_model as pm
 from drill_plant.actuators import Choke, Drawworks, FrameOutput, Pump
 from drill_plant.floor_tick import FloorTick
@@ -164,13 +164,8 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
                                  (trip_speed_mps, trip_speed_mps), math.nan, command)
             advised_at_frame = k
         if nmpc is not None and k % per_command == 0 and estimator.ukf.initialised:
-            hoist = frames.get("drawworks")
-            actuators = {} if not frames else {
-                "block_m": hoist.output[-1], "bpp_flow_m3s": frames["bpp"].output[-1],
-                "spp_pa": frames["mud_pump"].output[-1],
-                "block_command_m": hoist.command, "block_reference_m": hoist.reference}
-            result = nmpc.step(estimator.ukf.mean, _setpoints(trip_speed_mps), actuators,
-                               command, t)
+            result = nmpc.step(estimator.ukf.mean, _setpoints(trip_speed_mps),
+                               measured_actuators(frames), command, t)
             solve_times.append(result.solve_time_s)
             advice = nmpc.command(result, True)
         if step.phase == MOVING and advice is not None and controller != "held_choke":
