@@ -69,6 +69,14 @@ def test_each_stand_goes_through_its_phases_and_is_racked(run):
             truth[k].string_position_m + step_m, abs=0.01)
 
 
+def test_the_run_ends_its_settle_time_after_the_trip(run):
+    """The scenario's trip: settle_s (60 s) after the floor's first 'done': the plant's last
+    sample and the estimator's last estimate, well before the scenario's 620 s."""
+    floor, measurement, truth, _ = run
+    done = min(k for k in floor if floor[k].phase == "done")
+    assert max(truth) == max(measurement) == done + 600 < 6200
+
+
 def test_the_slips_carry_the_string_and_the_pump_stops_for_the_connections(run):
     floor, measurement, truth, _ = run
     connection = [k for k in sorted(floor) if floor[k].phase == "connection"]

@@ -86,9 +86,9 @@ class ActuatorLags:
         return cls(a.drawworks.time_constant_s, a.bpp.time_constant_s, a.mud_pump.time_constant_s)
 
 
-ACTUATOR_KEYS = ("block_m", "bpp_flow_m3s", "spp_pa")    # measured actuator outputs
-# the actuator whose frame's last output is each of them
+# the measured actuator outputs, each by the actuator whose frame's last output it is
 FRAME_OUTPUTS = {"drawworks": "block_m", "bpp": "bpp_flow_m3s", "mud_pump": "spp_pa"}
+ACTUATOR_KEYS = tuple(FRAME_OUTPUTS.values())    # block_m, bpp_flow_m3s, spp_pa
 
 
 def frame_measurements(name: str, last_output: float, command: float | None = None,
@@ -111,6 +111,8 @@ def measured_actuators(frames: Mapping) -> dict:
             out.update(frame_measurements(name, frame.output[-1], frame.command,
                                           frame.reference))
     return out
+
+
 # The lagged actuator outputs' state names, in the prediction state's order after the
 # estimation model's evolving states, and the lag each needs.
 LAGGED_OUTPUTS = (("drawworks_output_m", "drawworks_s"), ("bpp_flow_output_m3s", "bpp_s"),
