@@ -150,13 +150,14 @@ class EstimatorNode(RigNode):
             steps = int(np.clip(round((stamp - self.previous_ns) / self.step_ns), 1, 10 * self.steps))
         initialised = self.ukf.initialised
         floor = frames.pop("floor", None)
-        held = False
+        held = pump_stopped = False
         if floor is not None:
             command = floor_command(floor)
             if command.racked_to_m is not None:
                 self.tick.rack(command.racked_from_m, command.racked_to_m)
             held = command.string_held
-        tick = self.tick.step(stamp * 1e-9, msg, frames, steps, held)
+            pump_stopped = command.step.pump_factor == 0.0
+        tick = self.tick.step(stamp * 1e-9, msg, frames, steps, held, pump_stopped)
         self.frozen = tick.frozen
         for problem in tick.problems:
             self.status.error(problem)

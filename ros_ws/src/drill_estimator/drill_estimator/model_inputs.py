@@ -2,11 +2,12 @@
 plant step, from the actuators' frames.
 
 The choke flow is the Coriolis return-flow meter's last good sample on the choke line, held
-over the frame, while the well circulates; while that sample is NaN, inf or frozen, or the
-string-flow meter reads no circulation, a virtual flow meter takes it from
-the valve law with the choke opening and the last accepted measured choke differential
-pressure (a plugging choke deceives the valve law: it passes less than the law says). A
-missing or bad frame holds its actuator's last good value, and says so.
+over the frame, while the well circulates or the rig floor has stopped the mud pump for a
+connection; while that sample is NaN, inf or frozen, or the mud pump delivers nothing
+otherwise (a trip), a virtual flow meter takes it from the valve law with the choke
+opening and the last accepted measured choke differential pressure (a plugging choke
+deceives the valve law: it passes less than the law says). A missing or bad frame holds
+its actuator's last good value, and says so.
 """
 from __future__ import annotations
 
@@ -100,13 +101,16 @@ class ModelInputs:
         self.choke_dp_pa = float(choke_dp_pa)
 
     def observe_return_flow(self, time_s: float, return_flow_m3s: float,
-                            circulating: bool) -> None:
+                            meter_trusted: bool) -> None:
         """A return-flow sample: the choke flow of the next frame, unless NaN, inf or
-        frozen, or the string-flow meter reads no circulation (then the valve law's: with
-        the mud pump tripped the meter's input put a pump-trip run 11 s over the fracture
-        pressure, docs/faults.md)."""
+        frozen, or not ``meter_trusted`` (then the valve law's). The caller trusts the
+        meter while the well circulates and through a connection's planned stop of the mud
+        pump, where the valve law's error in the choke's coefficient put the estimate's
+        density on the wrong side (docs/experiments/2026-12-06-multi-stand-mismatch-
+        bench.md); not after a trip of the pump, where the meter's input put a pump-trip
+        run 11 s over the fracture pressure (docs/faults.md)."""
         screened, _ = self.flow_watch.screen(time_s, [return_flow_m3s])
-        self.return_flow_m3s = float(screened[0]) if circulating else math.nan
+        self.return_flow_m3s = float(screened[0]) if meter_trusted else math.nan
 
     def frame(self, frames: Mapping[str, object], steps: int) -> tuple[np.ndarray, list[str]]:
         """Inputs [4 x steps] from ``frames`` (actuator name -> its frame, with ``output``

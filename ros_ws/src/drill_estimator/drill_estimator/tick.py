@@ -83,11 +83,13 @@ class EstimatorTick:
         return {**frames, "drawworks": virtual}
 
     def step(self, time_s: float, m, frames: Mapping[str, object], steps: int,
-             string_held: bool = False) -> TickResult:
+             string_held: bool = False, pump_stopped_by_floor: bool = False) -> TickResult:
         """Take the measurement ``m`` (drill_msgs/RigMeasurement fields) at ``time_s`` after
         ``steps`` plant steps driven by ``frames`` (actuator name -> its frame: ``output``
         samples and ``reference``; absent when it did not come); ``string_held``: the slips
-        held the string over those steps (the block free)."""
+        held the string over those steps (the block free); ``pump_stopped_by_floor``: the
+        rig floor had the mud pump stopped for a connection (the return-flow meter stays the
+        choke flow's input, :meth:`ModelInputs.observe_return_flow`)."""
         circulating = bool(m.string_flow_valid)
         y, frozen = self.watch.screen(time_s, [
             m.block_position_m, m.choke_dp_pa, m.bhp_pa,
@@ -101,7 +103,8 @@ class EstimatorTick:
             x0 = ukf.initial_state(y, circulating)
             ukf.initialise(x0)
             self.inputs.start(x0, float(y[1]))
-            self.inputs.observe_return_flow(time_s, m.return_flow_m3s, circulating)
+            self.inputs.observe_return_flow(time_s, m.return_flow_m3s,
+                                            circulating or pump_stopped_by_floor)
             return TickResult(None, (), frozen)
         if string_held:
             frames = self._string_held(frames, steps)
@@ -113,7 +116,8 @@ class EstimatorTick:
         result = ukf.update(y, circulating)
         if result.accepted and np.isfinite(y[1]):
             self.inputs.accept_choke_dp(float(y[1]))
-        self.inputs.observe_return_flow(time_s, m.return_flow_m3s, circulating)
+        self.inputs.observe_return_flow(time_s, m.return_flow_m3s,
+                                        circulating or pump_stopped_by_floor)
         if not result.accepted:
             problems.append(f"measurement at {time_s:.3f} s rejected: {y.tolist()}")
         elif result.dropped:

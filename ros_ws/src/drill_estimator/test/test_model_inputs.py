@@ -92,6 +92,6 @@ def test_choke_flow_is_the_return_flow_sample_and_the_valve_law_only_while_it_is
     inputs.observe_return_flow(1.0, 0.02, True)   # it moves again: back on the meter
     u, _ = inputs.frame(choke, 3)
     assert np.allclose(u[1], 0.02)
-    inputs.observe_return_flow(1.1, 0.03, False)  # no circulation: the valve law
+    inputs.observe_return_flow(1.1, 0.03, False)  # not trusted (a tripped pump): the valve law
     u, _ = inputs.frame(choke, 3)
     assert np.allclose(u[1], valve_law)

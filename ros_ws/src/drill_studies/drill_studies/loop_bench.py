@@ -122,29 +122,31 @@ class Rig:
 
 
 class TruthState:
-    """Oracle: the estimate view of the true state (friction factors fitted to the truth)."""
+    """Oracle: the estimate view of the true state of the plant simulator ``sim`` (built from
+    ``config``; friction factors fitted to the truth for the model ``em``, which a caller
+    may swap as the string is racked), the block controller's integral from ``drawworks``."""
 
-    def __init__(self, rig: Rig, em):
-        self.rig, self.em = rig, em
+    def __init__(self, sim, config: RigConfig, drawworks, em):
+        self.sim, self.config, self.drawworks, self.em = sim, config, drawworks, em
 
     def _string_friction_factor(self, x, lay) -> float:
         """The truth's string friction over the model's at the true flow and speed."""
         q, v = float(x[lay.string_flow]), float(x[lay.velocity])
         model = float(hy.string_friction(NUMPY, self.em.wm, q, v))
-        return float(hy.string_friction(NUMPY, self.rig.sim.wm, q, v)) / model if model else 1.0
+        return float(hy.string_friction(NUMPY, self.sim.wm, q, v)) / model if model else 1.0
 
     def observe(self, m, inputs, t: float) -> tuple[EstimateView, np.ndarray]:
-        truth, lay = self.rig.sim.truth(), self.rig.layout
+        truth, lay = self.sim.truth(), self.sim.layout
         x = truth.state
         flows = [x[lay.flow(i)] for i in range(2, self.em.n + 1)]
         theta = fitted_friction_parameters(self.em, flows, truth.annulus_friction_pa,
                                            float(x[lay.velocity]))
         x_hat = self.em.vector({**dict(zip(lay.names, x)),
-                                BLOCK_INTEGRAL: self.rig.drawworks.integral_m_s,
-                                DENSITY_OFFSET: self.rig.config.well.mud.density_kgm3
+                                BLOCK_INTEGRAL: self.drawworks.integral_m_s,
+                                DENSITY_OFFSET: self.config.well.mud.density_kgm3
                                 - self.em.wm.well.mud.density_kgm3,
                                 STRING_FRICTION: self._string_friction_factor(x, lay),
-                                BULK_MODULUS: self.rig.config.well.mud.bulk_modulus_pa
+                                BULK_MODULUS: self.config.well.mud.bulk_modulus_pa
                                 / self.em.wm.well.mud.bulk_modulus_pa,
                                 **{self.em.theta_name(i): v for i, v in enumerate(theta, 2)}})
         return EstimateView(bhp_pa=float(x[lay.pressure(self.em.n)]),
@@ -263,7 +265,8 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
     wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
                              config.plant.choke_regularisation_pa)      # the model's
     em = build_estimation_model(config)
-    source = TruthState(rig, em) if state == "truth" else UkfState(config, rig)
+    source = TruthState(rig.sim, rig.config, rig.drawworks, em) if state == "truth" \
+        else UkfState(config, rig)
     book = SetpointBook(scenario, initial_setpoints(config, scenario),
                         Envelope.from_config(config, wm.geometry))
     ini = scenario.initial      # where the controllers believe the run starts: the model's

@@ -24,6 +24,7 @@ loop, its back-pressure pump through the pump's lag.
 
     python -m drill_studies.trip_bench [--stands 2] [--round-trip] [--controller baseline]
                                        [--connection-s 90] [--settle-s 180] [--seed 12]
+                                       [--mismatch thick_report] [--state truth]
 
 prints the trip sheet (per stand, slips to slips) and the trip's figures.
 """
@@ -39,6 +40,7 @@ import numpy as np
 
 from drill_core.config import RigConfig, load_rig
 from drill_core.hydraulics import build_well_model
+from drill_core.mismatch import resolve, truth_config
 from drill_core.tripping.programme import TripProgramme
 from drill_core.tripping.rig_floor import RigFloor
 from drill_core.tripping.sequence import DONE, MOVING
@@ -48,7 +50,7 @@ from drill_core.rig_root import config_dir
 from drill_core.units import L_PER_M3, PA_PER_BAR
 from drill_core.scenario import ActiveSetpoints
 from drill_estimator.tick import EstimatorTick
-from drill_studies.loop_bench import ukf_view
+from drill_studies.loop_bench import TruthState, ukf_view
 from drill_core.estimation_model import build_estimation_model
 from drill_nmpc.advisor_ticks import AutomatedMpdTick, BaselineTick, NmpcTick, StartInputs
 from drill_nmpc.prediction_model import measured_actuators, nmpc_estimation_model
@@ -63,6 +65,7 @@ BHP_REF_PA = 6.85e7
 BHP_BAND_PA = 2.0e5
 BRAKING_MPS2 = 0.05
 CONTROLLERS = ("held_choke", "baseline", "automated_mpd", "nmpc")
+STATE_SOURCES = ("ukf", "truth")
 
 
 @dataclass
@@ -82,29 +85,40 @@ class TripRun:
 def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
              trip_speed_mps: float = 0.5, settle_s: float = 180.0,
              floor_aware: bool = True, max_s: float = 7200.0,
-             controller: str = "held_choke") -> TripRun:
+             controller: str = "held_choke", plant_config: RigConfig | None = None,
+             state: str = "ukf") -> TripRun:
     """The trips ``programmes`` one after the other (each from the stands the last left
     pulled) from the steady state circulating 1000 L/min at 20 bar of choke dp, then
     ``settle_s`` at rest with the pump on; the estimator follows the floor if
-    ``floor_aware``; ``controller`` one of CONTROLLERS."""
+    ``floor_aware``; ``controller`` one of CONTROLLERS. ``plant_config``: the plant and
+    the actuators are built from it, the estimator and the controller from ``config``
+    (drill_core.mismatch.truth_config; None: the same). ``state``: what the NMPC plans
+    from, one of STATE_SOURCES (``truth``: the oracle of drill_studies.loop_bench)."""
     if controller not in CONTROLLERS:
         raise ValueError(f"controller {controller!r} is not one of {', '.join(CONTROLLERS)}")
-    wm = build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                          config.plant.choke_regularisation_pa)
+    if state not in STATE_SOURCES:
+        raise ValueError(f"state {state!r} is not one of {', '.join(STATE_SOURCES)}")
+    model_wm = _well_model(config)
+    plant_config = config if plant_config is None else plant_config
+    wm = _well_model(plant_config)
     start = pm.steady_state(wm, CIRCULATION_M3S, CHOKE_DP_PA, 0.0)
-    sim = PlantSimulator(config, start, seed=seed)
+    sim = PlantSimulator(plant_config, start, seed=seed)
     sim.line_up_trip_tank(True)
     steps, step_s = sim.steps_per_frame, config.plant.step_s
     frame_s = steps * step_s
     remaining = list(programmes)
-    drawworks = Drawworks(config.actuators, wm.geometry.static_stretch_m, start.inputs[0])
+    drawworks = Drawworks(plant_config.actuators, wm.geometry.static_stretch_m,
+                          start.inputs[0])
     floor_tick = FloorTick(config.well, remaining.pop(0), float(start.inputs[0]), step_s)
     floor = floor_tick.floor
     spp_pa = start.inputs[3]
-    mud_pump = Pump(config.actuators.mud_pump, spp_pa)
+    mud_pump = Pump(plant_config.actuators.mud_pump, spp_pa)
     estimator = EstimatorTick(config)
-    choke = Choke(config.actuators, wm, float(start.inputs[1]))
-    start_inputs = StartInputs(start.choke_flow_m3s, CHOKE_DP_PA, 0.0, spp_pa, True)
+    oracle = TruthState(sim, plant_config, drawworks, estimator.ukf.em)
+    choke = Choke(plant_config.actuators, wm, float(start.inputs[1]))
+    designed = pm.steady_state(model_wm, CIRCULATION_M3S, CHOKE_DP_PA, 0.0)  # the model's
+    start_inputs = StartInputs(designed.choke_flow_m3s, CHOKE_DP_PA, 0.0, designed.inputs[3],
+                               True)
     baseline = BaselineTick(config, trip_speed_mps, start_inputs, trip=floor.programme) \
         if controller == "baseline" else None
     bpp = Pump(config.actuators.bpp, 0.0)
@@ -119,12 +133,13 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     volumes = StandVolumes.of(wm.geometry, floor.programme.stand_length_m)
     sheets = [TripSheet(floor.programme, volumes, BHP_BAND_PA)]
     u = start.inputs.copy()
-    reference_m, frames, string_held, settled_at = 0.0, {}, False, None
+    reference_m, frames, string_held, pump_stopped, settled_at = 0.0, {}, False, False, None
     alarms, rows = [], []
     tank_start_m3 = sim.measure(True).trip_tank_volume_m3
+    pump_on = True
     for k in range(int(round(max_s / frame_s))):
         t = k * frame_s
-        m = sim.measure(sim.inputs[3] > 0.0)
+        m = sim.measure(pump_on)
         if "drawworks" in frames:
             floor_tick.drawworks_frame(frames["drawworks"].output)
         command = floor_tick.step(t, m.hook_load_n, m.block_position_m)
@@ -136,7 +151,8 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
             sheets.append(TripSheet(floor.programme, volumes, BHP_BAND_PA))
             command = floor_tick.step(t, m.hook_load_n, m.block_position_m)
         step = command.step
-        estimator.step(t, m, frames, steps, string_held and floor_aware)
+        estimator.step(t, m, frames, steps, string_held and floor_aware,
+                       pump_stopped and floor_aware)
         if command.racked_to_m is not None and floor_aware:
             estimator.rack(command.racked_from_m, command.racked_to_m)
         alarms += sheets[-1].observe(t, step, m.bhp_pa, BHP_REF_PA, m.trip_tank_volume_m3)
@@ -152,7 +168,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
         if command.racked_to_m is not None:
             sim.rack_string(command.racked_to_m)
         sim.set_hoisting(step.latched, step.slips_set)
-        string_held = command.string_held
+        string_held, pump_stopped = command.string_held, step.pump_factor == 0.0
         target = step.bit_height_target_m - floor.pulled_m
         if baseline is not None and k % per_command == 0:
             advice, _ = baseline.step(m.block_position_m, m.bhp_pa,
@@ -164,7 +180,9 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
                                  (trip_speed_mps, trip_speed_mps), math.nan, command)
             advised_at_frame = k
         if nmpc is not None and k % per_command == 0 and estimator.ukf.initialised:
-            result = nmpc.step(estimator.ukf.mean, _setpoints(trip_speed_mps),
+            oracle.em = estimator.ukf.em                     # the model as racked
+            x_hat = estimator.ukf.mean if state == "ukf" else oracle.observe(m, None, t)[1]
+            result = nmpc.step(x_hat, _setpoints(trip_speed_mps),
                                measured_actuators(frames), command, t)
             solve_times.append(result.solve_time_s)
             advice = nmpc.command(result, True)
@@ -181,6 +199,8 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
             block = drawworks.drive_block(command.block_target_m if step.phase != DONE
                                           else drawworks.lag.value, step_s, steps)
         pump = mud_pump.frame(spp_pa * step.pump_factor, step_s, steps)
+        pump_on = step.pump_factor > 0.0   # the string-flow meter reads while the pump is on,
+        #                                    as the plant node has it (drill_plant.plant_tick)
         inputs = np.repeat(u[:, None], steps, axis=1)
         valve = FrameOutput(u[1], u[1], inputs[1])
         if (baseline is not None or nmpc is not None) and advice is not None:
@@ -202,6 +222,11 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
              "bit_height_m", "bhp_pa", "bhp_estimate_pa")
     log = {name: np.array(column) for name, column in zip(names, zip(*rows))}
     return TripRun(sim, floor, sheets, alarms, log, tank_start_m3 - tank_end_m3, solve_times)
+
+
+def _well_model(config: RigConfig):
+    return build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
+                            config.plant.choke_regularisation_pa)
 
 
 def _setpoints(trip_speed_mps: float) -> ActiveSetpoints:
@@ -261,13 +286,19 @@ def main(argv=None) -> int:
     parser.add_argument("--settle-s", type=float, default=180.0,
                         help="at rest after the trip, the pump on, before the tank is read [s]")
     parser.add_argument("--seed", type=int, default=12)
+    parser.add_argument("--mismatch", help="the plant differs from the model: a member of "
+                                           "config/mismatch.yaml or draw:N")
+    parser.add_argument("--state", choices=STATE_SOURCES, default="ukf",
+                        help="what the NMPC plans from (truth: an oracle)")
     args = parser.parse_args(argv)
     config = load_rig(config_dir())
+    plant_config = None if args.mismatch is None else \
+        truth_config(config, resolve(args.mismatch, config_dir())[1])
     directions = ("out", "in") if args.round_trip else ("out",)
     programmes = [TripProgramme(direction=d, stands=args.stands,
                                 connection_s=args.connection_s) for d in directions]
     run = run_trip(config, programmes, args.seed, settle_s=args.settle_s,
-                   controller=args.controller)
+                   controller=args.controller, plant_config=plant_config, state=args.state)
     print("\n".join(sheet_table(run)) + "\n")
     f = trip_figures(run, config.well.formation.pore_pressure_pa)
     print(f"stands per hour {f['stands_per_hour']:.1f}; BHP RMSE "

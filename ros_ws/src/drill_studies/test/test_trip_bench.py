@@ -143,3 +143,24 @@ def test_automated_mpds_pressure_loop_keeps_the_connection_over_the_pore_pressur
     assert mpd.floor.stands_pulled == 1
     assert mpd.sim.truth().influx_volume_m3 < 0.005
     assert mpd.log["bhp_pa"].min() > load_rig(config_dir()).well.formation.pore_pressure_pa
+
+
+def test_a_mismatch_is_given_to_the_plant_only():
+    """``plant_config`` builds the plant (and its actuators); the estimator and the
+    controller keep the model. A mud 1 % heavier than reported starts the bench's well
+    (circulating, the same choke dp) about 1 % of the hydrostatic head higher at the
+    bottom: 0.01 rho g D, the string's friction aside."""
+    from drill_core.mismatch import Mismatch, truth_config
+    model = load_rig(config_dir())
+    heavier = truth_config(model, Mismatch(density_factor=1.01))
+    programme = [TripProgramme(direction="out", stands=1, stand_length_m=STAND_M)]
+    own = run_trip(model, programme, seed=12, settle_s=0.0, max_s=1.0)
+    other = run_trip(model, programme, seed=12, settle_s=0.0, max_s=1.0, plant_config=heavier)
+    assert other.sim.config is heavier and own.sim.config is model
+    mud = model.well.mud
+    depth_m = sum(model.well.segment_lengths_m)                  # a vertical well
+    head_pa = 0.01 * mud.density_kgm3 * model.well.gravity_mps2 * depth_m
+    rise_pa = other.log["bhp_pa"][0] - own.log["bhp_pa"][0]
+    assert rise_pa == pytest.approx(head_pa, rel=0.15)
+    with pytest.raises(ValueError, match="state 'oracle' is not one of ukf, truth"):
+        run_trip(model, programme, seed=12, state="oracle")
