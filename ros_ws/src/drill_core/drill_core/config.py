@@ -351,6 +351,10 @@ class Estimator:
             "outputs are averaged over each")
     jit: bool = param(default=False, doc="compile the time update to C (cached; needs a C "
                                          "compiler); same numbers, half the frame time")
+    valve_law_calibration_s: float = param(
+        "s", 0.0, 3600.0, lo_open=True, default=30.0,
+        doc="time constant of the return-flow meter's calibration of the valve law (meter "
+            "flow over the law's), applied while the rig floor has the mud pump stopped")
 
     def validate(self) -> None:
         for key in ("rig_process_std", "initial_rig_std"):

@@ -2,12 +2,14 @@
 plant step, from the actuators' frames.
 
 The choke flow is the Coriolis return-flow meter's last good sample on the choke line, held
-over the frame, while the well circulates or the rig floor has stopped the mud pump for a
-connection; while that sample is NaN, inf or frozen, or the mud pump delivers nothing
-otherwise (a trip), a virtual flow meter takes it from the valve law with the choke
-opening and the last accepted measured choke differential pressure (a plugging choke
-deceives the valve law: it passes less than the law says). A missing or bad frame holds
-its actuator's last good value, and says so.
+over the frame, while the well circulates; while that sample is NaN, inf or frozen, or the
+string-flow meter reads no circulation, a virtual flow meter takes it from the valve law
+with the choke opening and the last accepted measured choke differential pressure (a
+plugging choke deceives the valve law: it passes less than the law says). While the rig
+floor has the mud pump stopped for a connection the valve law is calibrated: times the
+meter's flow over the law's, low-passed over the frames the meter was the input (a choke
+a few per cent off its data sheet). A missing or bad frame holds its actuator's last good
+value, and says so.
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ from drill_core.events import ACTUATORS
 from drill_core.input_layout import U_CHOKE
 
 BLOCK_INPUTS = ("reference", "block_position")
+CALIBRATION_FLOW_M3S = 1.0e-3     # the valve law is calibrated on frames it passes this (60 L/min)
 
 
 def choke_flow_input(wm: hy.WellModel, choke_opening, choke_dp_pa,
@@ -65,7 +68,11 @@ class ModelInputs:
     pressure: topics.ACTUATORS order), the last accepted choke dp and the last return-flow
     sample (NaN while the meter's sample is bad or frozen)."""
 
-    def __init__(self, em: EstimationModel, block_input: str, frozen_after_samples: int):
+    def __init__(self, em: EstimationModel, block_input: str, frozen_after_samples: int,
+                 calibration_gain: float = 0.0):
+        """``calibration_gain``: the weight of each frame's meter-over-law ratio in the
+        valve law's calibration (the frame over the calibration's time constant; 0: the
+        law uncalibrated)."""
         if block_input not in BLOCK_INPUTS:
             raise ValueError(f"block_input must be one of {BLOCK_INPUTS}, got {block_input!r}")
         self.em, self.block_input = em, block_input
@@ -74,6 +81,8 @@ class ModelInputs:
         self.return_flow_m3s = math.nan
         self.flow_watch = ChannelWatch(("return_flow_m3s",), frozen_after_samples)
         self.valve_law_frames = 0     # frames whose choke flow came from the valve law
+        self.calibration_gain = min(1.0, calibration_gain)
+        self.valve_law_factor = 1.0   # the meter's flow over the valve law's, low-passed
 
     def holding_block_m(self, position_m: float) -> float:
         """The block input [m] that holds the model's string at rest at ``position_m``
@@ -101,20 +110,20 @@ class ModelInputs:
         self.choke_dp_pa = float(choke_dp_pa)
 
     def observe_return_flow(self, time_s: float, return_flow_m3s: float,
-                            meter_trusted: bool) -> None:
+                            circulating: bool) -> None:
         """A return-flow sample: the choke flow of the next frame, unless NaN, inf or
-        frozen, or not ``meter_trusted`` (then the valve law's). The caller trusts the
-        meter while the well circulates and through a connection's planned stop of the mud
-        pump, where the valve law's error in the choke's coefficient put the estimate's
-        density on the wrong side (docs/experiments/2026-12-06-multi-stand-mismatch-
-        bench.md); not after a trip of the pump, where the meter's input put a pump-trip
-        run 11 s over the fracture pressure (docs/faults.md)."""
+        frozen, or the string-flow meter reads no circulation (then the valve law's: with
+        the mud pump tripped the meter's input put a pump-trip run 11 s over the fracture
+        pressure, docs/faults.md)."""
         screened, _ = self.flow_watch.screen(time_s, [return_flow_m3s])
-        self.return_flow_m3s = float(screened[0]) if meter_trusted else math.nan
+        self.return_flow_m3s = float(screened[0]) if circulating else math.nan
 
-    def frame(self, frames: Mapping[str, object], steps: int) -> tuple[np.ndarray, list[str]]:
+    def frame(self, frames: Mapping[str, object], steps: int,
+              calibrated: bool = False) -> tuple[np.ndarray, list[str]]:
         """Inputs [4 x steps] from ``frames`` (actuator name -> its frame, with ``output``
-        samples and the ``reference``; absent when it did not come) and the problems met."""
+        samples and the ``reference``; absent when it did not come) and the problems met;
+        ``calibrated``: a valve-law frame takes the calibrated law (the rig floor has the
+        mud pump stopped for a connection)."""
         rows, problems = [], []
         for i, name in enumerate(ACTUATORS):
             frame = frames.get(name)
@@ -133,8 +142,18 @@ class ModelInputs:
             self.held[i] = row[-1]
             rows.append(row)
         inputs = np.vstack(rows)
-        if not math.isfinite(self.return_flow_m3s):
+        law = hy.choke_flow(self.em.wm, inputs[U_CHOKE], self.choke_dp_pa)
+        if math.isfinite(self.return_flow_m3s):
+            self._calibrate(self.return_flow_m3s, float(np.mean(law)))
+            inputs[U_CHOKE] = self.return_flow_m3s
+        else:
             self.valve_law_frames += 1
-        inputs[U_CHOKE] = choke_flow_input(self.em.wm, inputs[U_CHOKE], self.choke_dp_pa,
-                                           self.return_flow_m3s)
+            inputs[U_CHOKE] = law * (self.valve_law_factor if calibrated else 1.0)
         return inputs, problems
+
+    def _calibrate(self, meter_m3s: float, law_m3s: float) -> None:
+        """One frame's meter flow over the law's into the calibration, while the law has a
+        flow to compare (at least CALIBRATION_FLOW_M3S)."""
+        if law_m3s >= CALIBRATION_FLOW_M3S:
+            self.valve_law_factor += self.calibration_gain * (meter_m3s / law_m3s
+                                                              - self.valve_law_factor)

@@ -60,7 +60,9 @@ class EstimatorTick:
                                                       pulled_m=pulled_m))
         self.watch = ChannelWatch(MEASUREMENT_NAMES, config.estimator.frozen_after_samples)
         self.inputs = ModelInputs(self.ukf.em, self.ukf.block_input,
-                                  config.estimator.frozen_after_samples)
+                                  config.estimator.frozen_after_samples,
+                                  config.plant.sensor_period_s
+                                  / config.estimator.valve_law_calibration_s)
 
     def rack(self, pulled_before_m: float, pulled_after_m: float) -> None:
         """A connection has tripped the string from ``pulled_before_m`` to
@@ -88,8 +90,8 @@ class EstimatorTick:
         ``steps`` plant steps driven by ``frames`` (actuator name -> its frame: ``output``
         samples and ``reference``; absent when it did not come); ``string_held``: the slips
         held the string over those steps (the block free); ``pump_stopped_by_floor``: the
-        rig floor had the mud pump stopped for a connection (the return-flow meter stays the
-        choke flow's input, :meth:`ModelInputs.observe_return_flow`)."""
+        rig floor had the mud pump stopped for a connection (the valve law takes the choke
+        flow calibrated on the return-flow meter, :meth:`ModelInputs.frame`)."""
         circulating = bool(m.string_flow_valid)
         y, frozen = self.watch.screen(time_s, [
             m.block_position_m, m.choke_dp_pa, m.bhp_pa,
@@ -103,12 +105,11 @@ class EstimatorTick:
             x0 = ukf.initial_state(y, circulating)
             ukf.initialise(x0)
             self.inputs.start(x0, float(y[1]))
-            self.inputs.observe_return_flow(time_s, m.return_flow_m3s,
-                                            circulating or pump_stopped_by_floor)
+            self.inputs.observe_return_flow(time_s, m.return_flow_m3s, circulating)
             return TickResult(None, (), frozen)
         if string_held:
             frames = self._string_held(frames, steps)
-        inputs, problems = self.inputs.frame(frames, steps)
+        inputs, problems = self.inputs.frame(frames, steps, calibrated=pump_stopped_by_floor)
         try:
             ukf.predict_frame(inputs, string_held)
         except ValueError as err:          # non-finite input slipped through: skip the frame
@@ -116,8 +117,7 @@ class EstimatorTick:
         result = ukf.update(y, circulating)
         if result.accepted and np.isfinite(y[1]):
             self.inputs.accept_choke_dp(float(y[1]))
-        self.inputs.observe_return_flow(time_s, m.return_flow_m3s,
-                                        circulating or pump_stopped_by_floor)
+        self.inputs.observe_return_flow(time_s, m.return_flow_m3s, circulating)
         if not result.accepted:
             problems.append(f"measurement at {time_s:.3f} s rejected: {y.tolist()}")
         elif result.dropped:

@@ -95,3 +95,25 @@ def test_choke_flow_is_the_return_flow_sample_and_the_valve_law_only_while_it_is
     inputs.observe_return_flow(1.1, 0.03, False)  # not trusted (a tripped pump): the valve law
     u, _ = inputs.frame(choke, 3)
     assert np.allclose(u[1], valve_law)
+
+
+def test_the_valve_law_calibrated_on_the_meter_stands_in_through_a_planned_stop(em):
+    """A choke 10 % tighter than its data sheet: over the frames the meter is the input its
+    flow over the law's goes into the calibration (each frame with its weight); without
+    circulation the law stands in, times that calibration only where asked (a connection's
+    planned pump stop), as is after a trip."""
+    y = [0.0, 20.0e5, 6.6e7, CIRCULATION]
+    x0 = initial_state(em, 1.0, y, True, np.zeros((em.size, em.size)), 1.0e10)
+    inputs = ModelInputs(em, "block_position", FROZEN_AFTER, calibration_gain=0.5)
+    inputs.start(x0, y[1])
+    choke = {"choke": _frame([0.3] * 3)}
+    law = float(hy.choke_flow(em.wm, 0.3, inputs.choke_dp_pa))
+    for k in range(3):
+        inputs.observe_return_flow(0.1 * k, 0.9 * law * (1.0 + 1e-6 * k), True)   # not frozen
+        inputs.frame(choke, 3)
+    assert inputs.valve_law_factor == pytest.approx(1.0 - 0.1 * (1.0 - 0.5 ** 3), rel=1e-5)
+    inputs.observe_return_flow(0.3, 0.9 * law, False)
+    calibrated, _ = inputs.frame(choke, 3, calibrated=True)
+    plain, _ = inputs.frame(choke, 3)
+    assert np.allclose(calibrated[1], inputs.valve_law_factor * law)
+    assert np.allclose(plain[1], law) and inputs.valve_law_frames == 2

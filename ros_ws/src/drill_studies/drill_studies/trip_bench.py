@@ -121,7 +121,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
                                True)
     baseline = BaselineTick(config, trip_speed_mps, start_inputs, trip=floor.programme) \
         if controller == "baseline" else None
-    bpp = Pump(config.actuators.bpp, 0.0)
+    bpp = Pump(plant_config.actuators.bpp, 0.0)
     mpd = AutomatedMpdTick(config, build_estimation_model(config), start_inputs,
                            trip=floor.programme) if controller == "automated_mpd" else None
     nmpc = NmpcTick(config, nmpc_estimation_model(config), start_inputs, trip=floor.programme) \
@@ -133,7 +133,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     volumes = StandVolumes.of(wm.geometry, floor.programme.stand_length_m)
     sheets = [TripSheet(floor.programme, volumes, BHP_BAND_PA)]
     u = start.inputs.copy()
-    reference_m, frames, string_held, pump_stopped, settled_at = 0.0, {}, False, False, None
+    reference_m, frames, string_held, settled_at = 0.0, {}, False, None
     alarms, rows = [], []
     tank_start_m3 = sim.measure(True).trip_tank_volume_m3
     pump_on = True
@@ -152,7 +152,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
             command = floor_tick.step(t, m.hook_load_n, m.block_position_m)
         step = command.step
         estimator.step(t, m, frames, steps, string_held and floor_aware,
-                       pump_stopped and floor_aware)
+                       not pump_on and floor_aware)
         if command.racked_to_m is not None and floor_aware:
             estimator.rack(command.racked_from_m, command.racked_to_m)
         alarms += sheets[-1].observe(t, step, m.bhp_pa, BHP_REF_PA, m.trip_tank_volume_m3)
@@ -168,7 +168,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
         if command.racked_to_m is not None:
             sim.rack_string(command.racked_to_m)
         sim.set_hoisting(step.latched, step.slips_set)
-        string_held, pump_stopped = command.string_held, step.pump_factor == 0.0
+        string_held = command.string_held
         target = step.bit_height_target_m - floor.pulled_m
         if baseline is not None and k % per_command == 0:
             advice, _ = baseline.step(m.block_position_m, m.bhp_pa,
@@ -199,8 +199,9 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
             block = drawworks.drive_block(command.block_target_m if step.phase != DONE
                                           else drawworks.lag.value, step_s, steps)
         pump = mud_pump.frame(spp_pa * step.pump_factor, step_s, steps)
-        pump_on = step.pump_factor > 0.0   # the string-flow meter reads while the pump is on,
-        #                                    as the plant node has it (drill_plant.plant_tick)
+        pump_on = step.pump_factor > 0.0   # the string-flow meter reads while the pump is
+        #                                    commanded on (drill_plant.plant_tick); off, only
+        #                                    the floor stops it here (a connection)
         inputs = np.repeat(u[:, None], steps, axis=1)
         valve = FrameOutput(u[1], u[1], inputs[1])
         if (baseline is not None or nmpc is not None) and advice is not None:
