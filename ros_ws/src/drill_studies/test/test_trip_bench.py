@@ -75,7 +75,7 @@ def test_the_estimator_follows_the_floor_and_is_lost_without_it(trip, one_stand_
     """Told that the slips hold the string (a virtual block holds the model's string on the
     line) and at each connection that the string is a stand shorter (the new string's
     model, the position counted from its top), the UKF's BHP follows the truth through
-    the trip: 0.18 bar RMS on the moves, 1.10 bar RMS and 3.2 bar at worst over the trip
+    the trip: 0.20 bar RMS on the moves, 0.92 bar RMS and 3.3 bar at worst over the trip
     (seed 12). The model has no influx, so the connections' inflow is what costs it most.
     Not told, its model follows the block down a stand while the string stays in the
     slips, and the estimate is hundreds of bar off by the first connection."""
