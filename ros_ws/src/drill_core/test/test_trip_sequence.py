@@ -2,6 +2,8 @@
 through its phases on the string's measurements, the hoist holds the string on the slips
 or the elevator, the trip tank fills the hole, and the trip sheet books every stand."""
 
+import math
+
 import pytest
 
 from drill_core.config import load_rig
@@ -229,3 +231,16 @@ def test_the_pump_share_ahead_follows_the_programmed_ramps_and_connection():
     assert pump_factor_ahead(out, SET_SLIPS, 3.0, 500.0) == 1.0
     running_in = TripProgramme(direction="in", stands=2, connection_s=90.0)
     assert pump_factor_ahead(running_in, CONNECTION, 80.0, 15.0) == pytest.approx(5.0 / 30.0)
+
+
+def test_the_floor_has_the_pump_stopped_through_the_connection_only(well):
+    """What the estimator is told: the pump stopped by plan through every tick of the
+    connection (and the ramps' ends at share 0), never while the string moves or the slips
+    are set with the pump on."""
+    from drill_core.tripping.rig_floor import FloorCommand
+    _, _, _, log, _, _ = run_trip(well, "out")
+    stopped = [FloorCommand(s, math.nan, None, None).pump_stopped for _, s in log]
+    phases = [s.phase for _, s in log]
+    assert all(held for held, phase in zip(stopped, phases) if phase == CONNECTION)
+    assert {phase for held, phase in zip(stopped, phases) if held} <= {PUMP_DOWN, CONNECTION,
+                                                                       PUMP_UP}

@@ -156,7 +156,7 @@ class EstimatorNode(RigNode):
             if command.racked_to_m is not None:
                 self.tick.rack(command.racked_from_m, command.racked_to_m)
             held = command.string_held
-            pump_stopped = command.step.pump_factor == 0.0
+            pump_stopped = command.pump_stopped
         tick = self.tick.step(stamp * 1e-9, msg, frames, steps, held, pump_stopped)
         self.frozen = tick.frozen
         for problem in tick.problems:

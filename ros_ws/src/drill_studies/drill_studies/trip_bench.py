@@ -114,7 +114,8 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     spp_pa = start.inputs[3]
     mud_pump = Pump(plant_config.actuators.mud_pump, spp_pa)
     estimator = EstimatorTick(config)
-    oracle = TruthState(sim, plant_config, drawworks, estimator.ukf.em)
+    oracle = TruthState(sim, plant_config, drawworks, estimator.ukf.em) \
+        if state == "truth" else None
     choke = Choke(plant_config.actuators, wm, float(start.inputs[1]))
     designed = pm.steady_state(model_wm, CIRCULATION_M3S, CHOKE_DP_PA, 0.0)  # the model's
     start_inputs = StartInputs(designed.choke_flow_m3s, CHOKE_DP_PA, 0.0, designed.inputs[3],
@@ -136,10 +137,11 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     reference_m, frames, string_held, settled_at = 0.0, {}, False, None
     alarms, rows = [], []
     tank_start_m3 = sim.measure(True).trip_tank_volume_m3
-    pump_on = True
+    pump_stopped = False
     for k in range(int(round(max_s / frame_s))):
         t = k * frame_s
-        m = sim.measure(pump_on)
+        m = sim.measure(not pump_stopped)   # the string-flow meter reads while the pump is
+        #                                     commanded on (drill_plant.plant_tick)
         if "drawworks" in frames:
             floor_tick.drawworks_frame(frames["drawworks"].output)
         command = floor_tick.step(t, m.hook_load_n, m.block_position_m)
@@ -152,7 +154,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
             command = floor_tick.step(t, m.hook_load_n, m.block_position_m)
         step = command.step
         estimator.step(t, m, frames, steps, string_held and floor_aware,
-                       not pump_on and floor_aware)
+                       pump_stopped and floor_aware)
         if command.racked_to_m is not None and floor_aware:
             estimator.rack(command.racked_from_m, command.racked_to_m)
         alarms += sheets[-1].observe(t, step, m.bhp_pa, BHP_REF_PA, m.trip_tank_volume_m3)
@@ -168,7 +170,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
         if command.racked_to_m is not None:
             sim.rack_string(command.racked_to_m)
         sim.set_hoisting(step.latched, step.slips_set)
-        string_held = command.string_held
+        string_held, pump_stopped = command.string_held, command.pump_stopped
         target = step.bit_height_target_m - floor.pulled_m
         if baseline is not None and k % per_command == 0:
             advice, _ = baseline.step(m.block_position_m, m.bhp_pa,
@@ -180,8 +182,10 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
                                  (trip_speed_mps, trip_speed_mps), math.nan, command)
             advised_at_frame = k
         if nmpc is not None and k % per_command == 0 and estimator.ukf.initialised:
-            oracle.em = estimator.ukf.em                     # the model as racked
-            x_hat = estimator.ukf.mean if state == "ukf" else oracle.observe(m, None, t)[1]
+            x_hat = estimator.ukf.mean
+            if oracle is not None:
+                oracle.em = estimator.ukf.em                 # the model as racked
+                x_hat = oracle.observe(m, None, t)[1]
             result = nmpc.step(x_hat, _setpoints(trip_speed_mps),
                                measured_actuators(frames), command, t)
             solve_times.append(result.solve_time_s)
@@ -199,9 +203,6 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
             block = drawworks.drive_block(command.block_target_m if step.phase != DONE
                                           else drawworks.lag.value, step_s, steps)
         pump = mud_pump.frame(spp_pa * step.pump_factor, step_s, steps)
-        pump_on = step.pump_factor > 0.0   # the string-flow meter reads while the pump is
-        #                                    commanded on (drill_plant.plant_tick); off, only
-        #                                    the floor stops it here (a connection)
         inputs = np.repeat(u[:, None], steps, axis=1)
         valve = FrameOutput(u[1], u[1], inputs[1])
         if (baseline is not None or nmpc is not None) and advice is not None:

@@ -51,6 +51,12 @@ class FloorCommand:
         (the estimator's model then holds the string at rest on the line)."""
         return self.step.slips_set and self.step.phase != MOVING
 
+    @property
+    def pump_stopped(self) -> bool:
+        """The floor has the mud pump stopped for the connection (its share 0): the string-
+        flow meter reads nothing, by plan rather than by a trip of the pump."""
+        return self.step.pump_factor == 0.0
+
 
 class RigFloor:
     """``step`` once per sensor sample with the floor's measurements."""
