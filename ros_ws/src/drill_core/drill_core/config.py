@@ -642,6 +642,10 @@ class Protection:
         "samples", 0, 10000, default=5,
         doc="a gauge repeating its value this often is read as frozen and left out like a "
             "dropout (drill_protection.reading; 0: never)")
+    window_guard_lead_s: float = param(
+        "s", 0.0, 10.0, default=0.0,
+        doc="the window guard judges the BHP this far ahead on its least-squares slope over "
+            "as long (0: the BHP as measured)")
 
 
 @dataclass(frozen=True)

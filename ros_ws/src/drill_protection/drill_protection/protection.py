@@ -22,7 +22,10 @@ machines respects the most conservative of
   steady Herschel-Bulkley surge/swab model keeps the BHP inside the pore/fracture
   window (with margin), and a limit on the change of trip speed (acceleration),
 * the pressure window itself (``window_guard``): while the measured BHP is over the
-  fracture pressure less the margin, the choke's flow reference is set one slew above
+  fracture pressure less the margin, or heading over it within ``window_guard_lead_s`` on
+  its least-squares slope over as long (a pump ramped up under a choke closed on the
+  friction the connection took away: the choke's answer takes that long), the choke's
+  flow reference is set one slew above
   the measured return flow and the back-pressure pump one slew below its measured flow
   (unless the advisor asks for more of that), the other way round under the pore
   pressure plus the margin (the choke on its flow loop while it acts). Starting from the
@@ -71,6 +74,7 @@ from drill_core.input_layout import COMMAND_NAMES, U_BLOCK, U_BPP_FLOW, U_CHOKE,
 from drill_core.units import PA_PER_BAR
 from drill_protection.pump_trip import TripAction
 from drill_protection.recent_median import BHP_MEDIAN_S, RecentMedian
+from drill_protection.slope import LeastSquaresSlope
 from drill_protection.well_control import Hold
 
 _SPEED_GRID_POINTS = 61
@@ -139,6 +143,7 @@ class ProcessProtection:
         self.emergency_dp_start_pa = float("nan")   # the choke dp the stop calls for [Pa]
         self.last_bhp_pa = float("nan")         # the last finite BHP measurement [Pa]
         self.bhp_median = RecentMedian(BHP_MEDIAN_S)    # of every measurement (observe_bhp)
+        self.bhp_trend = LeastSquaresSlope()    # the last window_guard_lead_s of them
         self.automation_level = "closed_loop"
         self.trip_hold = ""          # why the trip is stopped (a well-control alarm), "" if not
         # a kick or losses answered (drill_protection.well_control): the window the trip
@@ -305,7 +310,8 @@ class ProcessProtection:
         friction_free = trip.friction_free_bhp_pa if trip is not None else float("nan")
         resting = abs(self.previous_speed_mps) < RESTING_REFERENCE_SPEED_MPS
         judged = bhp_pa if np.isfinite(bhp_pa) else surface_bhp_pa
-        guard = self._window_guard(judged, clamps, friction_free if resting else float("nan"))
+        guard = self._window_guard(judged, clamps, friction_free if resting else float("nan"),
+                                   measured=bool(np.isfinite(bhp_pa)))
         shut = trip is not None and trip.choke_flow_m3s is not None and not stop
         if guard or shut:
             manual_choke_opening, choke_dp_setpoint = None, None
@@ -372,8 +378,14 @@ class ProcessProtection:
                         stop, stopped, self.emergency_dp_start_pa)
 
     def observe_bhp(self, time_s: float, bhp_pa: float) -> None:
-        """Take every BHP measurement (the stop's BHP is the median of the last second's)."""
+        """Take every BHP measurement (the stop's BHP is the median of the last second's;
+        the window guard's trend the slope of the last ``window_guard_lead_s``)."""
         self.bhp_median.add(time_s, bhp_pa)
+        if np.isfinite(bhp_pa):
+            self.bhp_trend.append(time_s, float(bhp_pa))
+        trend = self.bhp_trend.samples
+        while trend and trend[0][0] < time_s - self.config.protection.window_guard_lead_s + 1e-9:
+            self.bhp_trend.popleft()
 
     def _emergency_bhp(self, stop: bool, string_velocity_mps: float, circulation_m3s: float,
                        choke_dp_pa: float) -> float:
@@ -439,22 +451,30 @@ class ProcessProtection:
         command[flows] = np.clip(command[flows], self.lower[flows], self.upper[flows])
 
     def _window_guard(self, bhp_pa: float, clamps: list[Notice],
-                      friction_free_bhp_pa: float = float("nan")) -> int:
-        """+1 while the measured BHP is over the fracture pressure less the margin (relieve:
-        more choke flow, less back-pressure pump), -1 under the pore pressure plus the margin
+                      friction_free_bhp_pa: float = float("nan"),
+                      measured: bool = True) -> int:
+        """+1 while the BHP is over the fracture pressure less the margin (relieve: more
+        choke flow, less back-pressure pump), -1 under the pore pressure plus the margin
         (hold back: less choke flow, more pump), else 0; the reason goes to ``clamps``.
-        While circulation is lost the low edge is judged on the lower of the measured BHP
-        and ``friction_free_bhp_pa`` (the BHP once a surge's friction is gone)."""
+        A BHP inside that is heading out of it within ``window_guard_lead_s`` on the BHP
+        gauge's trend (``measured``: ``bhp_pa`` is the gauge's) counts as out. While
+        circulation is lost the low edge is judged on the lower of the measured BHP and
+        ``friction_free_bhp_pa`` (the BHP once a surge's friction is gone)."""
         if not (self.config.protection.window_guard and np.isfinite(bhp_pa)):
             return 0
         low, high = self.config.pressure_window_pa
         judged = min(bhp_pa, friction_free_bhp_pa) if np.isfinite(friction_free_bhp_pa) \
             else bhp_pa
-        if bhp_pa <= high and judged >= low:
+        ahead = self._bhp_ahead_pa(bhp_pa) if measured else bhp_pa
+        if bhp_pa > high or (judged >= low and ahead > high):
+            over, value = True, max(bhp_pa, ahead)
+            what = "BHP" if bhp_pa > high else "BHP heading"
+        elif judged < low or ahead < low:
+            over, value = False, min(judged, ahead)
+            what = "BHP" if value == bhp_pa else "BHP without friction" if value == judged \
+                else "BHP heading"
+        else:
             return 0
-        over = bhp_pa > high
-        what = "BHP" if over or judged == bhp_pa else "BHP without friction"
-        value = bhp_pa if over else judged
         clamps.append(Notice("window_guard", f"{what} {value / PA_PER_BAR:.1f} bar "
                              f"{'over' if over else 'under'} the window's "
                              f"{'fracture' if over else 'pore'} limit "
@@ -462,6 +482,17 @@ class ProcessProtection:
                              f"reference {'up' if over else 'down'}, back-pressure pump "
                              f"{'down' if over else 'up'}", value))
         return 1 if over else -1
+
+    def _bhp_ahead_pa(self, bhp_pa: float) -> float:
+        """``bhp_pa`` carried ``window_guard_lead_s`` ahead on the least-squares slope of the
+        gauge's samples over as long; ``bhp_pa`` itself without a lead, or while the
+        samples cover under nine tenths of it (a gauge just back from a gap)."""
+        lead = self.config.protection.window_guard_lead_s
+        trend = self.bhp_trend.samples
+        if lead <= 0.0 or not trend or trend[-1][0] - trend[0][0] < 0.9 * lead:
+            return bhp_pa
+        slope = self.bhp_trend.slope
+        return bhp_pa + slope * lead if np.isfinite(slope) else bhp_pa
 
     def _limit_opening(self, opening: float | None, clamps: list[Notice]) -> float | None:
         """A manual choke opening inside the choke's range [1] (None stays None)."""

@@ -227,6 +227,37 @@ def test_choke_dp_set_point_held_without_its_ramp_outside_closed_loop(setup):
     assert d.choke_dp_setpoint == (2.3e6, 0.0)               # the advisor's request is not applied
 
 
+def test_a_bhp_heading_out_of_the_window_within_the_lead_is_driven_back_already(setup):
+    config, _ = setup
+    high = config.well.formation.fracture_pressure_pa - config.protection.pressure_margin_pa
+    lead = config.protection.window_guard_lead_s
+    assert lead > 0.0
+    rise_pa_s = 4.0e5                        # a pump ramped up under a closed choke: 4 bar/s
+    now_pa = high - 0.5 * rise_pa_s * lead   # crossing in half the lead
+    noise = np.random.default_rng(7).normal(0.0, 1.0e5, 200)     # the gauge's 1 bar
+
+    def judged(rise: float, span_s: float, now_pa: float = now_pa):
+        p = fresh(setup)
+        times = np.arange(-span_s, 1e-9, 0.1)
+        for t, n in zip(times, noise):
+            p.observe_bhp(float(t), now_pa + rise * t + n)
+        d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, now_pa, CIRCULATION, 0.5,
+                    surface_flows=(CIRCULATION, 0.0))
+        return [c for c in d.clamps if c.code == "window_guard"], d
+
+    heading, d = judged(rise_pa_s, 10.0)
+    assert len(heading) == 1 and "BHP heading" in heading[0].text
+    assert heading[0].value == pytest.approx(now_pa + rise_pa_s * lead, abs=1.5e5)
+    assert d.command[1] > CIRCULATION                      # the choke opens already
+    assert judged(-rise_pa_s, 10.0)[0] == []               # heading away from the edge
+    assert judged(0.0, 10.0)[0] == []                      # as close, steady: noise only
+    assert judged(rise_pa_s, 0.5 * lead)[0] == []          # a gauge just back: no trend yet
+    low = config.well.formation.pore_pressure_pa + config.protection.pressure_margin_pa
+    falling, d = judged(-rise_pa_s, 10.0, low + 0.5 * rise_pa_s * lead)
+    assert len(falling) == 1 and "under the window's pore limit" in falling[0].text
+    assert d.command[1] < CIRCULATION                      # the choke closes already
+
+
 def test_outside_the_window_the_choke_and_pump_are_driven_back_from_where_they_are(setup):
     config, _ = setup
     f, margin = config.well.formation, config.protection.pressure_margin_pa
