@@ -53,7 +53,7 @@
                                    (suite: every member of config/mismatch.yaml); --resume:
                                    the runs the table holds are not run again; --render:
                                    run nothing, write the page again from its JSON table
-  rig compare --fault-matrix [PAIRS] [--with-fault FAULT] [--controller C ...] [--resume]
+  rig compare --fault-matrix [PAIRS] [--with-fault FAULT ...] [--controller C ...] [--resume]
               [--workers W] [--render | --bounds]
                                    each actuator and sensor fault alone and in pairs
                                    (pull-out, rest, run-in) under every controller: time
@@ -206,9 +206,10 @@ def main(argv=None) -> int:
                            "controller (docs/fault-matrix.md)")
     comp.add_argument("--workers", type=int, default=1,
                       help="with --fault-matrix: runs at a time (a local process pool)")
-    comp.add_argument("--with-fault", metavar="FAULT",
+    comp.add_argument("--with-fault", metavar="FAULT", action="append", default=[],
                       help="with --fault-matrix: run only the cells with this fault (e.g. "
-                           "'mud pump trip'), the table's other rows kept")
+                           "'mud pump trip'; repeatable: the cells with each), the table's "
+                           "other rows kept")
     comp.add_argument("--controller", action="append", choices=MATRIX_CONTROLLERS,
                       help="only under this controller (repeatable; the other controllers' "
                            "rows kept); with --fault-matrix, with --with-fault")

@@ -248,6 +248,7 @@ def markdown(rows: list[dict], plot_name: str | None, made: str = "") -> str:
     lines += fault_section(by)
     lines += multi_stand_section.section(by, CONTROLLERS)
     lines += mismatch_section(mismatched)
+    lines += multi_stand_section.mismatch_section(mismatched, CONTROLLERS)
     if plot_name:
         lines += ["", f"![One Case 2 trip per controller]({plot_name})"]
     lines += ["", f"Seeds: {', '.join(str(s) for s in seeds)}. Run directories (MCAP, plots, "

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import itertools
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -104,11 +105,11 @@ def base_scenario() -> dict:
     return yaml.safe_load(runs.scenario_path(BASE_SCENARIO).read_text())
 
 
-def planned_cells(pairs: str = "actuators", with_fault: str | None = None
+def planned_cells(pairs: str = "actuators", with_fault: Sequence[str] = ()
                   ) -> list[tuple[str, tuple[str, ...]]]:
-    """The cells of ``pairs`` (``with_fault``: only those with that fault)."""
+    """The cells of ``pairs`` (``with_fault``: only those with each of these faults)."""
     return [(phase, faults) for phase, faults in cells(pairs)
-            if with_fault is None or with_fault in faults]
+            if all(fault in faults for fault in with_fault)]
 
 
 def write_cells(directory: Path, planned: list[tuple[str, tuple[str, ...]]], base: dict
@@ -147,9 +148,9 @@ def run_of(row: dict) -> tuple[str, tuple[str, ...], str]:
 
 
 def run_matrix(pairs: str = "actuators", controllers=CONTROLLERS, run=batch.run_one,
-               with_fault: str | None = None, skip=frozenset(), workers: int = 1,
+               with_fault: Sequence[str] = (), skip=frozenset(), workers: int = 1,
                on_row=None) -> list[dict]:
-    """Run every cell (``with_fault``: every cell with that fault) under every controller,
+    """Run every cell (``with_fault``: every cell with these faults) under every controller,
     but those whose (phase, faults, controller) is in ``skip``; the table's rows.
     ``on_row`` sees each row as its run finishes."""
     base = base_scenario()
@@ -343,15 +344,16 @@ def write(rows: list[dict], output: Path, made: str | None = None) -> None:
     print(f"[fault matrix] wrote {output}")
 
 
-def main(output: Path, pairs: str = "actuators", with_fault: str | None = None,
+def main(output: Path, pairs: str = "actuators", with_fault: Sequence[str] = (),
          controllers=CONTROLLERS, run=batch.run_one, resume: bool = False,
          workers: int = 1) -> int:
-    """Run the matrix under ``controllers`` (with ``with_fault``: only the cells with that
-    fault) and write its page. The table keeps the rows of the cells not run now, and is
+    """Run the matrix under ``controllers`` (with ``with_fault``: only the cells with each
+    of these faults) and write its page. The table keeps the rows of the cells not run now, and is
     written after every run; ``resume``: a cell whose row the table holds is not run
     again."""
-    if with_fault is not None and with_fault not in FAULTS:
-        raise ValueError(f"fault {with_fault!r}: expected one of {', '.join(FAULTS)}")
+    for fault in with_fault:
+        if fault not in FAULTS:
+            raise ValueError(f"fault {fault!r}: expected one of {', '.join(FAULTS)}")
     table = output.with_suffix(".json")
     old = json.loads(table.read_text()) if table.exists() else []
     plan = {(phase, faults, c) for phase, faults in planned_cells(pairs, with_fault)

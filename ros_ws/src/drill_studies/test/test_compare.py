@@ -293,3 +293,28 @@ def test_the_nmpc_is_judged_against_automated_mpd_on_its_seed():
     line = next(l for l in text.splitlines() if l.startswith("| trip_out | nmpc |"))
     assert line.endswith("| seed 31: stands_per_hour vs automated_mpd; seed 1031: "
                          "bhp_rmse_pa vs automated_mpd |")
+
+
+def test_multi_stand_trips_on_a_mismatched_plant_get_their_own_table_judged_per_plant():
+    thick = [_row("trip_out", "nmpc", 31, _trip_summary(1.2, 190.0, 14.9, 0.02)),
+             _row("trip_out", "automated_mpd", 31, _trip_summary(2.2, 750.0, 13.1, 0.03)),
+             _row("trip_out", "baseline", 31, _trip_summary(8.3, 1750.0, 13.0, 0.01))]
+    thin = [_row("trip_out", "nmpc", 31, _trip_summary(1.0, 150.0, 14.9, 0.02)),
+            _row("trip_out", "baseline", 31, _trip_summary(0.9, 1790.0, 13.0, 0.01))]
+    rows = [{**r, "mismatch": "thick_report"} for r in thick] + \
+        [{**r, "mismatch": "thin_report"} for r in thin] + \
+        [_row("trip_out", "nmpc", 31, _trip_summary(0.6, 40.0, 14.9, 0.02))]   # the model's plant
+    text = compare.markdown(rows, None)
+    section = text[text.index("## Multi-stand trips on a plant that is not the model"):]
+    section = section[:section.index("\n## ", 1)]
+    lines = [l for l in section.splitlines() if l.startswith("| trip_out |")]
+    assert [l.split(" | ")[1:3] for l in lines] == [
+        ["thick_report", "nmpc"], ["thick_report", "automated_mpd"],
+        ["thick_report", "baseline"], ["thin_report", "nmpc"], ["thin_report", "baseline"]]
+    # each run judged against the others on its own plant: thin_report's baseline is better
+    assert lines[0].endswith("| seed 31: bhp_rmse_pa, outside_band_per_stand_s |")
+    assert lines[3].endswith("| seed 31: bhp_rmse_pa, outside_band_per_stand_s, "
+                             "bhp_rmse_pa vs baseline |")
+    # and the model's own plant stays in the table above
+    above = text[text.index("## Multi-stand trips (mean"):text.index("## On a plant")]
+    assert "| trip_out | nmpc | 14.90 / 14.90 (slowest) | 0.60 / 0.60 |" in above

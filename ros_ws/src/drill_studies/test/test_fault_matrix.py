@@ -35,9 +35,11 @@ def test_a_cell_is_a_valid_case2_scenario_with_its_faults_at_the_phase_time(tmp_
     written = fm.write_cells(tmp_path, fm.planned_cells("actuators"), fm.base_scenario())
     assert len({path for _, _, path in written}) == len(written)        # one file per cell
     assert [(phase, faults) for phase, faults, _ in written] == fm.cells("actuators")
-    frozen = fm.planned_cells("all", "BHP frozen")
+    frozen = fm.planned_cells("all", ("BHP frozen",))
     assert frozen and all("BHP frozen" in faults for _, faults in frozen)
     assert len(frozen) == len(fm.PHASES) * len(fm.FAULTS)     # alone, and with each other one
+    pair = fm.planned_cells("all", ("BHP frozen", "mud pump trip"))
+    assert [set(faults) for _, faults in pair] == [{"BHP frozen", "mud pump trip"}] * len(fm.PHASES)
     base = yaml.safe_load(runs.scenario_path(fm.BASE_SCENARIO).read_text())
     for phase, faults, path in written:
         scenario, _ = load_scenario(path)             # validated like every scenario
@@ -99,7 +101,7 @@ def test_a_partial_run_replaces_its_cells_rows_and_keeps_the_others(checkout):
     output = checkout / "docs" / "fault-matrix.md"
     fm.main(output, "none", run=fake_run)
     before = json.loads(output.with_suffix(".json").read_text())
-    fm.main(output, "none", "mud pump trip", ("automated_mpd",), run=fake_run)
+    fm.main(output, "none", ("mud pump trip",), ("automated_mpd",), run=fake_run)
     after = json.loads(output.with_suffix(".json").read_text())
     assert len(after) == len(before)
     rerun = after[-len(fm.PHASES):]             # the re-run cells' rows, last
@@ -109,7 +111,7 @@ def test_a_partial_run_replaces_its_cells_rows_and_keeps_the_others(checkout):
     assert len(again) == len(before)
     assert all(r["controller"] == "baseline" for r in again[-len(again) // 3:])
     with pytest.raises(ValueError, match="fault 'pump trip'"):
-        fm.main(output, "none", "pump trip", run=fake_run)
+        fm.main(output, "none", ("pump trip",), run=fake_run)
 
 
 def test_the_page_says_when_its_runs_were_made_from_their_run_directories():
@@ -146,6 +148,6 @@ def test_the_table_is_written_after_every_run_and_a_resumed_matrix_runs_only_wha
     bound = {**rows[0], "controller": fm.BOUND, "prefix": rows[0]["controller"], "speed_mps": 0.5}
     table.write_text(json.dumps(rows + [bound], indent=1))
     phase, (fault,), controller = fm.row_key(rows[0])
-    fm.main(output, "none", fault, (controller,), run=fake_run)
+    fm.main(output, "none", (fault,), (controller,), run=fake_run)
     again = json.loads(table.read_text())
     assert len(again) == len(rows) and fm.BOUND not in {r["controller"] for r in again}
