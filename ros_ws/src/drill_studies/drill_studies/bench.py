@@ -26,7 +26,7 @@ from drill_ros.executors import DEFAULT_EXECUTOR
 from drill_ros import graph as graph_decl
 from drill_ros import topics
 from drill_core.config import load_rig
-from drill_core.scenario import load_scenario_config
+from drill_core.scenario import MULTI_STAND_CONTROLLERS, load_scenario_config
 from drill_plant.bench import plant_frame_cost
 from drill_nmpc.transcription import RTI_PARTS
 from drill_studies import scaling_bench, sweep_bench
@@ -57,8 +57,8 @@ GRAPH_CONFIGURATIONS = (("separate", "single_threaded"), ("separate", DEFAULT_EX
 DEFAULT_WALL_GOAL = 1.05        # the default command's wall over the fastest layout's
 # a whole section tripped (drill_core.tripping) under each controller that plans one, in the
 # default layout, one run each; the goal: ten stands in under two minutes of wall
-MULTI_STAND_RUNS = (("trip_out", "automated_mpd"), ("trip_out", "baseline"),
-                    ("trip_in", "automated_mpd"), ("trip_in", "baseline"))
+MULTI_STAND_RUNS = tuple((case, controller) for case in ("trip_out", "trip_in")
+                         for controller in MULTI_STAND_CONTROLLERS)
 MULTI_STAND_WALL_GOAL_S = 120.0
 PROFILE_SHARE_GOAL = 0.80       # the QP's and the compiled evaluations' share of a solve
 PEER_SPEEDUP_GOAL = 20.0        # the NMPC's median solve against the faster peer's
