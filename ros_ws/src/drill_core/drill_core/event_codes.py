@@ -55,7 +55,8 @@ _PROTECTION = {
                                                  "flow controller instead of a dp set-point"),
     "well_control_hold": EventCode("clamp", "Pa", "the well-control response holds the choke; "
                                                   "value: the BHP it holds"),
-    "window_guard": EventCode("clamp", "Pa", "BHP near a window limit: the choke and the "
+    "window_guard": EventCode("clamp", "Pa", "BHP past a window limit, or heading past it "
+                                             "within the guard's lead: the choke and the "
                                              "back-pressure pump hold back; value: the BHP judged"),
     "machine_limit": EventCode("clamp", "", "an input cut to its machine range or rate"),
     "pump_trip_floor": EventCode("clamp", "m^3/s", "the pump-trip response's back-pressure pump "
