@@ -1,7 +1,8 @@
 """Integration over DDS: a kick swabbed in on a multi-stand trip
 (test/scenarios/trip_out_swabbed_kick_2.yaml, config/scenarios/trip_out_swabbed_kick.yaml
-cut to two stands: pulled under the PI baseline into a zone whose pore pressure is 4 bar
-under the BHP reference, the trip sheet's alarm limit 0.1 m^3). The well flows; the
+cut to two stands, its zone a bar nearer the reference so that two stands swab in more than
+the limit: pulled under the PI baseline into a zone whose pore pressure is 3 bar under the
+BHP reference, the trip sheet's alarm limit 0.1 m^3). The well flows; the
 protection's live trip sheet raises trip_tank_gain from the trip tank against the steel
 tripped; the report's sheet, made afterwards from the same recording, reads each
 measurement with the same floor command and books the same alarm and the influx the truth
