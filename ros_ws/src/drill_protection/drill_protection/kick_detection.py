@@ -14,7 +14,8 @@ into an *excess flow* over a window, less the baseline learnt while the well is 
 (drill_protection.flow_baseline: the compliances' errors, when ``baseline_time_constant_s``
 is set), raises a kick alarm when it stays above the
 threshold for the confirmation time, a losses alarm when it stays below minus the
-threshold, and clears once it has stayed within half the threshold as long. A sample with
+threshold, and clears once it has stayed within half the threshold as long. The baseline
+only takes an excess away: the balance without it must read beyond the threshold too. A sample with
 a non-finite flow is rejected; one without a block position or a pressure (its median
 empty) keeps the flows in the balance and is not judged: the position and compliance
 terms catch up with the flows once the gauge is back. A pressure gauge out for
@@ -194,19 +195,27 @@ class KickDetector:
         return self._pit.slope
 
     def _judge(self, time_s: float) -> bool:
-        """Advance the alarm state on the windowed excess flow; True when raised now."""
-        flow, pit = self.excess_flow_m3s, self.pit_gain_flow_m3s
-        if math.isnan(flow) and math.isnan(pit):
+        """Advance the alarm state on the windowed excess flow; True when raised now.
+
+        The learnt baseline may explain an excess away, never make one: the flow reads
+        beyond the threshold only when the balance without the baseline does too (a fit
+        learnt while the choke pressure rose, read back as it falls, raised a kick on a
+        quiet well: docs/mismatch.md), and quiet when either reads quiet."""
+        window = self._window_rates()
+        corrected, pit = self.excess_flow_m3s, self.pit_gain_flow_m3s
+        if math.isnan(corrected) and math.isnan(pit):
             return False
+        raw = window[0] if window is not None else math.nan
         threshold, confirm = self.config.flow_threshold_m3s, self.config.confirm_s
         volume = self._history[-1][1]
-        for kind, beyond in (("kick", flow > threshold or pit > threshold),
-                             ("losses", flow < -threshold or pit < -threshold)):
+        for kind, sign in (("kick", 1.0), ("losses", -1.0)):
+            beyond = min(sign * corrected, sign * raw) > threshold or sign * pit > threshold
             if not beyond:
                 self._since[kind] = None
             elif self._since[kind] is None:
                 self._since[kind] = time_s
                 self._onset_volume[kind] = self._history[0][1]
+        flow = corrected if math.isnan(raw) or abs(corrected) < abs(raw) else raw
         quiet = all(math.isnan(f) or abs(f) < 0.5 * threshold for f in (flow, pit))
         self._since["clear"] = (self._since["clear"] or time_s) if quiet else None
         if self.alarm and self._since["clear"] is not None \

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -37,7 +38,9 @@ def reestimate(run_dir: Path, config_dir: Path, rate: float, domain_id: int) -> 
     """Replay ``run_dir``'s recording into an estimator configured from ``config_dir``."""
     original = next(run_dir.glob("*.mcap"))
     scenario = json.loads((run_dir / "launch.json").read_text())["scenario"]
-    out_dir = run_dir / f"reestimate-{time.strftime('%Y%m%d-%H%M%S')}"
+    # its own directory: re-estimations of one run may run side by side
+    out_dir = Path(tempfile.mkdtemp(prefix=f"reestimate-{time.strftime('%Y%m%d-%H%M%S')}-",
+                                    dir=run_dir))
     new_mcap = out_dir / "reestimate.mcap"
     common = {"config_dir": str(config_dir), "scenario": scenario, "mode": "fast",
               "use_sim_time": True}
