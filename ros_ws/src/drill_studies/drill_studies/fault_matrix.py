@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import itertools
 import json
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime
@@ -157,6 +158,7 @@ def run_matrix(pairs: str = "actuators", controllers=CONTROLLERS, run=batch.run_
     scenarios = write_cells(runs.ROOT / "runs" / "fault-matrix", planned_cells(pairs, with_fault),
                             base)
     seed = base["seed"]
+    commit = runs.source_commit()
     specs = {(path.stem, controller): (phase, faults, batch.RunSpec(path.stem, str(path), controller, seed))
              for phase, faults, path in scenarios for controller in controllers
              if (phase, faults, controller) not in skip}
@@ -169,7 +171,7 @@ def run_matrix(pairs: str = "actuators", controllers=CONTROLLERS, run=batch.run_
         figures = cell_figures(row["summary"])
         rows.append({"phase": phase, "faults": list(faults), "controller": row["controller"],
                      "seed": row["seed"], "run_dir": Path(row["run_dir"]).name,   # under runs/
-                     "wall_s": row["wall_s"],
+                     "wall_s": row["wall_s"], "commit": commit,
                      **figures})
         if on_row is not None:
             on_row(rows[-1])
@@ -258,6 +260,17 @@ def past_bound(rows: list[dict], bounds: list[dict]) -> list[dict]:
     return left
 
 
+def _provenance(rows: list[dict]) -> str:
+    """The commits the rows ran at, with how many each."""
+    counts = Counter(r.get("commit") for r in rows)
+    ran = ", ".join(f"{commit} ({n})" for commit, n in sorted(
+        ((c, n) for c, n in counts.items() if c), key=lambda item: -item[1]))
+    unknown = counts.get(None, 0)
+    return ("The runs' source commits (runs): " + (ran or "none recorded")
+            + (f"; {unknown} from before rows recorded theirs (their history: "
+               "`docs/faults.md`)" if unknown else "") + ".")
+
+
 def markdown(rows: list[dict], made: str, window_pa: tuple[float, float]) -> str:
     """The page; ``window_pa``: the pore and fracture pressures the cells ran in. Rows of
     the controller ``bound`` (drill_studies.fault_bound) make the machines' column and the
@@ -291,7 +304,8 @@ def markdown(rows: list[dict], made: str, window_pa: tuple[float, float]) -> str
         "from 0.5 L, and the kick or losses alarms raised with no formation flow behind "
         "them. The controllers are not told of a fault; the process protection sees what "
         "the sensors show.", "",
-        f"**{len(outside)} of {len(rows)} runs left the window.**", ""]
+        f"**{len(outside)} of {len(rows)} runs left the window.**", "",
+        _provenance(rows), ""]
     if bounds:
         over = past_bound(rows, bounds)
         lines += [
