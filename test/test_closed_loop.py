@@ -200,9 +200,9 @@ def test_reestimate_replays_recording_into_a_retuned_estimator(two_runs, tmp_pat
     (config / "estimator.yaml").write_text(yaml.safe_dump(tuning))
     # the two re-estimations side by side, each on its own ROS domain
     with ThreadPoolExecutor(max_workers=2) as pool:
-        same, retuned = pool.map(lambda args: reestimate(two_runs[0], args[0], rate=5.0,
-                                                         domain_id=args[1]),
-                                 ((cli.ROOT / "config", 90), (config, 98)))
+        same = pool.submit(reestimate, two_runs[0], cli.ROOT / "config", rate=5.0, domain_id=90)
+        retuned = pool.submit(reestimate, two_runs[0], config, rate=5.0, domain_id=98)
+    same, retuned = same.result(), retuned.result()
     assert same["estimates"] == same["measurements"] == 901
     # the same tuning on the same recorded inputs gives the same estimates
     assert same["new_bhp_estimate_rmse_pa"] == pytest.approx(same["recorded_bhp_estimate_rmse_pa"],

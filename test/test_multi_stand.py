@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from drill_bag import mcap_io
 from drill_core.tripping.sequence import STAND_PHASES
@@ -31,7 +32,6 @@ DIRECTION = {"out": ((28.0, 56.0), -28.0, 1.0), "in": ((28.0, 0.0), 28.0, -1.0)}
 
 RUNS = (("trip_out_2", "baseline"), ("trip_out_2", "automated_mpd"), ("trip_out_2", "nmpc"),
         ("trip_in_2", "automated_mpd"))
-SEED = 31                               # the scenarios' own
 
 
 @pytest.fixture(scope="module")
@@ -39,9 +39,11 @@ def run_dirs(tmp_path_factory):
     """The four runs two at a time (a local pool, each graph on a ROS domain of its own:
     fast mode's lockstep makes each run's data the same as alone)."""
     out = tmp_path_factory.mktemp("multi_stand")
-    rows = batch.execute([batch.RunSpec(scenario, str(SCENARIOS / f"{scenario}.yaml"),
-                                        controller, SEED, runs_dir=str(out))
-                          for scenario, controller in RUNS], workers=2)
+    def spec(scenario: str, controller: str) -> batch.RunSpec:
+        path = SCENARIOS / f"{scenario}.yaml"
+        seed = yaml.safe_load(path.read_text())["seed"]          # the scenario's own
+        return batch.RunSpec(scenario, str(path), controller, seed, runs_dir=str(out))
+    rows = batch.execute([spec(*run) for run in RUNS], workers=2)
     for row in rows:
         assert row["ok"], row["message"]
     return {(row["case"], row["controller"]): Path(row["run_dir"]) for row in rows}

@@ -202,10 +202,10 @@ class KickDetector:
         learnt while the choke pressure rose, read back as it falls, raised a kick on a
         quiet well: docs/mismatch.md), and quiet when either reads quiet."""
         window = self._window_rates()
-        corrected, pit = self.excess_flow_m3s, self.pit_gain_flow_m3s
+        raw = window[0] if window is not None else math.nan
+        corrected, pit = self._corrected(window), self.pit_gain_flow_m3s
         if math.isnan(corrected) and math.isnan(pit):
             return False
-        raw = window[0] if window is not None else math.nan
         threshold, confirm = self.config.flow_threshold_m3s, self.config.confirm_s
         volume = self._history[-1][1]
         for kind, sign in (("kick", 1.0), ("losses", -1.0)):
@@ -215,7 +215,7 @@ class KickDetector:
             elif self._since[kind] is None:
                 self._since[kind] = time_s
                 self._onset_volume[kind] = self._history[0][1]
-        flow = corrected if math.isnan(raw) or abs(corrected) < abs(raw) else raw
+        flow = min((corrected, raw), key=abs)
         quiet = all(math.isnan(f) or abs(f) < 0.5 * threshold for f in (flow, pit))
         self._since["clear"] = (self._since["clear"] or time_s) if quiet else None
         if self.alarm and self._since["clear"] is not None \
@@ -232,7 +232,10 @@ class KickDetector:
     @property
     def excess_flow_m3s(self) -> float:
         """The windowed excess flow less the learnt baseline [m^3/s] (NaN until a window)."""
-        window = self._window_rates()
+        return self._corrected(self._window_rates())
+
+    def _corrected(self, window) -> float:
+        """``window``'s (from _window_rates) raw excess less the learnt baseline [m^3/s]."""
         if window is None:
             return math.nan
         raw, phi = window
