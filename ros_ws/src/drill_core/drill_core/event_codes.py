@@ -57,7 +57,9 @@ _PROTECTION = {
                                                   "value: the BHP it holds"),
     "window_guard": EventCode("clamp", "Pa", "BHP past a window limit, or heading past it "
                                              "within the guard's lead: the choke and the "
-                                             "back-pressure pump hold back; value: the BHP judged"),
+                                             "back-pressure pump hold back; value: the "
+                                             "reading out (the BHP while it is, else the BHP "
+                                             "without friction or the one heading out)"),
     "machine_limit": EventCode("clamp", "", "an input cut to its machine range or rate"),
     "pump_trip_floor": EventCode("clamp", "m^3/s", "the pump-trip response's back-pressure pump "
                                                    "floor; value: the floor"),

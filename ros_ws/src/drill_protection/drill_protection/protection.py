@@ -459,7 +459,8 @@ class ProcessProtection:
         A BHP inside that is heading out of it within ``window_guard_lead_s`` on the BHP
         gauge's trend (``measured``: ``bhp_pa`` is the gauge's) counts as out. While
         circulation is lost the low edge is judged on the lower of the measured BHP and
-        ``friction_free_bhp_pa`` (the BHP once a surge's friction is gone)."""
+        ``friction_free_bhp_pa`` (the BHP once a surge's friction is gone). The notice
+        names the reading that is out, the BHP itself first, and carries its value."""
         if not (self.config.protection.window_guard and np.isfinite(bhp_pa)):
             return 0
         low, high = self.config.pressure_window_pa
@@ -467,12 +468,12 @@ class ProcessProtection:
             else bhp_pa
         ahead = self._bhp_ahead_pa(bhp_pa) if measured else bhp_pa
         if bhp_pa > high or (judged >= low and ahead > high):
-            over, value = True, max(bhp_pa, ahead)
-            what = "BHP" if bhp_pa > high else "BHP heading"
+            over = True
+            what, value = ("BHP", bhp_pa) if bhp_pa > high else ("BHP heading", ahead)
         elif judged < low or ahead < low:
-            over, value = False, min(judged, ahead)
-            what = "BHP" if value == bhp_pa else "BHP without friction" if value == judged \
-                else "BHP heading"
+            over = False
+            what, value = ("BHP", bhp_pa) if bhp_pa < low \
+                else ("BHP without friction", judged) if judged < low else ("BHP heading", ahead)
         else:
             return 0
         clamps.append(Notice("window_guard", f"{what} {value / PA_PER_BAR:.1f} bar "

@@ -256,6 +256,10 @@ def test_a_bhp_heading_out_of_the_window_within_the_lead_is_driven_back_already(
     falling, d = judged(-rise_pa_s, 10.0, low + 0.5 * rise_pa_s * lead)
     assert len(falling) == 1 and "under the window's pore limit" in falling[0].text
     assert d.command[1] < CIRCULATION                      # the choke closes already
+    # already out and still going: the notice names the BHP itself, at its own value
+    for rise, out_pa in ((rise_pa_s, high + 1.0e5), (-rise_pa_s, low - 1.0e5)):
+        (out,), _ = judged(rise, 10.0, out_pa)
+        assert out.text.startswith(f"BHP {out_pa / 1e5:.1f} bar ") and out.value == out_pa
 
 
 def test_outside_the_window_the_choke_and_pump_are_driven_back_from_where_they_are(setup):
