@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
 from drill_bag import mcap_io
+from drill_core.scenario import load_scenario
 from drill_core.tripping.sequence import STAND_PHASES
 from drill_studies import batch
 from drill_ros import topics
@@ -39,9 +39,10 @@ def run_dirs(tmp_path_factory):
     """The four runs two at a time (a local pool, each graph on a ROS domain of its own:
     fast mode's lockstep makes each run's data the same as alone)."""
     out = tmp_path_factory.mktemp("multi_stand")
+
     def spec(scenario: str, controller: str) -> batch.RunSpec:
         path = SCENARIOS / f"{scenario}.yaml"
-        seed = yaml.safe_load(path.read_text())["seed"]          # the scenario's own
+        seed = load_scenario(path)[0].seed                       # the scenario's own
         return batch.RunSpec(scenario, str(path), controller, seed, runs_dir=str(out))
     rows = batch.execute([spec(*run) for run in RUNS], workers=2)
     for row in rows:

@@ -43,8 +43,8 @@ TEST_DOMAINS = range(40, 99)     # the tests' fixed DDS domain ids (of the safe 
 RUN_DOMAINS = range(1, TEST_DOMAINS.start)   # the runs' own: left free by the tests
 LOCK_DIR = Path(tempfile.gettempdir()) / "drill_rig_domains"
 # Fast DDS writes each sample in the publishing thread instead of handing it to its
-# asynchronous writer thread: no thread hand-off per message (about 25 % less CPU for a
-# run, docs/benchmarks.md); every message of the rig fits one datagram
+# asynchronous writer thread: no thread hand-off per message (about a fifth less CPU for a
+# run, docs/speed.md); every message of the rig fits one datagram
 PUBLICATION_MODE = "SYNCHRONOUS"
 _held_domains: list = []         # open lock files: a domain is ours while this process lives
 
