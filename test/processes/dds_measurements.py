@@ -12,6 +12,8 @@ sent before both ends have matched:
   * the subscriber prints one JSON line ``{"received": [...]}`` with the decoded
     fields of every sample once it has N of them (or when its deadline passes).
 Every wait has a deadline (``RIG_TEST_TIMEOUT_S``, default 20 s): a hang exits non-zero.
+Before its ROS teardown each side prints ``EXIT <code>``; the teardown runs under
+:func:`teardown.bounded` (a stuck one dumps its stacks and ends the process).
 """
 from __future__ import annotations
 
@@ -57,6 +59,12 @@ def say(text: str) -> None:
 
 
 def main(argv: list[str]) -> int:
+    code = run(argv)
+    say(f"EXIT {code}")
+    return code
+
+
+def run(argv: list[str]) -> int:
     role, topic, count = argv[1], argv[2], int(argv[3])
     import rclpy
     from rclpy.duration import Duration
@@ -64,6 +72,7 @@ def main(argv: list[str]) -> int:
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     from drill_msgs.msg import RigMeasurement
     from drill_ros.runner import shut_down
+    from teardown import bounded
 
     qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.VOLATILE)
@@ -113,7 +122,8 @@ def main(argv: list[str]) -> int:
             return 0 if len(received) == count else 5
         raise SystemExit(f"unknown role {role!r}")
     finally:
-        shut_down(executor, node)
+        with bounded():
+            shut_down(executor, node)
 
 
 if __name__ == "__main__":

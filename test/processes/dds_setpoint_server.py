@@ -5,7 +5,8 @@
 Refuses a negative (or non-finite) bhp_ref_pa with a reason and leaves the active
 setpoints unchanged; accepts anything else and makes it active. Prints ``READY`` once
 the service exists and ``SERVED <n>`` when it stops: on end of stdin (the test closes
-it) or after ``RIG_TEST_TIMEOUT_S`` (default 20 s).
+it) or after ``RIG_TEST_TIMEOUT_S`` (default 20 s), then ``EXIT 0`` before its ROS
+teardown, which runs under :func:`teardown.bounded`.
 """
 from __future__ import annotations
 
@@ -35,6 +36,7 @@ def main(argv: list[str]) -> int:
     from drill_msgs.msg import Setpoints
     from drill_msgs.srv import SetSetpoints
     from drill_ros.runner import shut_down
+    from teardown import bounded
 
     rclpy.init(args=[])
     node = rclpy.create_node("test_dds_setpoint_server")
@@ -62,9 +64,11 @@ def main(argv: list[str]) -> int:
             if select.select([sys.stdin], [], [], 0)[0] and not sys.stdin.readline():
                 break   # stdin closed: the test is done
         print(f"SERVED {state['served']}", flush=True)
+        print("EXIT 0", flush=True)
         return 0
     finally:
-        shut_down(executor, node)
+        with bounded():
+            shut_down(executor, node)
 
 
 if __name__ == "__main__":
