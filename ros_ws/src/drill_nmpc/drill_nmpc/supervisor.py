@@ -308,13 +308,13 @@ class Supervisor:
         E = pb.integral_rollout(X, par, self.integral, y_sp, self.bhp_bias) if pb.ne else None
         return pb.pack(x0, u_prev, X, U, E, {}, self._speed), None, None
 
-    def _shifted_guess(self, x0, par, u_prev, pump_on):
+    def _shifted_guess(self, x0, par, u_prev, pump_on, fixed=None):
         """Previous solution shifted one sample (primal and multipliers), re-expressed
-        around the new x_0 and u_{-1}."""
+        around the new x_0 and u_{-1}, the pinned inputs on their plan."""
         pb, w = self.problem, self._warm
         X = np.vstack([w["X"][1:], w["X"][-1:]])
         X[0] = x0
-        U = np.vstack([w["U"][1:], w["U"][-1:]])
+        U = self._with_plan(np.vstack([w["U"][1:], w["U"][-1:]]), fixed)
         E = None
         if pb.ne:
             E = np.vstack([w["E"][1:], w["E"][-1:]])
@@ -323,7 +323,7 @@ class Supervisor:
         z = pb.pack(x0, u_prev, X, U, E, slacks, self._speed)
         lam_z, lam_g = pb.shift_multipliers(w["lam_z"], w["lam_g"])
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(lam_z)) and np.all(np.isfinite(lam_g))):
-            return self._initial_guess(x0, par, u_prev, pump_on)
+            return self._initial_guess(x0, par, u_prev, pump_on, fixed)
         return z, lam_z, lam_g
 
     # -- one sample ---------------------------------------------------------------------
@@ -402,7 +402,7 @@ class Supervisor:
         for start in attempts:
             relaxed = start == "relaxed"
             if start == "shifted":
-                z0, lam_z0, lam_g0 = self._shifted_guess(x0, par, u_prev, pump_on)
+                z0, lam_z0, lam_g0 = self._shifted_guess(x0, par, u_prev, pump_on, fixed_inputs)
             elif start == "rollout":
                 z0, lam_z0, lam_g0 = self._rollout_guess(x0, par, u_prev, pump_on, y_sp,
                                                          fixed_inputs)
