@@ -46,6 +46,9 @@ def _helper_module(name: str):
     return module
 
 
+STUCK_MARK = _helper_module("teardown").STUCK_MARK   # how a helper's stuck teardown reads
+
+
 def child_env(domain_id: int) -> dict[str, str]:
     env = dict(os.environ)
     env.update(ROS_DOMAIN_ID=str(domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
@@ -111,10 +114,9 @@ class Child:
             self.kill()
             pytest.fail(f"{self.args[0]} did not exit within {timeout} s")
         stderr = self.proc.stderr.read()
-        stuck_mark = _helper_module("teardown").STUCK_MARK
-        if stuck_mark in stderr:
+        if STUCK_MARK in stderr:
             warnings.warn(f"{self.args[0]}: ROS teardown stuck after EXIT {announced}; "
-                          f"stacks:\n{stderr[stderr.index(stuck_mark):][:4000]}")
+                          f"stacks:\n{stderr[stderr.index(STUCK_MARK):][:4000]}")
             return announced
         assert exit_code == announced, f"{self.args[0]}: EXIT {announced} but exit code {exit_code}"
         return exit_code

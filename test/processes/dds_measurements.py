@@ -13,7 +13,7 @@ sent before both ends have matched:
     fields of every sample once it has N of them (or when its deadline passes).
 Every wait has a deadline (``RIG_TEST_TIMEOUT_S``, default 20 s): a hang exits non-zero.
 Before its ROS teardown each side prints ``EXIT <code>``; the teardown runs under
-:func:`teardown.bounded` (a stuck one dumps its stacks and ends the process).
+:func:`teardown.arm_watchdog` (a stuck one dumps its stacks and ends the process).
 """
 from __future__ import annotations
 
@@ -72,7 +72,7 @@ def run(argv: list[str]) -> int:
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     from drill_msgs.msg import RigMeasurement
     from drill_ros.runner import shut_down
-    from teardown import bounded
+    from teardown import arm_watchdog
 
     qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.VOLATILE)
@@ -122,8 +122,8 @@ def run(argv: list[str]) -> int:
             return 0 if len(received) == count else 5
         raise SystemExit(f"unknown role {role!r}")
     finally:
-        with bounded():
-            shut_down(executor, node)
+        arm_watchdog()
+        shut_down(executor, node)
 
 
 if __name__ == "__main__":

@@ -6,7 +6,7 @@ Refuses a negative (or non-finite) bhp_ref_pa with a reason and leaves the activ
 setpoints unchanged; accepts anything else and makes it active. Prints ``READY`` once
 the service exists and ``SERVED <n>`` when it stops: on end of stdin (the test closes
 it) or after ``RIG_TEST_TIMEOUT_S`` (default 20 s), then ``EXIT 0`` before its ROS
-teardown, which runs under :func:`teardown.bounded`.
+teardown, which runs under :func:`teardown.arm_watchdog`.
 """
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ def main(argv: list[str]) -> int:
     from drill_msgs.msg import Setpoints
     from drill_msgs.srv import SetSetpoints
     from drill_ros.runner import shut_down
-    from teardown import bounded
+    from teardown import arm_watchdog
 
     rclpy.init(args=[])
     node = rclpy.create_node("test_dds_setpoint_server")
@@ -67,8 +67,8 @@ def main(argv: list[str]) -> int:
         print("EXIT 0", flush=True)
         return 0
     finally:
-        with bounded():
-            shut_down(executor, node)
+        arm_watchdog()
+        shut_down(executor, node)
 
 
 if __name__ == "__main__":

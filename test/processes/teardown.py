@@ -10,16 +10,13 @@ line printed before the teardown.
 from __future__ import annotations
 
 import faulthandler
-from contextlib import contextmanager
 
 TEARDOWN_S = 15.0          # a teardown takes well under a second alone and ~10 s under load
 STUCK_MARK = "Timeout ("   # how faulthandler's dump begins
 
 
-@contextmanager
-def bounded(seconds: float = TEARDOWN_S):
-    """Run the block with a watchdog: past ``seconds`` the stacks go to stderr and the
-    process exits (code 1). The watchdog stays armed to the end of the process, so a stall
-    in the interpreter's own finalisation (where the DDS participant goes) is caught too."""
+def arm_watchdog(seconds: float = TEARDOWN_S) -> None:
+    """From now on, past ``seconds`` the stacks go to stderr and the process exits (code 1).
+    Armed before the teardown and never cancelled, so a stall in the interpreter's own
+    finalisation (where the DDS participant goes) is caught too."""
     faulthandler.dump_traceback_later(seconds, exit=True)
-    yield

@@ -349,23 +349,28 @@ def test_the_integral_rollout_is_the_nlps_own(config, em):
     assert gaps[0] < 1e-9 and gaps[1] > 0.1
 
 
+def _gaps_on_the_full_step(pb, calls: list):
+    """``pb.nlp_functions`` with the first evaluation (the full RTI step) ten tolerances off
+    the model in its first stage's gaps; each evaluated point is appended to ``calls``."""
+    real_nlp = pb.nlp_functions
+
+    def evaluate(z, p):
+        f, g = real_nlp(z, p)
+        calls.append(z)
+        g = np.array(g).ravel().copy()
+        if len(calls) == 1:
+            g[pb.stages[0].gap] += 10.0 * GAP_TOLERANCE
+        return f, g
+    return evaluate
+
+
 def test_a_step_too_long_for_the_linearisation_is_shortened(config, em, supervisor, monkeypatch):
     """A full real-time-iteration step with dynamics gaps over the tolerance is halved (the
     multipliers with it) until they are within it."""
     x, u = _steady(config, em)
     sp = trip_setpoints(0.0, 0.0, 100.0, float(outputs(em, x)[2]))
     pb = supervisor.problem
-    real_nlp = pb.nlp_functions
     calls = []
-
-    def gaps_on_the_full_step(z, p):
-        f, g = real_nlp(z, p)
-        calls.append(z)
-        g = np.array(g).ravel().copy()
-        if len(calls) == 1:                            # the full step: far off the model
-            g[pb.stages[0].gap] += 10.0 * GAP_TOLERANCE
-        return f, g
-
     real_rti = pb._rti_step
     seen = {}
 
@@ -375,7 +380,7 @@ def test_a_step_too_long_for_the_linearisation_is_shortened(config, em, supervis
         return seen["out"]
 
     supervisor.reset()
-    monkeypatch.setattr(pb, "nlp_functions", gaps_on_the_full_step)
+    monkeypatch.setattr(pb, "nlp_functions", _gaps_on_the_full_step(pb, calls))
     monkeypatch.setattr(pb, "_rti_step", spy)
     r = supervisor.step(x, sp, u)
     out = seen["out"]
@@ -388,9 +393,9 @@ def test_a_plan_pinned_since_the_last_solve_is_in_the_shifted_warm_start(config,
                                                                           monkeypatch):
     """The rig floor's pump ramp-down appears in the plan between two solves (a connection
     begins, the block pinned at the stand's end): the shifted previous solution carries the
-    ramp's pinned inputs, so a step
-    shortened for the linearisation still meets them and the shifted start is used (off
-    the plan, half a step misses the pins by half the ramp: the attempt was rejected)."""
+    ramp's pinned inputs, so a step shortened for the linearisation still meets them and
+    the shifted start is used (off the plan, half a step misses the pins by half the ramp:
+    the attempt was rejected)."""
     x, u = _steady(config, em)
     slew = _bounds(config)[2]
     sp = trip_setpoints(0.0, 0.0, 100.0, float(outputs(em, x)[2]))
@@ -402,22 +407,14 @@ def test_a_plan_pinned_since_the_last_solve_is_in_the_shifted_warm_start(config,
     ramp = steady.copy()
     ramp[:, 3] = u[3] - 3.5 * slew[3] * np.arange(1, N + 1)
     pb = supervisor.problem
-    real_nlp, real_rti = pb.nlp_functions, pb._rti_step
+    real_rti = pb._rti_step
     calls, starts = [], []
-
-    def gaps_on_the_full_step(z, p):
-        f, g = real_nlp(z, p)
-        calls.append(z)
-        g = np.array(g).ravel().copy()
-        if len(calls) == 1:                            # the full step: far off the model
-            g[pb.stages[0].gap] += 10.0 * GAP_TOLERANCE
-        return f, g
 
     def spy(p, z0, lbz, ubz, *args):
         starts.append(np.max(np.abs(z0 - lbz)[lbz == ubz]))
         return real_rti(p, z0, lbz, ubz, *args)
 
-    monkeypatch.setattr(pb, "nlp_functions", gaps_on_the_full_step)
+    monkeypatch.setattr(pb, "nlp_functions", _gaps_on_the_full_step(pb, calls))
     monkeypatch.setattr(pb, "_rti_step", spy)
     r = supervisor.step(x, sp, r.u, fixed_inputs=ramp)
     assert starts[0] < 1e-9                             # the shifted start on the pins
