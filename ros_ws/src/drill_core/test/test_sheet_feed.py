@@ -35,7 +35,7 @@ def streams():
         steps.append((k * FRAME_NS, TripStep(phase=phase, stand=stand, slips_set=slips,
                                              latched=not slips, pump_factor=1.0,
                                              bit_height_target_m=0.0, stands_pulled=stand - 1)))
-        measurements.append(((k + 1) * FRAME_NS, BHP_REF_PA - (3.0e5 if k % 5 == 0 else 0.0),
+        measurements.append(((k + 1) * FRAME_NS, BHP_REF_PA - (3.0e5 if 20 <= k < 40 else 0.0),
                              6.0 - 0.002 * k))
     return steps, measurements
 
@@ -62,7 +62,10 @@ def test_in_order_and_out_of_order_give_the_same_rows(volumes):
     steps, measurements = streams()
     expected = in_order(volumes, steps, measurements)
     assert [r.stand for r in expected] == [1, 2]
-    assert expected[0].outside_band_s == pytest.approx(19 * 0.1)     # every fifth of 100 frames, the first untimed
+    # swabbed 3 bar in frames 20-39: the gauge's 1 s mean (10 frames) is past the 2 bar band
+    # while at least 7 of its 10 are swabbed, frames 26 to 42
+    assert expected[0].outside_band_s == pytest.approx(17 * 0.1)
+    assert expected[0].peak_swab_pa == pytest.approx(3.0e5) and expected[1].peak_swab_pa == 0.0
     ordered = [e for pair in zip((("floor", s) for s in steps),
                                  (("measurement", m) for m in measurements)) for e in pair]
     assert fed(volumes, ordered).sheet.rows == expected

@@ -284,14 +284,14 @@ def test_the_trip_sheet_is_kept_from_the_floor_and_the_measurements():
         state.on_floor(k * frame_ns, TripStep(phase=phase, stand=stand, slips_set=phase == CONNECTION,
                                               latched=True, pump_factor=1.0, bit_height_target_m=0.0,
                                               stands_pulled=stand - 1), start)
-        bhp = 6.7e7 - (3.0e5 if k == 5 else 0.0)         # one frame swabbed past the 2 bar band
+        bhp = 6.7e7 - (3.0e5 if 5 <= k < 15 else 0.0)   # 1 s swabbed past the 2 bar band
         state.on_measurement((k + 1) * 0.1, dict(sample, bhp_pa=bhp, trip_tank_volume_m3=6.0 - 0.004 * k),
                              (k + 1) * frame_ns)
     sheet = json.loads(json.dumps(state.snapshot()))["trip_sheet"]
     assert (sheet["direction"], sheet["stands"], sheet["stand"], sheet["phase"]) == ("out", 2, 2, MOVING)
     [row] = sheet["rows"]
     assert row["stand"] == 1 and row["peak_swab_pa"] == pytest.approx(3.0e5)
-    assert row["outside_band_s"] == pytest.approx(0.1)
+    assert row["outside_band_s"] == pytest.approx(0.7)   # the gauge's 1 s mean: frames 11-17
     assert row["out_of_slips_s"] == pytest.approx(2.0 - 0.1)       # 20 frames, the first untimed
     assert row["measured_fill_m3"] == pytest.approx(0.004 * 28)
     assert row["gain_m3"] == pytest.approx(0.1 - 0.004 * 28)

@@ -3,16 +3,43 @@ slips, the peak surge and swab, the time BHP spent outside its band, and the hol
 the trip tank measured against the steel the stand displaced. Their running difference
 is the well's gain (+: the well gave back more than the steel, an influx swabbed in;
 -: it took more, losses); the sheet raises an alarm when it passes the programme's limit.
+
+The BHP figures judge the gauge's mean over its last GAUGE_MEAN_S, not each sample: the
+gauge reads 1 bar of noise at 10 Hz, so sample by sample a stand held inside its band
+booked 5 bar peaks and half a minute outside it that were the gauge's, not the well's.
 """
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field
 
 from drill_core.event_codes import Notice
 from drill_core.tripping.programme import TripProgramme
 from drill_core.tripping.sequence import DONE, TripStep
 from drill_core.tripping.stands import StandVolumes
+
+
+GAUGE_MEAN_S = 1.0      # the BHP figures judge the gauge's mean over this window [s]
+
+
+class GaugeMean:
+    """The mean of the finite samples stamped within the last ``window_s``; NaN until they
+    span half of it (the start, a gauge just back: one sample would be judged alone)."""
+
+    def __init__(self, window_s: float = GAUGE_MEAN_S):
+        self.window_s = window_s
+        self.samples: deque[tuple[float, float]] = deque()
+
+    def add(self, time_s: float, value: float) -> float:
+        """Take the sample ``value`` stamped ``time_s`` [s]; returns the mean now."""
+        if math.isfinite(value):
+            self.samples.append((time_s, value))
+        while self.samples and time_s - self.samples[0][0] >= self.window_s - 1e-6:
+            self.samples.popleft()
+        if not self.samples or time_s - self.samples[0][0] < 0.5 * self.window_s - 1e-6:
+            return math.nan
+        return sum(v for _, v in self.samples) / len(self.samples)
 
 
 @dataclass(frozen=True)
@@ -24,7 +51,7 @@ class StandRow:
     out_of_slips_s: float
     peak_surge_pa: float          # the largest BHP over its reference (0: none)
     peak_swab_pa: float           # the largest BHP under its reference (0: none)
-    outside_band_s: float
+    outside_band_s: float         # BHP outside its band (these three: the gauge's mean)
     expected_fill_m3: float       # the mud the hole should take (- : give back)
     measured_fill_m3: float       # what the trip tank lost (- : gained)
     gain_m3: float                # expected - measured
@@ -54,6 +81,7 @@ class TripSheet:
     band_pa: float                 # BHP's band half-width around its reference
     wet: bool = False              # pulled wet: the stand's contents leave with it
     rows: list[StandRow] = field(default_factory=list)
+    _gauge: GaugeMean = field(default_factory=GaugeMean)
     _open: _OpenRow | None = None
     _last_time_s: float | None = None
     _alarm_sign: int = 0
@@ -70,8 +98,8 @@ class TripSheet:
 
     def observe(self, time_s: float, step: TripStep, bhp_pa: float, bhp_ref_pa: float,
                 tank_volume_m3: float) -> list[Notice]:
-        """Take one tick: the sequencer's ``step``, BHP and its reference [Pa], the trip
-        tank's measured volume [m^3]. Returns the alarms this tick raised."""
+        """Take one tick: the sequencer's ``step``, the gauge's BHP and its reference [Pa],
+        the trip tank's measured volume [m^3]. Returns the alarms this tick raised."""
         dt = 0.0 if self._last_time_s is None else time_s - self._last_time_s
         self._last_time_s = time_s
         notices = []
@@ -81,11 +109,12 @@ class TripSheet:
             row = self._open = None
         if row is None and step.phase != DONE:
             row = self._open = _OpenRow(step.stand, time_s, tank_volume_m3)
-        if row is not None:
-            deviation = bhp_pa - bhp_ref_pa
+        deviation = self._gauge.add(time_s, bhp_pa - bhp_ref_pa)
+        if row is not None and math.isfinite(deviation):
             row.deviation_max_pa = max(row.deviation_max_pa, deviation)
             row.deviation_min_pa = min(row.deviation_min_pa, deviation)
             row.outside_band_s += dt if abs(deviation) > self.band_pa else 0.0
+        if row is not None:
             row.out_of_slips_s += 0.0 if step.slips_set else dt
         return notices
 
