@@ -5,8 +5,8 @@ is the well's gain (+: the well gave back more than the steel, an influx swabbed
 -: it took more, losses); the sheet raises an alarm when it passes the programme's limit.
 
 The BHP figures judge the gauge's mean over its last GAUGE_MEAN_S, not each sample: the
-gauge reads 1 bar of noise at 10 Hz, so sample by sample a stand held inside its band
-booked 5 bar peaks and half a minute outside it that were the gauge's, not the well's.
+gauge reads 1 bar of noise at 10 Hz, and judged sample by sample a stand held inside its
+band would book the gauge's noise as surge, swab and time outside the band.
 """
 from __future__ import annotations
 
