@@ -9,7 +9,7 @@ import pytest
 from drill_core.tripping.programme import TripProgramme
 from drill_core.tripping.sequence import DONE, MOVING, TripStep
 from drill_core.tripping.stands import StandVolumes
-from drill_core.tripping.trip_sheet import GAUGE_MEAN_S, GaugeMean, TripSheet
+from drill_core.tripping.trip_sheet import GAUGE_MEAN_S, GaugeMean, StandRow, TripSheet
 
 FRAME_S = 0.1
 BHP_REF_PA, BAND_PA = 6.85e7, 2.0e5
@@ -17,7 +17,7 @@ GAUGE_NOISE_PA = 1.0e5          # config/plant.yaml: the BHP gauge's sigma
 VOLUMES = StandVolumes(steel_m3=0.1, closed_end_m3=0.36, contents_m3=0.26)
 
 
-def one_stand(deviations_pa) -> tuple:
+def one_stand(deviations_pa) -> StandRow:
     """The sheet's row of one stand moving for as many frames as ``deviations_pa`` (the
     gauge's BHP less its reference, Pa), then done."""
     sheet = TripSheet(TripProgramme(direction="out", stands=1), VOLUMES, BAND_PA)
