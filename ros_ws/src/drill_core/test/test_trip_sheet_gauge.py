@@ -9,7 +9,7 @@ import pytest
 from drill_core.tripping.programme import TripProgramme
 from drill_core.tripping.sequence import DONE, MOVING, TripStep
 from drill_core.tripping.stands import StandVolumes
-from drill_core.tripping.trip_sheet import GAUGE_MEAN_S, GaugeMean, StandRow, TripSheet
+from drill_core.tripping.trip_sheet import StandRow, TripSheet
 
 FRAME_S = 0.1
 BHP_REF_PA, BAND_PA = 6.85e7, 2.0e5
@@ -52,13 +52,17 @@ def test_a_swab_that_lasts_is_booked_whole_through_the_noise():
 
 
 def test_a_gauge_dropout_is_left_out_of_the_mean():
-    gauge = GaugeMean()
-    assert math.isnan(gauge.add(0.0, math.nan))
-    assert math.isnan(gauge.add(0.1, 2.0))                # one sample: not half the window
-    assert math.isnan(gauge.add(0.2, math.nan))
-    assert gauge.add(0.1 + 0.5 * GAUGE_MEAN_S, 4.0) == 3.0
-    assert math.isnan(gauge.add(0.7 + GAUGE_MEAN_S, 5.0))   # the older samples out of the window
-    assert gauge.add(0.7 + 1.5 * GAUGE_MEAN_S, 7.0) == 6.0
+    # 2 s of dropout, then 2 s of -3 bar: nothing is judged until the samples span half
+    # the 1 s window (t = 2.5 s), then 15 frames are booked
     row = one_stand([math.nan] * 20 + [-3.0e5] * 20)
     assert row.peak_swab_pa == pytest.approx(3.0e5)
-    assert row.outside_band_s == pytest.approx(1.5)       # once the gauge spans half a second
+    assert row.outside_band_s == pytest.approx(1.5)
+    # a 0.5 s dropout inside a 4.5 s swab at -3 bar, 0 around it; the window holds the last
+    # 10 frames: the mean passes -2 bar on the swab's 7th frame and holds the swab's samples
+    # through the dropout; on the 5th frame after it the samples held span 0.4 s, less than
+    # half the window, and that frame is not judged; back inside 3 frames after the swab:
+    # 4.5 - 0.6 - 0.1 + 0.3 s
+    swab = [-3.0e5] * 20 + [math.nan] * 5 + [-3.0e5] * 20
+    row = one_stand([0.0] * 20 + swab + [0.0] * 20)
+    assert row.peak_swab_pa == pytest.approx(3.0e5)
+    assert row.outside_band_s == pytest.approx(4.1)

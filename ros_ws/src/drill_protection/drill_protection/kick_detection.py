@@ -30,10 +30,10 @@ from collections import deque
 from dataclasses import dataclass
 
 from drill_core.config import KickDetection, RigConfig
+from drill_core.recent_samples import RecentSamples
 from drill_core.surface_flows import delta_flow_m3s
 from drill_core.well import WellGeometry
 from drill_protection.flow_baseline import FlowBaseline
-from drill_protection.recent_median import RecentMedian
 from drill_protection.slope import LeastSquaresSlope
 
 
@@ -74,8 +74,8 @@ class KickDetector:
         self.config = config
         self.area_m2 = net_displacement_area_m2
         self.compliance_m3_pa = (compliance_top_m3_pa, compliance_bottom_m3_pa)
-        self._pressures = (RecentMedian(config.pressure_average_s),    # choke dp, BHP [Pa]
-                           RecentMedian(config.pressure_average_s))
+        self._pressures = (RecentSamples(config.pressure_average_s),    # choke dp, BHP [Pa]
+                           RecentSamples(config.pressure_average_s))
         self.rejected = 0
         self.rejected_pit = 0                   # pit samples left out (NaN, inf)
         self.alarm = ""
@@ -113,11 +113,11 @@ class KickDetector:
             self._pit.clear()
             self._pit_start = None
             return self._reading(False)
-        for median, value in zip(self._pressures, (s.choke_dp_pa, s.bhp_pa)):
-            median.add(s.time_s, value if pressures_ok else math.nan)
+        for window, value in zip(self._pressures, (s.choke_dp_pa, s.bhp_pa)):
+            window.add(s.time_s, value if pressures_ok else math.nan)
         current = all(self._pressures)
         if current:
-            self._held_pressures = [median.value for median in self._pressures]
+            self._held_pressures = [window.median for window in self._pressures]
             self._pressure_gap_since_s = None
         elif self._pressure_gap_since_s is None:
             self._pressure_gap_since_s = s.time_s

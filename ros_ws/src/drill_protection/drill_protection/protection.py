@@ -71,9 +71,9 @@ from drill_core import hydraulics as hy
 from drill_core.config import RigConfig
 from drill_core.event_codes import Notice
 from drill_core.input_layout import COMMAND_NAMES, U_BLOCK, U_BPP_FLOW, U_CHOKE, U_PUMP_PRESSURE
+from drill_core.recent_samples import BHP_WINDOW_S, RecentSamples
 from drill_core.units import PA_PER_BAR
 from drill_protection.pump_trip import TripAction
-from drill_protection.recent_median import BHP_MEDIAN_S, RecentMedian
 from drill_protection.slope import LeastSquaresSlope
 from drill_protection.well_control import Hold
 
@@ -142,7 +142,7 @@ class ProcessProtection:
         self.pressed_bhp_pa = float("nan")      # the measured BHP at the press [Pa]
         self.emergency_dp_start_pa = float("nan")   # the choke dp the stop calls for [Pa]
         self.last_bhp_pa = float("nan")         # the last finite BHP measurement [Pa]
-        self.bhp_median = RecentMedian(BHP_MEDIAN_S)    # of every measurement (observe_bhp)
+        self.bhp_gauge = RecentSamples(BHP_WINDOW_S)     # every measurement's BHP (observe_bhp)
         self.bhp_trend = LeastSquaresSlope()    # the last window_guard_lead_s of them
         self.automation_level = "closed_loop"
         self.trip_hold = ""          # why the trip is stopped (a well-control alarm), "" if not
@@ -380,7 +380,7 @@ class ProcessProtection:
     def observe_bhp(self, time_s: float, bhp_pa: float) -> None:
         """Take every BHP measurement (the stop's BHP is the median of the last second's;
         the window guard's trend the slope of the last ``window_guard_lead_s``)."""
-        self.bhp_median.add(time_s, bhp_pa)
+        self.bhp_gauge.add(time_s, bhp_pa)
         if np.isfinite(bhp_pa):
             self.bhp_trend.append(time_s, float(bhp_pa))
         trend = self.bhp_trend.samples
@@ -400,7 +400,7 @@ class ProcessProtection:
             self.emergency_bhp_pa = self.pressed_bhp_pa = self.emergency_dp_start_pa = float("nan")
             return self.emergency_bhp_pa
         if not np.isfinite(self.pressed_bhp_pa):
-            median = self.bhp_median.value
+            median = self.bhp_gauge.median
             self.pressed_bhp_pa = median if np.isfinite(median) else self.last_bhp_pa
             speed = string_velocity_mps if np.isfinite(string_velocity_mps) else 0.0
             change = surge_swab_pa(self.wm, np.array([speed]), circulation_m3s)[0] \

@@ -42,8 +42,8 @@ from dataclasses import dataclass
 
 from drill_core.config import WellControl
 from drill_core.event_codes import Notice
+from drill_core.recent_samples import BHP_WINDOW_S, RecentSamples
 from drill_core.units import LPM_PER_M3S, PA_PER_BAR
-from drill_protection.recent_median import BHP_MEDIAN_S, RecentMedian
 from drill_protection.slope import LeastSquaresSlope
 
 
@@ -62,7 +62,7 @@ class WindowResponse:
         self.config = config
         self.configured_pa = window_pa
         self.low_pa, self.high_pa = window_pa
-        self._bhp = RecentMedian(BHP_MEDIAN_S)  # the BHP the first step starts from
+        self._bhp = RecentSamples(BHP_WINDOW_S)  # the BHP the first step starts from
         self._answering = ""                      # the alarm being answered ("" none)
         self._stepped_at_s = math.nan             # its last step (or judgement) [s]
         self._volumes = LeastSquaresSlope()       # (time s since it, excess volume m^3)
@@ -118,7 +118,7 @@ class WindowResponse:
             self.offset_pa, self._offset_at_s = offset, time_s
         if not self._bhp:
             return None
-        bhp = self._bhp.value
+        bhp = self._bhp.median
         if alarm in ("kick", "losses") and alarm != self._answering:    # the alarm's first step
             self._answering, self._margin_taken = alarm, False
             flowed_at = [bhp] + ([reference_pa] if math.isfinite(reference_pa) else [])

@@ -51,4 +51,4 @@ def test_a_lost_circulation_is_raised_once_and_answered(watch):
 def test_the_stops_bhp_reading_is_fed_from_every_measurement(watch):
     for k, bhp in enumerate((6.851e7, 6.849e7, 6.850e7, 6.853e7, 6.870e7)):
         watch.observe(k * FRAME_NS, sample(0.0, bhp_pa=bhp))
-    assert watch.protection.bhp_median.value == 6.851e7
+    assert watch.protection.bhp_gauge.median == 6.851e7

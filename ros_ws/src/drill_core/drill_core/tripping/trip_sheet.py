@@ -4,42 +4,24 @@ the trip tank measured against the steel the stand displaced. Their running diff
 is the well's gain (+: the well gave back more than the steel, an influx swabbed in;
 -: it took more, losses); the sheet raises an alarm when it passes the programme's limit.
 
-The BHP figures judge the gauge's mean over its last GAUGE_MEAN_S, not each sample: the
+The BHP figures judge the gauge's mean over its last BHP_WINDOW_S, not each sample: the
 gauge reads 1 bar of noise at 10 Hz, and judged sample by sample a stand held inside its
 band would book the gauge's noise as surge, swab and time outside the band.
 """
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass, field
 
 from drill_core.event_codes import Notice
+from drill_core.recent_samples import BHP_WINDOW_S, RecentSamples
 from drill_core.tripping.programme import TripProgramme
 from drill_core.tripping.sequence import DONE, TripStep
 from drill_core.tripping.stands import StandVolumes
 
 
-GAUGE_MEAN_S = 1.0      # the BHP figures judge the gauge's mean over this window [s]
-
-
-class GaugeMean:
-    """The mean of the finite samples stamped within the last ``window_s``; NaN until they
-    span half of it (the start, a gauge just back: one sample would be judged alone)."""
-
-    def __init__(self, window_s: float = GAUGE_MEAN_S):
-        self.window_s = window_s
-        self.samples: deque[tuple[float, float]] = deque()
-
-    def add(self, time_s: float, value: float) -> float:
-        """Take the sample ``value`` stamped ``time_s`` [s]; returns the mean now."""
-        if math.isfinite(value):
-            self.samples.append((time_s, value))
-        while self.samples and time_s - self.samples[0][0] >= self.window_s - 1e-6:
-            self.samples.popleft()
-        if not self.samples or time_s - self.samples[0][0] < 0.5 * self.window_s - 1e-6:
-            return math.nan
-        return sum(v for _, v in self.samples) / len(self.samples)
+JUDGED_SHARE = 0.5       # no BHP figure until the gauge's samples span this share of
+                         # its window (the start, a gauge just back: one sample alone)
 
 
 @dataclass(frozen=True)
@@ -81,7 +63,7 @@ class TripSheet:
     band_pa: float                 # BHP's band half-width around its reference
     wet: bool = False              # pulled wet: the stand's contents leave with it
     rows: list[StandRow] = field(default_factory=list)
-    _gauge: GaugeMean = field(default_factory=GaugeMean)
+    _gauge: RecentSamples = field(default_factory=lambda: RecentSamples(BHP_WINDOW_S))
     _open: _OpenRow | None = None
     _last_time_s: float | None = None
     _alarm_sign: int = 0
@@ -109,7 +91,8 @@ class TripSheet:
             row = self._open = None
         if row is None and step.phase != DONE:
             row = self._open = _OpenRow(step.stand, time_s, tank_volume_m3)
-        deviation = self._gauge.add(time_s, bhp_pa - bhp_ref_pa)
+        self._gauge.add(time_s, bhp_pa - bhp_ref_pa)
+        deviation = self._gauge.mean if self._gauge.spans(time_s, JUDGED_SHARE) else math.nan
         if row is not None and math.isfinite(deviation):
             row.deviation_max_pa = max(row.deviation_max_pa, deviation)
             row.deviation_min_pa = min(row.deviation_min_pa, deviation)
