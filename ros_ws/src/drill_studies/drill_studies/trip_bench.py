@@ -92,7 +92,9 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     ``settle_s`` at rest with the pump on; the estimator follows the floor if
     ``floor_aware``; ``controller`` one of CONTROLLERS. ``plant_config``: the plant and
     the actuators are built from it, the estimator and the controller from ``config``
-    (drill_core.mismatch.truth_config; None: the same). ``state``: what the NMPC plans
+    (drill_core.mismatch.truth_config; None: the same); the mud pump starts at the plant's
+    own stand-pipe pressure and is commanded the model's times the floor's share, as the
+    graph's advisors command it. ``state``: what the NMPC plans
     from, one of STATE_SOURCES (``truth``: the oracle of drill_studies.loop_bench)."""
     if controller not in CONTROLLERS:
         raise ValueError(f"controller {controller!r} is not one of {', '.join(CONTROLLERS)}")
@@ -111,8 +113,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
                           start.inputs[0])
     floor_tick = FloorTick(config.well, remaining.pop(0), float(start.inputs[0]), step_s)
     floor = floor_tick.floor
-    spp_pa = start.inputs[3]
-    mud_pump = Pump(plant_config.actuators.mud_pump, spp_pa)
+    mud_pump = Pump(plant_config.actuators.mud_pump, start.inputs[3])   # the plant's own
     estimator = EstimatorTick(config)
     oracle = TruthState(sim, plant_config, drawworks, estimator.ukf.em) \
         if state == "truth" else None
@@ -202,7 +203,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
             reference_m = m.block_position_m
             block = drawworks.drive_block(command.block_target_m if step.phase != DONE
                                           else drawworks.lag.value, step_s, steps)
-        pump = mud_pump.frame(spp_pa * step.pump_factor, step_s, steps)
+        pump = mud_pump.frame(start_inputs.spp_pa * step.pump_factor, step_s, steps)
         inputs = np.repeat(u[:, None], steps, axis=1)
         valve = FrameOutput(u[1], u[1], inputs[1])
         if (baseline is not None or nmpc is not None) and advice is not None:

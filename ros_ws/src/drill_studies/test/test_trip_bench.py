@@ -166,6 +166,30 @@ def test_a_mismatch_is_given_to_the_plant_only():
         run_trip(model, programme, seed=12, state="oracle")
 
 
+def test_the_mud_pump_is_commanded_the_models_pressure_on_another_mud():
+    """As in the graph, the advisors' stand-pipe pressure is the model's operating point's
+    (drill_nmpc.advisor_ticks.StartInputs), not the plant's: on a thicker mud than reported
+    the pump starts at the plant's own steady-state pressure and lags (5 s) to the model's,
+    so the mud circulates less than the 1000 L/min the model's pressure gives the report."""
+    from drill_core import hydraulics as hy
+    from drill_core.mismatch import Mismatch, truth_config
+    from drill_plant.plant_model import steady_state
+    model = load_rig(config_dir())
+    thicker = truth_config(model, Mismatch(yield_stress_factor=1.3, consistency_factor=1.3))
+
+    def spp_pa(config):
+        wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
+                                 config.plant.choke_regularisation_pa)
+        return steady_state(wm, 1000.0 / 60000.0, 2.0e6, 0.0).inputs[3]
+
+    programme = [TripProgramme(direction="out", stands=1, stand_length_m=STAND_M)]
+    run = run_trip(model, programme, seed=12, settle_s=0.0, max_s=25.0, plant_config=thicker)
+    model_pa, plant_pa = spp_pa(model), spp_pa(thicker)
+    assert plant_pa > model_pa + 5.0e5                      # the thicker mud needs more
+    assert run.log["time_s"][-1] > 20.0                     # four of the pump's lags
+    assert abs(run.sim.inputs[3] - model_pa) < 0.05 * (plant_pa - model_pa)
+
+
 def test_through_a_connection_the_estimate_holds_on_a_choke_tighter_than_its_data_sheet():
     """The NMPC runs the back-pressure pump through the choke while the mud pump stands
     for the connection; the plant's choke passes 8 % less than the data sheet says. The
