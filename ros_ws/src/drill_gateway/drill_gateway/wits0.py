@@ -31,6 +31,27 @@ def parse_address(address: str) -> tuple[str, int]:
     return host, int(port)
 
 
+class RecordPacer:
+    """Which samples get a frame: the first of each record period of the samples' own
+    stamps, so no two frames carry the same period, however the gateway's wall clock
+    and the rig's clock drift apart (a realtime run that lags, a fast run)."""
+
+    def __init__(self, period_s: float):
+        if not period_s > 0.0:
+            raise ValueError(f"WITS0 period_s {period_s}: must be > 0 s")
+        self.period_ns = round(period_s * 1e9)
+        self._last_period = None
+
+    def due(self, stamp_ns: int) -> bool:
+        """True (and the period taken) if ``stamp_ns`` is in a later period than the
+        last frame's."""
+        period = stamp_ns // self.period_ns
+        if self._last_period is not None and period <= self._last_period:
+            return False
+        self._last_period = period
+        return True
+
+
 def frame(snapshot: RigSnapshot, well_id: str) -> str:
     """The record 01 frame of one snapshot."""
     when = datetime.fromtimestamp(snapshot.stamp_ns / 1e9, tz=timezone.utc)

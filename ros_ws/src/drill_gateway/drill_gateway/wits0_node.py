@@ -1,10 +1,10 @@
 """WITS0 gateway node: the rig's record 01 to rig data systems over TCP, once a period
-(``rig run ... --wits0 [HOST:PORT]``; drill_gateway.wits0, docs/gateways.md).
+of the samples' stamps (``rig run ... --wits0 [HOST:PORT]``; drill_gateway.wits0, docs/gateways.md).
 
     python -m drill_gateway.wits0_node --ros-args -p address:=127.0.0.1:11000
 
 Parameters: ``address`` (127.0.0.1:11000: this machine only; port 0 picks a free one),
-``period_s`` (1.0: record 01's sampling interval), ``well_id`` (item 0101; default the
+``period_s`` (1.0: record 01's sampling interval, in rig time), ``well_id`` (item 0101; default the
 scenario's name), and the common ones (its well.yaml gives the bit depth at the start).
 Subscriptions are best-effort keep-last, so the gateway never holds up the graph. Prints
 ``WITS0_ADDRESS host:port`` once it serves.
@@ -21,7 +21,9 @@ from drill_ros.node import RigNode
 from drill_ros.runner import run
 from drill_ros.status import StatusReporter
 from drill_gateway.live_rig import follow, live_rig
-from drill_gateway.wits0 import DEFAULT_ADDRESS, Wits0Server, frame
+from drill_gateway.wits0 import DEFAULT_ADDRESS, RecordPacer, Wits0Server, frame
+
+POLLS_PER_PERIOD = 10                   # the latest sample is looked at 10 times a period
 
 
 class Wits0GatewayNode(RigNode):
@@ -34,19 +36,18 @@ class Wits0GatewayNode(RigNode):
         self.status = StatusReporter(self, mode)
         self.server = Wits0Server(address)
         self.live = live_rig(config_dir)
-        self._last_sent_ns = -1
+        self.pacer = RecordPacer(period_s)
         follow(self, self.live)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self.create_timer(period_s, self._send, clock=steady)
+        self.create_timer(period_s / POLLS_PER_PERIOD, self._send, clock=steady)
         self.create_timer(1.0, self._tick, clock=steady)
         self.get_logger().info(f"WITS0 record 01 on tcp://{self.server.address}")
         print(f"WITS0_ADDRESS {self.server.address}", flush=True)
 
     def _send(self) -> None:
         snapshot = self.live.snapshot()
-        if snapshot is None or snapshot.stamp_ns == self._last_sent_ns:
-            return                           # nothing new since the last frame
-        self._last_sent_ns = snapshot.stamp_ns
+        if snapshot is None or not self.pacer.due(snapshot.stamp_ns):
+            return                           # this period has its frame
         self.server.send(frame(snapshot, self.well_id))
 
     def _tick(self) -> None:

@@ -51,6 +51,21 @@ def test_an_item_without_a_value_is_left_out():
     assert "0130" not in items and "0143" not in items and "0129" in items
 
 
+def test_each_second_of_the_samples_stamps_gets_one_frame_whatever_the_wall_clock_does():
+    pacer = wits0.RecordPacer(1.0)
+    # a lagging realtime run: looked at 0.1 s apart in wall time, the samples advance
+    # 0.05 s, stall, then jump 2.3 s
+    stamps_s = [27.95, 28.0, 28.05, 28.05, 28.95, 29.0, 31.3, 31.35, 32.0]
+    sent = [t for t in stamps_s if pacer.due(round(t * NS))]
+    assert sent == [27.95, 28.0, 29.0, 31.3, 32.0]
+
+
+@pytest.mark.parametrize("period_s", [0.0, -1.0, float("nan")])
+def test_a_period_that_is_not_positive_is_refused(period_s):
+    with pytest.raises(ValueError, match="period_s"):
+        wits0.RecordPacer(period_s)
+
+
 def test_the_server_sends_each_frame_to_every_client_and_drops_one_that_left():
     server = wits0.Wits0Server("127.0.0.1:0")
     try:
