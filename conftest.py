@@ -29,8 +29,7 @@ def cfg():
 @pytest.fixture(scope="session")
 def wm(cfg):
     """The reference well as the truth plant builds it (its yield and choke regularisation)."""
-    return hy.build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
-                               cfg.plant.choke_regularisation_pa)
+    return hy.rig_well_model(cfg)
 
 
 @pytest.fixture()

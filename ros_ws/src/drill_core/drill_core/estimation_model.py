@@ -230,8 +230,7 @@ def build_estimation_model(config: RigConfig, with_disturbance: bool = False,
     modulus factor: both explain more return flow than the model's, and without the factor
     every pressure change on a mud softer than the report reads as an influx
     (docs/mismatch.md). ``pulled_m``: the string that much shorter (drill_core.well)."""
-    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa, pulled_m)
+    wm = hy.rig_well_model(config, pulled_m)
     est = config.estimator
     law = est.annular_friction_law                # validated by the config (FRICTION_LAWS)
     smoothing = est.annular_friction_smoothing_mps if smoothing_mps is None else smoothing_mps

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from drill_core.config import Well
+from drill_core.config import RigConfig, Well
 from drill_core.rheology import Fluid, annulus_fluid, path_pressure_loss, string_fluid
 from drill_core.well import WellGeometry, build_geometry
 
@@ -38,6 +38,14 @@ def build_well_model(well: Well, regularisation_mps: float, choke_regularisation
     return WellModel(well, build_geometry(well, pulled_m), string_fluid(well.mud, well.turbulence),
                      annulus_fluid(well.mud, well.turbulence), regularisation_mps,
                      choke_regularisation_pa)
+
+
+def rig_well_model(config: RigConfig, pulled_m: float = 0.0, well: Well | None = None) -> WellModel:
+    """The well model of ``config`` (its well, or ``well`` in its place) with the plant's
+    yield and choke regularisation, its string tripped out by ``pulled_m``."""
+    return build_well_model(config.well if well is None else well,
+                            config.plant.yield_regularisation_velocity_mps,
+                            config.plant.choke_regularisation_pa, pulled_m)
 
 
 def hydrostatic_pa(wm: WellModel, depth_m: float) -> float:

@@ -146,8 +146,7 @@ def _operating_point():
     from drill_plant.plant_model import PlantLayout, steady_state
 
     cfg = load_rig(CONFIG_DIR)
-    wm = hy.build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
-                             cfg.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(cfg)
     ss = steady_state(wm, CIRCULATION, 2.0e6, 0.0)
     lay = PlantLayout(wm.n)
     y = np.array([0.0, 2.0e6, ss.state[lay.pressure(wm.n)], CIRCULATION])

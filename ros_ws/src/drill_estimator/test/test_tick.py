@@ -6,7 +6,7 @@ import dataclasses
 import pytest
 
 from drill_core.config import load_rig
-from drill_core.hydraulics import build_well_model
+from drill_core.hydraulics import rig_well_model
 from drill_core.rig_root import config_dir
 from drill_estimator.model_inputs import ModelInputs
 from drill_estimator.tick import EstimatorTick
@@ -23,8 +23,7 @@ def test_the_valve_law_is_calibrated_only_through_a_connections_planned_stop(
     (the valve law times the meter's calibration); any other stop (a trip) does not. The
     calibration's weight per frame is the sensor period over its time constant."""
     config = load_rig(config_dir())
-    wm = build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                          config.plant.choke_regularisation_pa)
+    wm = rig_well_model(config)
     sim = PlantSimulator(config, pm.steady_state(wm, 1000.0 / 60000.0, 2.0e6, 0.0), seed=3)
     tick = EstimatorTick(config)
     assert tick.inputs.calibration_gain == pytest.approx(

@@ -319,8 +319,7 @@ def test_the_density_offset_learns_a_mud_heavier_than_its_report(cfg, plant):
     sensor's noise."""
     from drill_core.mismatch import Mismatch, truth_config
     truth = truth_config(cfg, Mismatch(density_factor=1.008))
-    wm = hy.build_well_model(truth.well, truth.plant.yield_regularisation_velocity_mps,
-                             truth.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(truth)
     run = simulate(cfg, (wm, build_frame_function(wm, truth)), 120.0, CIRCULATION, 2.0e6,
                    _rest, seed=11, model_wm=plant[0])
     a = run.arrays()
@@ -339,10 +338,8 @@ def _choke_opened_on_a_softer_mud(cfg, em=None):
     from drill_core.mismatch import Mismatch, truth_config
     cfg = replace(cfg, estimator=replace(cfg.estimator, estimate_bottom_influx=True))
     truth = truth_config(cfg, Mismatch(bulk_modulus_factor=0.85))
-    wm = hy.build_well_model(truth.well, truth.plant.yield_regularisation_velocity_mps,
-                             truth.plant.choke_regularisation_pa)
-    model_wm = hy.build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
-                                   cfg.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(truth)
+    model_wm = hy.rig_well_model(cfg)
     opening = steady_state(wm, CIRCULATION, 2.0e6, 0.0).inputs[1]
 
     def schedule(t):

@@ -8,7 +8,7 @@ import pytest
 
 from drill_core.rig_root import rig_root
 from drill_core.scenario import SetpointChange, initial_setpoints, load_scenario_config
-from drill_core.hydraulics import build_well_model
+from drill_core.hydraulics import rig_well_model
 from drill_nmpc.setpoint_book import SetpointBook
 from drill_nmpc.setpoint_validation import Envelope
 
@@ -26,8 +26,7 @@ def book():
         SetpointChange(time_s=7.0, block_position_target_m=0.0),
     ))
     start = dataclasses.replace(initial_setpoints(config, scenario), bhp_ref_pa=math.nan)
-    wm = build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                          config.plant.choke_regularisation_pa)
+    wm = rig_well_model(config)
     envelope = Envelope.from_config(config, wm.geometry)
     return SetpointBook(scenario, start, envelope)
 

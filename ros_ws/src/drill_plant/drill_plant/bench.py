@@ -23,8 +23,7 @@ from drill_plant.simulator import PlantSimulator
 def plant_frame_cost(config: RigConfig, repetitions: int = 2000) -> dict:
     """Median wall time [s] of one sensor frame and of one plant step, and the plant
     core's real-time factor (frame time over the sensor period), for ``config``'s well."""
-    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(config)
     ss = steady_state(wm, BENCH_POINT.circulation_m3s, BENCH_POINT.choke_dp_pa,
                       BENCH_POINT.bpp_flow_m3s)
     sim = PlantSimulator(config, ss, seed=1)

@@ -87,8 +87,7 @@ class PlantSimulator:
         """The well model and the frame and outputs functions of the string ``pulled_m``
         short (compiled when the configuration asks, cached per geometry)."""
         plant = self.config.plant
-        self.wm = hy.build_well_model(self.config.well, plant.yield_regularisation_velocity_mps,
-                                      plant.choke_regularisation_pa, pulled_m)
+        self.wm = hy.rig_well_model(self.config, pulled_m)
         self._frame = build_frame_function(self.wm, self.config)
         self._outputs = build_outputs_function(self.wm)
         if plant.jit:

@@ -27,8 +27,7 @@ def config():
 def _closed_loop(config, setpoints, seconds: float, seed: int = 3):
     """Plant with the pumps held and the choke in pressure mode; the measured choke dp per
     frame and the set-point in force."""
-    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(config)
     op = steady_state(wm, FLOW, 2.0e6, 0.0)
     sim = PlantSimulator(config, op, seed)
     choke = Choke(config.actuators, sim.wm, float(op.inputs[1]))

@@ -53,8 +53,7 @@ def _pull_out_and_stop(config, bhp_gauge_out: bool = False, seconds: float = 110
     from then on holding the BHP measured at the stop (the BHP gauge out from then on if
     asked); per 0.1 s frame: time, true string position, block, true BHP, true choke dp;
     the BHP measured at the stop, the BHP at the start and the drawworks."""
-    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(config)
     op = steady_state(wm, FLOW, 2.0e6, BPP)
     sim = PlantSimulator(config, op, 5)
     a, step, n = config.actuators, config.plant.step_s, config.plant.steps_per_frame
@@ -158,8 +157,7 @@ def test_a_bad_sample_at_the_release_holds_the_block_and_the_next_one_hands_back
 
 
 def test_the_bhp_loop_enters_bumpless_and_a_bad_sample_changes_nothing(config):
-    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(config)
     choke = Choke(config.actuators, wm, 0.3)
     flow = float(hy.choke_flow(wm, 0.3, 2.0e6))
     out = choke.bhp_frame(6.85e7, 6.85e7, math.nan, flow, 2.0e6, 0.01, 10)   # on target
@@ -175,8 +173,7 @@ def test_the_bhp_loop_takes_the_valve_where_it_is_not_where_it_was_going(config)
     """A choke closing on its flow loop when the stop comes: the BHP loop starts from the
     valve's opening at that moment (the valve stops there), not from the flow loop's last
     command, which the valve's lag would have gone on closing to."""
-    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(config)
     choke = Choke(config.actuators, wm, 0.3)
     flow = float(hy.choke_flow(wm, 0.3, 2.0e6))
     choke.frame(0.5 * flow, 2.0e6, 0.01, 10, return_flow_m3s=flow)    # closing

@@ -72,8 +72,7 @@ def test_a_shut_in_well_settles_at_the_pore_pressure(cfg):
     takes part (a gelled annulus lets the bottom settle first and the rest creep)."""
     mud = replace(cfg.well.mud, yield_stress_pa=0.0, annulus_yield_stress_pa=0.0)
     well = replace(cfg.well, mud=mud)
-    wm = hy.build_well_model(well, cfg.plant.yield_regularisation_velocity_mps,
-                             cfg.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(cfg, well=well)
     frame = pm.build_frame_function(wm, dataclasses.replace(cfg, well=well))
     rest = pm.steady_state(wm, 0.0, 0.0, 0.0)
     lay = pm.PlantLayout(wm.n)

@@ -406,8 +406,7 @@ def _frictionless_annulus_frequencies(cfg, segments):
     mud = replace(cfg.well.mud, yield_stress_pa=0.0, annulus_yield_stress_pa=0.0,
                   consistency_pa_sn=1e-6)
     well = replace(cfg.well, mud=mud, segment_lengths_m=segments)
-    wm = hy.build_well_model(well, cfg.plant.yield_regularisation_velocity_mps,
-                             cfg.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(cfg, well=well)
     lay = pm.PlantLayout(wm.n)
     x, u = ca.SX.sym("x", lay.size), ca.SX.sym("u", 4)
     jac = ca.Function("j", [x, u], [ca.jacobian(ca.vertcat(*pm.drift(

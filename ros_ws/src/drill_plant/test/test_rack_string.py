@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from drill_core.config import load_rig
-from drill_core.hydraulics import build_well_model
+from drill_core.hydraulics import rig_well_model
 from drill_core.operating_point import operating_point
 from drill_core.rig_root import config_dir
 from drill_plant import plant_model as pm
@@ -22,8 +22,7 @@ def pulled_twins():
     """Two plants of one seed, pump off, choke as at rest: the block pulls a stand at
     0.5 m/s and holds; after 120 s the string is at rest a stand up."""
     cfg = load_rig(config_dir())
-    wm = build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
-                          cfg.plant.choke_regularisation_pa)
+    wm = rig_well_model(cfg)
     start = pm.steady_state(wm, 0.0, 0.0, 0.0)
     sims = [PlantSimulator(cfg, start, seed=11) for _ in range(2)]
     steps = cfg.plant.steps_per_frame
@@ -71,8 +70,7 @@ def test_a_short_strings_operating_point_is_the_plants_steady_state(pulled_m):
     the string at the bit a column of ``pulled_m`` lighter than at the bottom node. Held
     there, the plant stays: its BHP and flows drift by no more than its noise in 20 s."""
     cfg = load_rig(config_dir())
-    wm = build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
-                          cfg.plant.choke_regularisation_pa, pulled_m)
+    wm = rig_well_model(cfg, pulled_m)
     op = operating_point(wm, 1000.0 / 60000.0, 2.0e6, 0.0)
     rho_g = cfg.well.mud.density_kgm3 * cfg.well.gravity_mps2
     bit_dp = op.string_pressure_pa - (op.annulus_pressure_pa[-1] - rho_g * pulled_m)

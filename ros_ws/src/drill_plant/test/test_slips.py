@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from drill_core.config import load_rig
-from drill_core.hydraulics import build_well_model
+from drill_core.hydraulics import rig_well_model
 from drill_core.rig_root import config_dir
 from drill_core.tripping.hoist import buoyed_weight_n
 from drill_plant import plant_model as pm
@@ -22,8 +22,7 @@ class _Floor:
 
     def __init__(self):
         cfg = load_rig(config_dir())
-        wm = build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
-                              cfg.plant.choke_regularisation_pa)
+        wm = rig_well_model(cfg)
         self.sim = PlantSimulator(cfg, pm.steady_state(wm, FLOW_M3S, 2.0e6, 0.0), seed=4)
         self.steps, self.step_s = self.sim.steps_per_frame, cfg.plant.step_s
         self.u = self.sim.inputs.copy()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from drill_core.config import load_rig
-from drill_core.hydraulics import build_well_model
+from drill_core.hydraulics import rig_well_model
 from drill_core.rig_root import config_dir
 from drill_core.tripping.stands import StandVolumes
 from drill_plant import plant_model as pm
@@ -17,8 +17,7 @@ STAND_M = 28.0
 
 def test_a_stand_pulled_on_the_trip_tank_takes_its_steel_from_it():
     cfg = load_rig(config_dir())
-    wm = build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
-                          cfg.plant.choke_regularisation_pa)
+    wm = rig_well_model(cfg)
     sim = PlantSimulator(cfg, pm.steady_state(wm, 1000.0 / 60000.0, 2.0e6, 0.0), seed=9)
     steps, step_s = sim.steps_per_frame, cfg.plant.step_s
     u = sim.inputs.copy()

@@ -76,8 +76,7 @@ def test_the_chokes_flow_loop_answering_a_step_is_not_stuck(cfg):
     """A step of the flow reference from 650 L/min to nothing (the pump trip's trap) with
     the return flow standing: the PI loop moves the valve within the window and then holds
     it at the bottom of its range, where it is not judged."""
-    wm = hy.build_well_model(cfg.well, cfg.plant.yield_regularisation_velocity_mps,
-                             cfg.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(cfg)
     choke = Choke(cfg.actuators, wm, 0.12)
     watch = StuckValveWatch(cfg.protection.choke_watch, cfg.actuators.choke)
     flow = 650.0 / 60000.0

@@ -23,8 +23,7 @@ def _run(seconds, speed=lambda t: 0.0, pore_pressure_pa=None, at_s=0.0, seed=5):
     ``speed(t)``; from ``at_s`` the formation's pore pressure is ``pore_pressure_pa``.
     Returns the detector's readings and the plant's influx volume per 0.1 s sensor frame."""
     cfg = load_rig(config_dir())
-    sim = PlantSimulator(cfg, pm.steady_state(pm.hy.build_well_model(
-        cfg.well, cfg.plant.yield_regularisation_velocity_mps, cfg.plant.choke_regularisation_pa),
+    sim = PlantSimulator(cfg, pm.steady_state(pm.hy.rig_well_model(cfg),
         CIRCULATION_M3S, CHOKE_DP_PA, 0.0), seed=seed)
     detector = detector_for(cfg, sim.wm.geometry)
     steps, step_s = sim.steps_per_frame, cfg.plant.step_s

@@ -19,8 +19,7 @@ FRAME_NS = 100_000_000
 @pytest.fixture()
 def watch():
     config = load_rig(CONFIG)
-    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(config)
     protection = ProcessProtection(config, wm, np.array([0.0, 0.0167, 0.0, 1.06e7]))
     return MeasurementWatch(config, wm, protection)
 

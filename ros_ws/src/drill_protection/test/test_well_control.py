@@ -137,8 +137,7 @@ def test_the_limiter_holds_the_choke_until_the_advisor_aims_inside_the_window():
     inside the window its choke passes; the trip-speed limits keep to the narrowed window
     either way; outside closed loop nothing is applied."""
     config = load_rig(CONFIG)
-    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa)
+    wm = hy.rig_well_model(config)
     start = np.array([0.0, 0.0167, 0.0, 1.06e7])
     protection = ProcessProtection(config, wm, start)
     request = [0.0, 0.0167, 0.0, 1.06e7]

@@ -50,6 +50,5 @@ def load_context(node, truth_side: bool = False) -> NodeContext:
         truth_path = node.declare_parameter("truth", "").value
         if truth_path:
             config = truth_config(config, read_truth_file(truth_path)[1])
-    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa, scenario.pulled_at_start_m)
+    wm = hy.rig_well_model(config, scenario.pulled_at_start_m)
     return NodeContext(scenario, config, mode, wm, initial_operating_point(wm, scenario.initial))

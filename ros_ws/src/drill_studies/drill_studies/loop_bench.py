@@ -89,8 +89,7 @@ class Rig:
 
     def __init__(self, config: RigConfig, scenario, seed: int):
         self.config = config
-        wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                                 config.plant.choke_regularisation_pa)
+        wm = hy.rig_well_model(config)
         self.op = initial_operating_point(wm, scenario.initial)
         self.plant = PlantTick(config, self.op, scenario, seed)
         self.sim = self.plant.sim
@@ -262,8 +261,7 @@ def run(scenario_name: str, controller: str = "automated_mpd", state: str = "ukf
                                             overrides)
     plant_config = config if mismatch is None else truth_config(config, mismatch)
     rig = Rig(plant_config, scenario, scenario.seed if seed is None else seed)
-    wm = hy.build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                             config.plant.choke_regularisation_pa)      # the model's
+    wm = hy.rig_well_model(config)      # the model's
     em = build_estimation_model(config)
     source = TruthState(rig.sim, rig.config, rig.drawworks, em) if state == "truth" \
         else UkfState(config, rig)

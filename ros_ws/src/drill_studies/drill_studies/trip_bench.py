@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drill_core.config import RigConfig, load_rig
-from drill_core.hydraulics import build_well_model
+from drill_core.hydraulics import rig_well_model
 from drill_core.mismatch import resolve, truth_config
 from drill_core.tripping.programme import TripProgramme
 from drill_core.tripping.rig_floor import RigFloor
@@ -100,9 +100,9 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
         raise ValueError(f"controller {controller!r} is not one of {', '.join(CONTROLLERS)}")
     if state not in STATE_SOURCES:
         raise ValueError(f"state {state!r} is not one of {', '.join(STATE_SOURCES)}")
-    model_wm = _well_model(config)
+    model_wm = rig_well_model(config)
     plant_config = config if plant_config is None else plant_config
-    wm = _well_model(plant_config)
+    wm = rig_well_model(plant_config)
     start = pm.steady_state(wm, CIRCULATION_M3S, CHOKE_DP_PA, 0.0)
     sim = PlantSimulator(plant_config, start, seed=seed)
     sim.line_up_trip_tank(True)
@@ -225,11 +225,6 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
              "bit_height_m", "bhp_pa", "bhp_estimate_pa")
     log = {name: np.array(column) for name, column in zip(names, zip(*rows))}
     return TripRun(sim, floor, sheets, alarms, log, tank_start_m3 - tank_end_m3, solve_times)
-
-
-def _well_model(config: RigConfig):
-    return build_well_model(config.well, config.plant.yield_regularisation_velocity_mps,
-                            config.plant.choke_regularisation_pa)
 
 
 def _setpoints(trip_speed_mps: float) -> ActiveSetpoints:

@@ -171,14 +171,15 @@ def test_the_mud_pump_is_commanded_the_models_pressure_on_another_mud():
     (drill_nmpc.advisor_ticks.StartInputs), not the plant's: on a thicker mud than reported
     the pump starts at the plant's own steady-state pressure and lags (5 s) to the model's,
     so the mud circulates less than the 1000 L/min the model's pressure gives the report."""
+    from drill_core.hydraulics import rig_well_model
     from drill_core.mismatch import Mismatch, truth_config
     from drill_plant.plant_model import steady_state
-    from drill_studies.trip_bench import CHOKE_DP_PA, CIRCULATION_M3S, _well_model
+    from drill_studies.trip_bench import CHOKE_DP_PA, CIRCULATION_M3S
     model = load_rig(config_dir())
     thicker = truth_config(model, Mismatch(yield_stress_factor=1.3, consistency_factor=1.3))
 
     def spp_pa(config):       # the bench's start: its circulation at its choke dp
-        return steady_state(_well_model(config), CIRCULATION_M3S, CHOKE_DP_PA, 0.0).inputs[3]
+        return steady_state(rig_well_model(config), CIRCULATION_M3S, CHOKE_DP_PA, 0.0).inputs[3]
 
     programme = [TripProgramme(direction="out", stands=1, stand_length_m=STAND_M)]
     run = run_trip(model, programme, seed=12, settle_s=0.0, max_s=25.0, plant_config=thicker)
