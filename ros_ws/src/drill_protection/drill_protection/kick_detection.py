@@ -183,8 +183,7 @@ class KickDetector:
             self._pit_start = (s.time_s, s.pit_volume_m3, known_m3)
         start_s, pit0, known0 = self._pit_start
         self._pit.append(s.time_s - start_s, s.pit_volume_m3 - pit0 + known_m3 - known0)
-        while self._pit.samples[0][0] < s.time_s - start_s - self.config.pit_window_s - 1e-9:
-            self._pit.popleft()
+        self._pit.drop_before(s.time_s - start_s - self.config.pit_window_s - 1e-9)
 
     @property
     def pit_gain_flow_m3s(self) -> float:

@@ -383,9 +383,7 @@ class ProcessProtection:
         self.bhp_gauge.add(time_s, bhp_pa)
         if np.isfinite(bhp_pa):
             self.bhp_trend.append(time_s, float(bhp_pa))
-        trend = self.bhp_trend.samples
-        while trend and trend[0][0] < time_s - self.config.protection.window_guard_lead_s + 1e-9:
-            self.bhp_trend.popleft()
+        self.bhp_trend.drop_before(time_s - self.config.protection.window_guard_lead_s + 1e-9)
 
     def _emergency_bhp(self, stop: bool, string_velocity_mps: float, circulation_m3s: float,
                        choke_dp_pa: float) -> float:

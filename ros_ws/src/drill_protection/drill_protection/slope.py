@@ -22,8 +22,10 @@ class LeastSquaresSlope:
         self.samples.append((t, v))
         self._add(t, v, 1.0)
 
-    def popleft(self) -> None:
-        self._add(*self.samples.popleft(), -1.0)
+    def drop_before(self, t: float) -> None:
+        """Take out the samples older than ``t``."""
+        while self.samples and self.samples[0][0] < t:
+            self._add(*self.samples.popleft(), -1.0)
 
     def clear(self) -> None:
         self.samples.clear()

@@ -1,5 +1,6 @@
 """The running least-squares slope (drill_protection.slope) against numpy's fit of the
-same samples, as samples come in at the end and go out at the start."""
+same samples, as samples come in at the end and the ones older than a window go out at
+the start."""
 import math
 
 import numpy as np
@@ -15,8 +16,8 @@ def test_the_running_slope_is_the_least_squares_fit_of_the_samples_kept():
     s = LeastSquaresSlope()
     for k in range(t.size):
         s.append(t[k], v[k])
-        if len(s) > 30:
-            s.popleft()
+        s.drop_before(t[k] - 2.95)                # the last 30 samples
+        assert len(s) == min(k + 1, 30)
         if k >= 2:
             kept = slice(max(k - 29, 0), k + 1)
             assert s.slope == pytest.approx(np.polyfit(t[kept], v[kept], 1)[0], rel=1e-9)
