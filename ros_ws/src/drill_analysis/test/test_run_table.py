@@ -1,6 +1,7 @@
 """The printed run summary: a multi-stand trip's leaves out the block's distance, position
 error and legs (the string's position counts from a new top after each connection), and a
-single trip's keeps them."""
+single trip's keeps them; a realtime run's frame lateness gives the frames skipped only
+where the run counted them."""
 from drill_analysis.report import format_table
 
 SUMMARY = {"duration_s": 600.0, "trip_distance_m": 28.5, "max_string_speed_mps": 0.51,
@@ -19,3 +20,11 @@ def test_a_multi_stand_table_leaves_out_the_block_frames_figures():
         assert text in single and text not in multi
     assert "max 0.51 m/s (each stand's move: the trip sheet below)" in multi
     assert "BHP [bar]" in multi and "0.600" in multi
+
+
+def test_a_realtime_run_gives_the_frames_skipped_it_counted_and_an_older_run_none():
+    late = {"frame_late_p99_s": 0.002, "frame_late_max_s": 0.41}
+    counted = format_table("short_trip", SUMMARY | late | {"frames_skipped": 4.0})
+    older = format_table("short_trip", SUMMARY | late)
+    assert "p99 2.0 ms, max 410.0 ms, 4 frames skipped" in counted
+    assert "p99 2.0 ms, max 410.0 ms (plant frames" in older and "skipped" not in older
