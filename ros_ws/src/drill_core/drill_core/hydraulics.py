@@ -112,6 +112,12 @@ def formation_flows(xp, formation, bhp_pa, pore_pressure_pa, fracture_pressure_p
     return influx, loss
 
 
+def annulus_compliance_m3_per_pa(wm: WellModel) -> float:
+    """The annulus's volume of mud taken up per pascal of pressure [m^3/Pa]: its volume
+    over the mud's bulk modulus (the flow out over the flow in that a BHP change asks)."""
+    return float(sum(wm.geometry.annulus_volume_m3)) / wm.well.mud.bulk_modulus_pa
+
+
 def bottom_inflow_rate(wm: WellModel, inflow_m3s):
     """dp_n/dt [Pa/s] of an extra inflow into the bottom annulus volume (formation flow in
     the plant, the unmeasured influx state of NMPC2's estimation model)."""

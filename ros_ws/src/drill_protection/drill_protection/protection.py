@@ -25,8 +25,10 @@ machines respects the most conservative of
   fracture pressure less the margin, or heading over it within ``window_guard_lead_s`` on
   its least-squares slope over as long (a pump ramped up under a choke closed on the
   friction the connection took away: the choke's answer takes that long), the choke's
-  flow reference is set one slew above
-  the measured return flow and the back-pressure pump one slew below its measured flow
+  flow reference is set above the measured return flow by one slew or, if more, by the
+  flow that takes the BHP ahead back to the edge over the lead (the annulus's compliance
+  times the overshoot over the lead: 13 bar on the reference well is 370 L/min), and the
+  back-pressure pump one slew below its measured flow
   (unless the advisor asks for more of that), the other way round under the pore
   pressure plus the margin (the choke on its flow loop while it acts). Starting from the
   measured flows, not the last commands, it cannot wind up behind the pumps' lags,
@@ -156,6 +158,7 @@ class ProcessProtection:
         self.upper = np.array([a.drawworks.maximum, n.input_max.choke_flow_m3s, a.bpp.maximum,
                                a.mud_pump.maximum])
         self.slew = np.array(n.input_slew.as_tuple())
+        self.annulus_compliance_m3_per_pa = hy.annulus_compliance_m3_per_pa(wm)
 
     def speed_limits(self, bhp_pa: float, string_velocity_mps: float, circulation_m3s: float,
                      operator_limit_mps: float, friction_free_bhp_pa: float = float("nan")
@@ -309,9 +312,9 @@ class ProcessProtection:
         trip = None if not_applied and not stop else trip_action
         friction_free = trip.friction_free_bhp_pa if trip is not None else float("nan")
         resting = abs(self.previous_speed_mps) < RESTING_REFERENCE_SPEED_MPS
-        judged = bhp_pa if np.isfinite(bhp_pa) else surface_bhp_pa
+        judged, measured = (bhp_pa, True) if np.isfinite(bhp_pa) else (surface_bhp_pa, False)
         guard = self._window_guard(judged, clamps, friction_free if resting else float("nan"),
-                                   measured=bool(np.isfinite(bhp_pa)))
+                                   measured=measured)
         shut = trip is not None and trip.choke_flow_m3s is not None and not stop
         if guard or shut:
             manual_choke_opening, choke_dp_setpoint = None, None
@@ -325,7 +328,8 @@ class ProcessProtection:
                                      f"{limited:.6g} (machine range/rate)"))
             command[i] = limited
         if guard:
-            self._drive_back(guard, command, surface_flows, circulation_m3s)
+            self._drive_back(guard, command, surface_flows, circulation_m3s,
+                             self._relief_m3s(guard, judged, measured))
         if trip is not None:
             self._answer_trip(trip, guard, command, clamps, shut)
         if protective and guard <= 0:
@@ -428,10 +432,11 @@ class ProcessProtection:
             command[U_BPP_FLOW] = floor
 
     def _drive_back(self, guard: int, command: np.ndarray, surface_flows,
-                    circulation_m3s: float) -> None:
-        """Choke flow reference and back-pressure pump one slew from where the machines are
-        (the measured return and pump flows; the last commands where unmeasured), toward the
-        window: more flow out and less pumped in over it (guard +1), the other way under it,
+                    circulation_m3s: float, relief_m3s: float) -> None:
+        """Choke flow reference (by ``relief_m3s``) and back-pressure pump (one slew) from
+        where the machines are (the measured return and pump flows; the last commands where
+        unmeasured), toward the window: more flow out and less pumped in over it (guard
+        +1), the other way under it,
         unless the advisor already asks for more of that. The choke starts from the flow
         going in (back-pressure pump plus circulation) where that is further toward the
         window than the return flow: under the window it lets out less than goes in at
@@ -441,7 +446,7 @@ class ProcessProtection:
         now = [m if np.isfinite(m) else self.previous[i] for i, m in zip((U_CHOKE, U_BPP_FLOW), measured)]
         flowing_in = now[1] + circulation_m3s
         start = max(now[0], flowing_in) if guard > 0 else min(now[0], flowing_in)
-        choke = start + guard * self.slew[U_CHOKE]
+        choke = start + guard * relief_m3s
         pump = now[1] - guard * self.slew[U_BPP_FLOW]
         command[U_CHOKE] = max(command[U_CHOKE], choke) if guard > 0 else min(command[U_CHOKE], choke)
         command[U_BPP_FLOW] = min(command[U_BPP_FLOW], pump) if guard > 0 else max(command[U_BPP_FLOW], pump)
@@ -482,16 +487,38 @@ class ProcessProtection:
                              f"{'down' if over else 'up'}", value))
         return 1 if over else -1
 
-    def _bhp_ahead_pa(self, bhp_pa: float) -> float:
-        """``bhp_pa`` carried ``window_guard_lead_s`` ahead on the least-squares slope of the
-        gauge's samples over as long; ``bhp_pa`` itself without a lead, or while the
-        samples cover under nine tenths of it (a gauge just back from a gap)."""
+    def _relief_m3s(self, guard: int, bhp_pa: float, measured: bool) -> float:
+        """The guard's step of the choke flow past the flows [m^3/s]: one slew, or over the
+        window, if more, the flow out of the annulus that takes the BHP ahead (``bhp_pa``
+        carried ``window_guard_lead_s`` ahead on the gauge's slope when ``measured``) back
+        to the fracture edge less the margin over the lead: its compliance times that
+        overshoot over the lead. A BHP coming back fast from under the window is not
+        opened on: ahead of it the overshoot is small. Under the window it stays one slew
+        (the pump-trip answer governs the choke when the BHP falls fastest)."""
+        slew = float(self.slew[U_CHOKE])
+        lead = self.config.protection.window_guard_lead_s
+        if guard <= 0 or lead <= 0.0:
+            return slew
+        ahead = self._bhp_ahead_pa(bhp_pa) if measured else bhp_pa
+        overshoot_pa = ahead - self.config.pressure_window_pa[1]
+        return max(slew, self.annulus_compliance_m3_per_pa * overshoot_pa / lead)
+
+    def _bhp_slope_pa_s(self) -> float:
+        """The least-squares slope of the gauge's samples over ``window_guard_lead_s``
+        [Pa/s]; NaN without a lead, or while the samples cover under nine tenths of it (a
+        gauge just back from a gap)."""
         lead = self.config.protection.window_guard_lead_s
         trend = self.bhp_trend.samples
         if lead <= 0.0 or not trend or trend[-1][0] - trend[0][0] < 0.9 * lead:
-            return bhp_pa
-        slope = self.bhp_trend.slope
-        return bhp_pa + slope * lead if np.isfinite(slope) else bhp_pa
+            return float("nan")
+        return float(self.bhp_trend.slope)
+
+    def _bhp_ahead_pa(self, bhp_pa: float) -> float:
+        """``bhp_pa`` carried ``window_guard_lead_s`` ahead on the gauge's slope; ``bhp_pa``
+        itself without a slope."""
+        slope = self._bhp_slope_pa_s()
+        return bhp_pa + slope * self.config.protection.window_guard_lead_s \
+            if np.isfinite(slope) else bhp_pa
 
     def _limit_opening(self, opening: float | None, clamps: list[Notice]) -> float | None:
         """A manual choke opening inside the choke's range [1] (None stays None)."""

@@ -262,6 +262,42 @@ def test_a_bhp_heading_out_of_the_window_within_the_lead_is_driven_back_already(
         assert out.text.startswith(f"BHP {out_pa / 1e5:.1f} bar ") and out.value == out_pa
 
 
+def test_a_bhp_heading_over_the_window_is_relieved_by_its_overshoot(setup):
+    """Over the window and climbing (a pump brought back under a choke closed on the lost
+    friction), the choke's flow reference goes past the flow by the flow that takes the
+    BHP ahead back to the edge over the lead: the annulus's volume over the mud's bulk
+    modulus times the overshoot over the lead, where that is more than one slew. A BHP
+    coming back fast from under the window, mid-window, is heading over too, but its
+    overshoot is small: about one slew, not the valve opened wide. Under the window, one
+    slew."""
+    config, wm = setup
+    high = config.well.formation.fracture_pressure_pa - config.protection.pressure_margin_pa
+    low = config.well.formation.pore_pressure_pa + config.protection.pressure_margin_pa
+    lead = config.protection.window_guard_lead_s
+    slew = config.nmpc.input_slew.choke_flow_m3s
+    compliance = sum(wm.geometry.annulus_volume_m3) / config.well.mud.bulk_modulus_pa
+
+    def choke_step(rise_pa_s: float, now_pa: float) -> float:
+        p = fresh(setup)
+        for t in np.arange(-10.0, 1e-9, 0.1):
+            p.observe_bhp(float(t), now_pa + rise_pa_s * t)
+        d = p.apply([0.0, CIRCULATION, 0.0, 1.06e7], 0.0, 0.0, now_pa, CIRCULATION, 0.5,
+                    surface_flows=(CIRCULATION, 0.0))
+        assert any(c.code == "window_guard" for c in d.clamps)
+        return d.command[1] - CIRCULATION
+
+    climb_pa_s = 3.0e5                                   # 3 bar/s, 1 bar over the edge
+    overshoot_pa = 1.0e5 + climb_pa_s * lead             # 13 bar ahead
+    relief = choke_step(climb_pa_s, high + 1.0e5)
+    assert relief == pytest.approx(compliance * overshoot_pa / lead, rel=1e-6)
+    assert relief * 60000.0 == pytest.approx(370.0, abs=5.0)    # L/min on the reference well
+    assert relief > 3.0 * slew
+    assert choke_step(0.1e5, high + 1.0e5) == pytest.approx(slew)      # 0.1 bar/s: one slew
+    recovering = choke_step(6.0e5, high - 20.0e5)        # mid-window, back up at 6 bar/s
+    assert slew <= recovering < 1.2 * slew
+    assert choke_step(-climb_pa_s, low - 1.0e5) == pytest.approx(-slew)  # falling: one slew
+
+
 def test_outside_the_window_the_choke_and_pump_are_driven_back_from_where_they_are(setup):
     config, _ = setup
     f, margin = config.well.formation, config.protection.pressure_margin_pa
