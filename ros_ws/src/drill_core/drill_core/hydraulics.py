@@ -113,8 +113,9 @@ def formation_flows(xp, formation, bhp_pa, pore_pressure_pa, fracture_pressure_p
 
 
 def annulus_compliance_m3_per_pa(wm: WellModel) -> float:
-    """The annulus's volume of mud taken up per pascal of pressure [m^3/Pa]: its volume
-    over the mud's bulk modulus (the flow out over the flow in that a BHP change asks)."""
+    """The mud the annulus takes up per pascal its pressure rises [m^3/Pa]: its volume over
+    the mud's bulk modulus (so a BHP held from rising at dp/dt asks that much more flow out
+    than in, times dp/dt)."""
     return float(sum(wm.geometry.annulus_volume_m3)) / wm.well.mud.bulk_modulus_pa
 
 

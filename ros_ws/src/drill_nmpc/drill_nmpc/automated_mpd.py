@@ -36,6 +36,7 @@ import numpy as np
 
 from drill_core.config import RigConfig
 from drill_core.estimation_model import EstimationModel
+from drill_core.hydraulics import annulus_compliance_m3_per_pa
 from drill_core.scenario import ActiveSetpoints
 from drill_core.surge_swab import SurgeSwabModel
 from drill_nmpc.motion_profile import MotionProfile
@@ -79,9 +80,8 @@ class AutomatedMpd:
         self.acceleration = min(self.cfg.acceleration_mps2,
                                 config.protection.trip_acceleration_max_mps2)
         self.model = SurgeSwabModel(em)
-        g, w = em.wm.geometry, em.wm.well
-        self.storage_m3_per_pa = sum(g.annulus_volume_m3) / w.mud.bulk_modulus_pa
-        self.downstream_pa = w.choke_downstream_pressure_pa
+        self.storage_m3_per_pa = annulus_compliance_m3_per_pa(em.wm)
+        self.downstream_pa = em.wm.well.choke_downstream_pressure_pa
         self.bpp = bpp_flow_m3s
         self.spp = spp_pa
         self.string_lag_s = config.actuators.drawworks.time_constant_s

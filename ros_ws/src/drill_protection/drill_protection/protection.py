@@ -503,22 +503,16 @@ class ProcessProtection:
         overshoot_pa = ahead - self.config.pressure_window_pa[1]
         return max(slew, self.annulus_compliance_m3_per_pa * overshoot_pa / lead)
 
-    def _bhp_slope_pa_s(self) -> float:
-        """The least-squares slope of the gauge's samples over ``window_guard_lead_s``
-        [Pa/s]; NaN without a lead, or while the samples cover under nine tenths of it (a
-        gauge just back from a gap)."""
+    def _bhp_ahead_pa(self, bhp_pa: float) -> float:
+        """``bhp_pa`` carried ``window_guard_lead_s`` ahead on the least-squares slope of the
+        gauge's samples over as long; ``bhp_pa`` itself without a lead, or while the
+        samples cover under nine tenths of it (a gauge just back from a gap)."""
         lead = self.config.protection.window_guard_lead_s
         trend = self.bhp_trend.samples
         if lead <= 0.0 or not trend or trend[-1][0] - trend[0][0] < 0.9 * lead:
-            return float("nan")
-        return float(self.bhp_trend.slope)
-
-    def _bhp_ahead_pa(self, bhp_pa: float) -> float:
-        """``bhp_pa`` carried ``window_guard_lead_s`` ahead on the gauge's slope; ``bhp_pa``
-        itself without a slope."""
-        slope = self._bhp_slope_pa_s()
-        return bhp_pa + slope * self.config.protection.window_guard_lead_s \
-            if np.isfinite(slope) else bhp_pa
+            return bhp_pa
+        slope = self.bhp_trend.slope
+        return bhp_pa + slope * lead if np.isfinite(slope) else bhp_pa
 
     def _limit_opening(self, opening: float | None, clamps: list[Notice]) -> float | None:
         """A manual choke opening inside the choke's range [1] (None stays None)."""
