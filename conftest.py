@@ -37,3 +37,10 @@ def runs_dir(tmp_path):
     """Where a test's runs put their run directories: private to the test, not created
     (a run makes it; a refused run must leave it absent)."""
     return tmp_path / "runs"
+
+
+def pytest_collection_modifyitems(items):
+    """The slow tests' modules first (graph runs and closed loops): on scripts/test's two
+    workers (a module per worker at a time) the long modules start at once and the many
+    short ones fill in behind them, rather than one long module starting last."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)

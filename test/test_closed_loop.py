@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from rig_testing import assert_same_recorded_data
+from rig_testing import assert_same_recorded_data, held_test_domain
 
 from drill_bag import mcap_io
 
@@ -31,10 +31,9 @@ SCENARIO = cli.ROOT / "config" / "scenarios" / "short_trip.yaml"
 @pytest.fixture(scope="module")
 def two_runs(tmp_path_factory):
     runs = []
-    for i, (domain, layout) in enumerate(((91, "separate"), (92, "two"))):
+    for i, layout in enumerate(("separate", "two")):
         code, run_dir = cli.run_scenario(SCENARIO, runs_dir=tmp_path_factory.mktemp(f"run{i}"),
-                                         domain_id=domain, timeout_s=240, quiet=True,
-                                         layout=layout)
+                                         timeout_s=240, quiet=True, layout=layout)
         assert code == 0, (run_dir / "launch.json").read_text()
         runs.append(run_dir)
     return runs
@@ -44,10 +43,9 @@ def two_runs(tmp_path_factory):
 def other_controllers(tmp_path_factory):
     """The same short trip under the PI baseline and under automated MPD."""
     out = {}
-    for controller, domain in (("baseline", 94), ("automated_mpd", 95)):
+    for controller in ("baseline", "automated_mpd"):
         code, run_dir = cli.run_scenario(SCENARIO, runs_dir=tmp_path_factory.mktemp(controller),
-                                         domain_id=domain, timeout_s=240, quiet=True,
-                                         controller=controller)
+                                         timeout_s=240, quiet=True, controller=controller)
         assert code == 0, (run_dir / "launch.json").read_text()
         out[controller] = run_dir
     return out
@@ -200,8 +198,10 @@ def test_reestimate_replays_recording_into_a_retuned_estimator(two_runs, tmp_pat
     (config / "estimator.yaml").write_text(yaml.safe_dump(tuning))
     # the two re-estimations side by side, each on its own ROS domain
     with ThreadPoolExecutor(max_workers=2) as pool:
-        same = pool.submit(reestimate, two_runs[0], cli.ROOT / "config", rate=5.0, domain_id=90)
-        retuned = pool.submit(reestimate, two_runs[0], config, rate=5.0, domain_id=98)
+        same = pool.submit(reestimate, two_runs[0], cli.ROOT / "config", rate=5.0,
+                           domain_id=held_test_domain())
+        retuned = pool.submit(reestimate, two_runs[0], config, rate=5.0,
+                              domain_id=held_test_domain())
     same, retuned = same.result(), retuned.result()
     assert same["estimates"] == same["measurements"] == 901
     # the same tuning on the same recorded inputs gives the same estimates

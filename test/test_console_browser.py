@@ -39,6 +39,7 @@ from drill_bag import mcap_io
 from drill_bringup import launcher
 from drill_rig import cli
 from drill_ros import topics
+from rig_testing import held_test_domain
 
 pytestmark = [pytest.mark.dds,
               pytest.mark.filterwarnings("ignore::DeprecationWarning")]
@@ -53,7 +54,7 @@ STOPPED_WINDOW_S = 3.0    # about one period of the hoisting resonance (2.2 rad/
 STOPPED_MPS = 0.02        # net string speed over the window: stopped (< 6 cm in 3 s)
 BLOCK_HELD_MPS = 0.02     # net block speed over the window: held (< 6 cm in 3 s; the block
                           # controller still trims the string onto the held reference)
-DOMAIN_ID = int(os.environ.get("RIG_CONSOLE_TEST_DOMAIN", "96"))     # 94-97 are the console's
+DOMAIN_ID = held_test_domain()
 CHROMIUM_FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                   "--disable-background-networking", "--disable-component-update", "--disable-sync",
                   "--window-size=1600,1900")

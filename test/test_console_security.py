@@ -1,5 +1,5 @@
 """The console bound to every interface (0.0.0.0) with a security directory, in this
-process on ROS domain 58: the page and its state are open to read, every action needs
+process on a ROS domain of its own: the page and its state are open to read, every action needs
 the directory's token (401 without it or with a wrong one; counted and recorded as a
 refusal on /operator/events, nothing done), an action with the token goes through; and a
 console other machines reach does not start without a security directory."""
@@ -14,7 +14,7 @@ import rclpy
 from drill_msgs.msg import OperatorEvent
 from rclpy.context import Context
 from rclpy.parameter import Parameter
-from rig_testing import spinning_node, wait_for
+from rig_testing import held_test_domain, spinning_node, wait_for
 from std_msgs.msg import String
 
 from drill_rig import cli
@@ -25,7 +25,7 @@ from drill_core.schema import ConfigError
 
 pytestmark = [pytest.mark.dds, pytest.mark.filterwarnings("ignore::DeprecationWarning")]
 
-DOMAIN_ID = 58
+DOMAIN_ID = held_test_domain()
 TIMEOUT_S = 30.0
 
 

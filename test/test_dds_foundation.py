@@ -28,12 +28,13 @@ import warnings
 from pathlib import Path
 
 import pytest
+from rig_testing import held_test_domain
 
 pytestmark = pytest.mark.dds
 
 HELPERS = Path(__file__).resolve().parent / "processes"
-DOMAIN_PUBSUB = 71
-DOMAIN_SERVICE = 72
+DOMAIN_PUBSUB = held_test_domain()
+DOMAIN_SERVICE = held_test_domain()
 TIMEOUT_S = 20.0           # each child gives up after this; the test waits a little longer
 EXIT_TIMEOUT_S = 60.0      # a child's exit includes DDS teardown, which under load has taken
                            # over 10 s: this deadline only catches a hang

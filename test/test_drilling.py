@@ -27,22 +27,22 @@ COMPARED = (topics.SURFACE, topics.DOWNHOLE, topics.DRILLING_TRUTH, topics.DRILL
             *(topics.actuator_frame(name) for name in topics.DRILLING_ACTUATORS))
 
 
-def _run(name: str, tmp_path_factory, domain: int, layout: str = "separate") -> Path:
+def _run(name: str, tmp_path_factory, layout: str = "separate") -> Path:
     code, run_dir = cli.run_scenario(SCENARIOS / f"{name}.yaml",
                                      runs_dir=tmp_path_factory.mktemp(f"{name}-{layout}"),
-                                     domain_id=domain, timeout_s=240, quiet=True, layout=layout)
+                                     timeout_s=240, quiet=True, layout=layout)
     assert code == 0, (run_dir / "launch.json").read_text()
     return next(run_dir.glob("*.mcap"))
 
 
 @pytest.fixture(scope="module")
 def op1(tmp_path_factory):
-    return _run("drilling_12in_op1", tmp_path_factory, 67)
+    return _run("drilling_12in_op1", tmp_path_factory)
 
 
 @pytest.fixture(scope="module")
 def op2(tmp_path_factory):
-    return _run("drilling_12in_op2", tmp_path_factory, 68)
+    return _run("drilling_12in_op2", tmp_path_factory)
 
 
 def test_op1_drills_in_sustained_stick_slip(op1):
@@ -75,7 +75,7 @@ def test_the_recorded_steps_are_the_simulators(op1):
 
 
 def test_same_seed_reproduces_the_recording_in_containers(op1, tmp_path_factory):
-    composed = _run("drilling_12in_op1", tmp_path_factory, 69, layout="two")
+    composed = _run("drilling_12in_op1", tmp_path_factory, layout="two")
     for topic in COMPARED:
         a = [m.data for m in mcap_io.read_messages(op1, [topic])]
         b = [m.data for m in mcap_io.read_messages(composed, [topic])]

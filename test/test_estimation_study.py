@@ -23,7 +23,6 @@ from drill_core.scenario import load_scenario_config
 
 pytestmark = [pytest.mark.dds, pytest.mark.slow]
 SCENARIO = Path(__file__).resolve().parent / "scenarios" / "estimation_study_short.yaml"
-DOMAIN_ID = 44
 LPM = 1.0 / 60000.0                     # 1 L/min [m^3/s]
 BHP_SENSOR_STD_PA = 1.0e5               # config/plant.yaml measurement_noise.bhp_pa
 FINAL_WINDOW_S = 20.0
@@ -32,7 +31,7 @@ FINAL_WINDOW_S = 20.0
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
     code, run_dir = cli.run_scenario(SCENARIO, runs_dir=tmp_path_factory.mktemp("estimation"),
-                                     domain_id=DOMAIN_ID, timeout_s=240, quiet=True)
+                                     timeout_s=240, quiet=True)
     assert code == 0, (run_dir / "launch.json").read_text()
     path = next(run_dir.glob("*.mcap"))
     return path, report.load_series(path)

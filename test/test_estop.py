@@ -36,7 +36,7 @@ MOVING_SETTLED_S = 30.0             # ... within 2 bar from this long after the 
 def _run(tmp_path_factory, name: str):
     code, run_dir = cli.run_scenario(cli.ROOT / "config" / "scenarios" / f"{name}.yaml",
                                      runs_dir=tmp_path_factory.mktemp(name),
-                                     domain_id=89, timeout_s=600, quiet=True)
+                                     timeout_s=600, quiet=True)
     assert code == 0, (run_dir / "launch.json").read_text()
     path = next(run_dir.glob("*.mcap"))
     series = report.load_series(path)

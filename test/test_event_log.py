@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 from drill_msgs.msg import OperatorEvent
-from rig_testing import spinning_node, wait_for
+from rig_testing import held_test_domain, spinning_node, wait_for
 
 from drill_bag.recorder import offer_from_profile, subscription_qos
 from drill_ros import graph, topics
@@ -13,7 +13,7 @@ from rclpy.qos import DurabilityPolicy
 
 pytestmark = [pytest.mark.dds,
               pytest.mark.filterwarnings("ignore::DeprecationWarning")]
-DOMAIN_ID = 61
+DOMAIN_ID = held_test_domain()
 TOPIC = "/event_log_test/events"
 
 

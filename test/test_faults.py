@@ -25,10 +25,10 @@ pytestmark = [pytest.mark.dds, pytest.mark.slow]
 SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 
 
-def _run(tmp_path_factory, name: str, domain_id: int, controller: str | None = None):
+def _run(tmp_path_factory, name: str, controller: str | None = None):
     code, run_dir = cli.run_scenario(SCENARIOS / f"{name}.yaml",
                                      runs_dir=tmp_path_factory.mktemp(name),
-                                     domain_id=domain_id, timeout_s=240, quiet=True,
+                                     timeout_s=240, quiet=True,
                                      controller=controller)
     assert code == 0, (run_dir / "launch.json").read_text()
     return next(run_dir.glob("*.mcap"))
@@ -36,13 +36,13 @@ def _run(tmp_path_factory, name: str, domain_id: int, controller: str | None = N
 
 @pytest.fixture(scope="module")
 def run_mcap(tmp_path_factory):
-    return _run(tmp_path_factory, "faults_short", 97)
+    return _run(tmp_path_factory, "faults_short")
 
 
 @pytest.fixture(scope="module", params=("nmpc", "automated_mpd", "baseline"))
 def pump_trip_mcap(tmp_path_factory, request):
     """The pump trips 5 s into a pull-out, under each controller."""
-    return _run(tmp_path_factory, "pump_trip_short", 93, request.param)
+    return _run(tmp_path_factory, "pump_trip_short", request.param)
 
 
 @pytest.fixture(scope="module", params=("nmpc", "automated_mpd", "baseline"))
@@ -50,12 +50,12 @@ def scenario_pump_trip_mcap(tmp_path_factory, request):
     """config/scenarios/pump_trip.yaml (the pump stops at the end of the pull-out, the stand
     is run back in without circulation: the issue's case), run in at 150 s instead of 300 s
     (test/scenarios/pump_trip_run_in.yaml), under each controller."""
-    return _run(tmp_path_factory, "pump_trip_run_in", 93, request.param)
+    return _run(tmp_path_factory, "pump_trip_run_in", request.param)
 
 
 @pytest.fixture(scope="module")
 def losses_mcap(tmp_path_factory):
-    return _run(tmp_path_factory, "losses_short", 93)
+    return _run(tmp_path_factory, "losses_short")
 
 
 def _messages(path, topic):

@@ -1,6 +1,6 @@
 """The gateways on a live run: the short trip in realtime with the Foxglove bridge, the
 OPC-UA gateway and the WITS0 stream (``rig run short_trip --realtime --foxglove --opcua
---wits0``), on ROS domain 41.
+--wits0``), on a ROS domain of its own.
 
 * Foxglove: a client speaking the Foxglove WebSocket protocol gets the rig's channels
   with their ros2msg schemas, subscribes to /rig/measurement and decodes its CDR frames:
@@ -34,7 +34,7 @@ from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
 from drill_msgs.msg import OperatorEvent, RigMeasurement, Setpoints
 from foxglove_client import FoxgloveClient
 from rclpy.serialization import deserialize_message
-from rig_testing import spinning_node, wait_for
+from rig_testing import held_test_domain, spinning_node, wait_for
 from wits0_client import parse_frames
 
 from drill_bringup import launcher
@@ -47,7 +47,7 @@ from drill_gateway import opcua_names as names
 pytestmark = [pytest.mark.dds, pytest.mark.slow,
               pytest.mark.filterwarnings("ignore::DeprecationWarning")]
 
-DOMAIN_ID = 41
+DOMAIN_ID = held_test_domain()
 SCENARIO = cli.ROOT / "config" / "scenarios" / "short_trip.yaml"
 TIMEOUT_S = 60.0
 START_TIMEOUT_S = 240.0               # the whole graph up, on a machine that may be busy

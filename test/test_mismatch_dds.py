@@ -9,7 +9,7 @@ import threading
 
 import pytest
 import yaml
-from rig_testing import spinning_node
+from rig_testing import held_test_domain, spinning_node
 
 from drill_bag import mcap_io
 
@@ -30,7 +30,8 @@ def runs(tmp_path_factory):
     """The short trip on the mismatched plant under the NMPC (the truth topic's live
     subscribers sampled while it runs) and under the PI baseline."""
     out = {}
-    for controller, domain in (("nmpc", 86), ("baseline", 87)):
+    domain = held_test_domain()
+    for controller in ("nmpc", "baseline"):
         seen: set[str] = set()
         done = threading.Event()
         result = {}

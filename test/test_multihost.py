@@ -11,7 +11,7 @@ import sys
 
 import pytest
 from net_namespaces import HostPair, unavailable
-from rig_testing import assert_same_recorded_data, wait_for
+from rig_testing import assert_same_recorded_data, held_test_domain, wait_for
 
 from drill_bag import mcap_io
 
@@ -22,7 +22,7 @@ pytestmark = [pytest.mark.dds, pytest.mark.slow,
               pytest.mark.skipif(unavailable() is not None, reason=str(unavailable()))]
 SCENARIO = cli.ROOT / "test" / "scenarios" / "sweep_short.yaml"     # 20 s
 CONTROLLER, SEED = "nmpc", 3
-SPLIT_DOMAIN, ONE_HOST_DOMAIN = 76, 77          # free of the other tests' domains
+SPLIT_DOMAIN, ONE_HOST_DOMAIN = held_test_domain(), held_test_domain()
 SHARES = ("plant,actuators,recorder", "estimator,nmpc,protection")
 RUN_TIMEOUT_S = 600.0
 

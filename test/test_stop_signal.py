@@ -7,7 +7,7 @@ constructor of a message that rclpy's C++ take was converting, the take failed w
 pybind11's "Unable to convert call argument '0' to Python object" and the process exited
 with code 1 (a console or gateway node, now and then, at the end of a DDS test). The
 helper (test/processes/stop_while_converting.py) sends itself SIGINT from inside that
-constructor, under each executor, on ROS domain 55: exit code 0, no fatal line.
+constructor, under each executor, on a ROS domain of its own: exit code 0, no fatal line.
 """
 from __future__ import annotations
 
@@ -19,11 +19,12 @@ from pathlib import Path
 import pytest
 
 from drill_ros.executors import EXECUTOR_ENV, EXECUTORS
+from rig_testing import held_test_domain
 
 pytestmark = pytest.mark.dds
 
 HELPER = Path(__file__).resolve().parent / "processes" / "stop_while_converting.py"
-DOMAIN_ID = 55
+DOMAIN_ID = held_test_domain()
 TIMEOUT_S = 60.0          # start-up on a busy machine, the first message, the exit
 
 

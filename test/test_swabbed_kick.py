@@ -24,7 +24,7 @@ SCENARIO = Path(__file__).resolve().parent / "scenarios" / "trip_out_swabbed_kic
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     code, run_dir = cli.run_scenario(SCENARIO, runs_dir=tmp_path_factory.mktemp("swabbed_kick"),
-                                     domain_id=62, timeout_s=600, quiet=True)
+                                     timeout_s=600, quiet=True)
     assert code == 0, (run_dir / "launch.json").read_text()
     mcap = next(run_dir.glob("*.mcap"))
     live = [(to_ns(msg.header.stamp), msg.code) for _, msg in

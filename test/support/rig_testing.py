@@ -17,6 +17,7 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 
 from drill_bag import mcap_io
+from drill_bringup import launcher
 from drill_ros import topics
 
 # what a fast-mode run's scenario and seed alone decide: the lockstep's data
@@ -100,3 +101,10 @@ def assert_same_recorded_data(path_a: Path, path_b: Path,
             else:
                 assert np.array_equal(np.asarray(va), np.asarray(vb)), (ra.topic, name)
     return len(a)
+
+
+def held_test_domain() -> int:
+    """A ROS domain of the tests' range that no other process of this machine holds (an
+    flock kept until this process exits: drill_bringup.launcher.held_domain), so test
+    modules running at once in parallel workers never see each other's graphs."""
+    return launcher.held_domain(launcher.TEST_DOMAINS)

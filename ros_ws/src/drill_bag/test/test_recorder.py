@@ -18,7 +18,7 @@ from rclpy.serialization import deserialize_message
 from rosbags.highlevel import AnyReader
 from rosgraph_msgs.msg import Clock
 
-from rig_testing import spinning_node, wait_for
+from rig_testing import held_test_domain, spinning_node, wait_for
 
 from drill_bag import mcap_io, recorder
 from drill_bag.mcap_io import QosOffer
@@ -127,8 +127,9 @@ def wait_recorded(statuses, n: int) -> None:
 def test_recorder_records_a_publisher_process_and_closes_on_sigint(tmp_path, monkeypatch):
     output = tmp_path / "run.mcap"
     wall_start_ns = time.time_ns()
-    with recorder_process(output, 61) as process:
-        with spinning_node(61, "publisher", monkeypatch) as node:
+    domain = held_test_domain()
+    with recorder_process(output, domain) as process:
+        with spinning_node(domain, "publisher", monkeypatch) as node:
             statuses = publish_run(node, N_MESSAGES)
         process.send_signal(signal.SIGINT)  # at once: what is still queued must be drained
         assert process.wait(timeout=10) == 0
@@ -171,9 +172,10 @@ def test_recorder_records_a_publisher_process_and_closes_on_sigint(tmp_path, mon
 @pytest.mark.dds
 def test_recorder_uses_sim_time_and_closes_on_sigterm(tmp_path, monkeypatch):
     output = tmp_path / "sim.mcap"
-    with recorder_process(output, 63, "use_sim_time:=true",
+    domain = held_test_domain()
+    with recorder_process(output, domain, "use_sim_time:=true",
                           "topics:=[/rig/measurement, /setpoints]") as process:
-        with spinning_node(63, "sim", monkeypatch) as node:
+        with spinning_node(domain, "sim", monkeypatch) as node:
             clock = node.create_publisher(Clock, "/clock", 10)
             tick = Clock()
             tick.clock.sec, tick.clock.nanosec = divmod(SIM_TIME_NS, 10**9)
@@ -189,8 +191,9 @@ def test_recorder_uses_sim_time_and_closes_on_sigterm(tmp_path, monkeypatch):
 @pytest.mark.dds
 def test_hard_killed_recorder_file_is_recoverable(tmp_path, monkeypatch):
     output = tmp_path / "killed.mcap"
-    with recorder_process(output, 62, "chunk_size_bytes:=1024") as process:
-        with spinning_node(62, "publisher", monkeypatch) as node:
+    domain = held_test_domain()
+    with recorder_process(output, domain, "chunk_size_bytes:=1024") as process:
+        with spinning_node(domain, "publisher", monkeypatch) as node:
             wait_recorded(publish_run(node, N_MESSAGES), N_MESSAGES)
         process.send_signal(signal.SIGKILL)
         assert process.wait(timeout=10) == -signal.SIGKILL

@@ -12,7 +12,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
 
-from rig_testing import spinning_node, wait_for
+from rig_testing import held_test_domain, spinning_node, wait_for
 
 from drill_bag import mcap_io, replay
 from drill_bag.mcap_io import QosOffer, RecordedMessage
@@ -118,7 +118,7 @@ class Inbox:
 @pytest.mark.dds
 def test_replay_file_republishes_everything_in_order_at_rate_with_clock(tmp_path, monkeypatch):
     path = write_recording(tmp_path / "rec.mcap")
-    with spinning_node(64, "listener", monkeypatch) as node:
+    with spinning_node(held_test_domain(), "listener", monkeypatch) as node:
         inbox = Inbox(node)
         player = rclpy.create_node("replay", context=node.context)
         count = replay.replay_file(path, rate=10.0, clock_hz=100.0, node=player, delay_s=0.2,
@@ -140,8 +140,9 @@ def test_replay_file_republishes_everything_in_order_at_rate_with_clock(tmp_path
 @pytest.mark.dds
 def test_replay_cli_filters_topics_skips_start_and_keeps_latched(tmp_path, monkeypatch):
     path = write_recording(tmp_path / "rec.mcap")
-    env = dict(os.environ, ROS_DOMAIN_ID="65", ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    with spinning_node(65, "listener", monkeypatch) as node:
+    domain = held_test_domain()
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    with spinning_node(domain, "listener", monkeypatch) as node:
         inbox = Inbox(node, measurement_topic="/replayed/measurement")
         result = subprocess.run(
             [sys.executable, "-m", "drill_bag.replay", str(path), "--rate", "10",
@@ -164,7 +165,7 @@ def test_replay_cli_filters_topics_skips_start_and_keeps_latched(tmp_path, monke
 def test_replay_loops_until_stopped(tmp_path, monkeypatch):
     path = write_recording(tmp_path / "rec.mcap")
     stop = threading.Event()
-    with spinning_node(66, "listener", monkeypatch) as node:
+    with spinning_node(held_test_domain(), "listener", monkeypatch) as node:
         inbox = Inbox(node)
         player = rclpy.create_node("replay", context=node.context)
         thread = threading.Thread(target=replay.replay_file, args=(path,), kwargs=dict(

@@ -12,7 +12,9 @@ estimated the last sample); the launcher then stops the rest.
 A node that dies makes the launch fail with its name, exit code and last log lines.
 In fast mode on a machine with two or more CPUs, the processes of the estimator and the
 controller chain get one CPU to themselves and the other processes the rest
-(``cpu_sets``), unless the caller runs several graphs at once (``pin_cpus`` False).
+(``cpu_sets``), unless the caller runs several graphs at once (``pin_cpus`` False) or
+another launch on this machine holds the pins (``PIN_LOCK``: two pinned graphs would put
+both control chains on one CPU).
 A split run (docs/multihost.md) launches only this host's share of the graph (``here``)
 with static discovery peers; a share ends when its own finishing nodes have exited and
 those on other hosts are seen gone (drill_bringup.finish_watch).
@@ -39,14 +41,15 @@ from drill_bringup import shm_ports
 
 LOG_TAIL_LINES = 15
 CONSOLE_PORT = 8080
-TEST_DOMAINS = range(40, 99)     # the tests' fixed DDS domain ids (of the safe 0-101)
+TEST_DOMAINS = range(40, 99)     # the tests' DDS domain ids (of the safe 0-101), held alike
 RUN_DOMAINS = range(1, TEST_DOMAINS.start)   # the runs' own: left free by the tests
 LOCK_DIR = Path(tempfile.gettempdir()) / "drill_rig_domains"
 # Fast DDS writes each sample in the publishing thread instead of handing it to its
 # asynchronous writer thread: no thread hand-off per message (about a fifth less CPU for a
 # run, docs/speed.md); every message of the rig fits one datagram
 PUBLICATION_MODE = "SYNCHRONOUS"
-_held_domains: list = []         # open lock files: a domain is ours while this process lives
+PIN_LOCK = "cpu-pins.lock"       # in LOCK_DIR: held by the one launch whose processes are pinned
+_held_domains: dict = {}         # domain -> its open lock file: ours until released or exit
 
 
 def uses_sim_time(name: str, fast: bool) -> bool:
@@ -238,22 +241,35 @@ def isolated_env(domain_id: int, peers: tuple[str, ...] = ()) -> dict:
 
 def default_domain_id() -> int:
     """A ROS domain no other run on this machine holds, so parallel runs never see each
-    other: the first free one of RUN_DOMAINS (clear of the tests' fixed TEST_DOMAINS),
-    held by an flock on a lock file until this process exits."""
+    other: the first free one of RUN_DOMAINS (clear of the tests' TEST_DOMAINS)."""
+    return held_domain(RUN_DOMAINS)
+
+
+def held_domain(domains: range) -> int:
+    """A free one of ``domains`` (searched from one the process id picks), held by an flock
+    on a lock file until this process exits: no other process of this machine that asks
+    here gets it."""
     LOCK_DIR.mkdir(parents=True, exist_ok=True)
-    start = os.getpid() % len(RUN_DOMAINS)
-    for i in range(len(RUN_DOMAINS)):
-        domain = RUN_DOMAINS[(start + i) % len(RUN_DOMAINS)]
+    start = os.getpid() % len(domains)
+    for i in range(len(domains)):
+        domain = domains[(start + i) % len(domains)]
         handle = open(LOCK_DIR / f"domain-{domain}.lock", "w")
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             handle.close()
             continue
-        _held_domains.append(handle)
+        _held_domains[domain] = handle
         return domain
-    raise RuntimeError(f"every ROS domain in {RUN_DOMAINS[0]}..{RUN_DOMAINS[-1]} is in use "
+    raise RuntimeError(f"every ROS domain in {domains[0]}..{domains[-1]} is in use "
                        f"(lock files in {LOCK_DIR})")
+
+
+def release_domain(domain: int) -> None:
+    """Give back a domain held_domain handed this process (no-op for one it does not hold)."""
+    handle = _held_domains.pop(domain, None)
+    if handle is not None:
+        handle.close()
 
 
 def tail(path: Path, lines: int = LOG_TAIL_LINES) -> str:
@@ -289,10 +305,26 @@ class Launch:
             if pin_cpus and fast else {}
         self.niceness = dict(FAST_NICENESS) if fast else {}
         self.removed_shm_ports: list[int] = []
+        self._pins = None               # the open PIN_LOCK while this launch pins
+
+    def _take_pins(self) -> None:
+        """Keep ``cpus`` only if no other launch of this machine pins its processes now."""
+        if not self.cpus:
+            return
+        LOCK_DIR.mkdir(parents=True, exist_ok=True)
+        handle = open(LOCK_DIR / PIN_LOCK, "w")
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.close()
+            self.cpus = {}
+            return
+        self._pins = handle
 
     def start(self) -> None:
         self.logs.mkdir(parents=True, exist_ok=True)
         self.removed_shm_ports = shm_ports.remove_dead_ports(int(self.env["ROS_DOMAIN_ID"]))
+        self._take_pins()
         for spec in self.processes:
             log = open(self.logs / f"{spec.name}.log", "w", encoding="utf-8")
             proc = self.procs[spec.name] = subprocess.Popen(
@@ -354,6 +386,9 @@ class Launch:
             if proc.poll() is None:
                 proc.kill()
                 proc.wait()
+        if self._pins is not None:
+            self._pins.close()
+            self._pins = None
         return {name: proc.returncode for name, proc in self.procs.items()}
 
     def _wait(self, names, grace_s: float) -> None:

@@ -199,7 +199,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     if here is not None:
         names = {n.name for n in graph_decl.host_nodes(
             here, [graph_decl.BY_NAME[n.name] for n in nodes])} | set(extras or {})
-    domain_id = launcher.default_domain_id() if domain_id is None else domain_id
+    own_domain = domain_id is None          # taken here: given back when the graph stops
+    domain_id = launcher.default_domain_id() if own_domain else domain_id
     launch = launcher.Launch(nodes, run_dir, domain_id, layout,
                              None if here is None else names, peers, pin_cpus=pin_cpus)
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -236,6 +237,8 @@ def run_scenario(path: Path, realtime: bool = False, runs_dir: Path | None = Non
     if display:
         display.close()
     codes = launch.stop()
+    if own_domain:
+        launcher.release_domain(domain_id)
     wall = time.monotonic() - started
     (run_dir / "launch.json").write_text(json.dumps(
         {"ok": ok, "message": message, "wall_time_s": wall, "exit_codes": codes,

@@ -1,5 +1,7 @@
 """Launcher: the node set of a run, who runs on /clock, and unique node names."""
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -47,15 +49,30 @@ def test_repeated_node_names_are_refused(tmp_path):
 
 def test_default_domains_are_exclusive_while_held(monkeypatch, tmp_path):
     monkeypatch.setattr(launcher, "LOCK_DIR", tmp_path)
-    monkeypatch.setattr(launcher, "_held_domains", [])
+    monkeypatch.setattr(launcher, "_held_domains", {})
     taken = [launcher.default_domain_id() for _ in range(len(launcher.RUN_DOMAINS))]
     assert sorted(taken) == list(launcher.RUN_DOMAINS)      # each handed out once
     with pytest.raises(RuntimeError, match="in use"):
         launcher.default_domain_id()
-    for handle in launcher._held_domains:                    # released: free again
-        handle.close()
-    launcher._held_domains.clear()
-    assert launcher.default_domain_id() in launcher.RUN_DOMAINS
+    launcher.release_domain(taken[5])                        # given back: free again
+    assert launcher.default_domain_id() == taken[5]
+    for domain in taken:
+        launcher.release_domain(domain)
+
+
+def test_a_held_test_domain_is_no_other_processs(monkeypatch, tmp_path):
+    """Two processes asking for the tests' domains at once (two parallel test workers) get
+    different ones: the lock is an flock, exclusive across processes."""
+    monkeypatch.setattr(launcher, "LOCK_DIR", tmp_path)
+    monkeypatch.setattr(launcher, "_held_domains", {})
+    mine = launcher.held_domain(launcher.TEST_DOMAINS)
+    other = subprocess.run(
+        [sys.executable, "-c", "import pathlib, sys; from drill_bringup import launcher; "
+         f"launcher.LOCK_DIR = pathlib.Path({str(tmp_path)!r}); "
+         "print(launcher.held_domain(launcher.TEST_DOMAINS))"],
+        capture_output=True, text=True, check=True)
+    assert int(other.stdout) in launcher.TEST_DOMAINS and int(other.stdout) != mine
+    launcher.release_domain(mine)
 
 
 def test_layouts_put_groups_in_one_process_and_the_recorder_alone():
@@ -122,6 +139,24 @@ def test_fast_runs_give_the_control_chain_a_cpu_of_its_own(tmp_path):
     realtime = launcher.graph("nmpc", dict(COMMON, mode="realtime"), tmp_path / "x.mcap",
                               fast=False)
     assert launcher.Launch(realtime, tmp_path, 1, "two").cpus == {}
+
+
+def test_only_one_launch_at_a_time_pins_its_processes(monkeypatch, tmp_path):
+    """Two graphs pinned at once would share the control chains' CPU: a launch that finds
+    the pins held by another runs on every CPU; once the first stops, the pins are free."""
+    monkeypatch.setattr(launcher, "LOCK_DIR", tmp_path)
+    nodes = launcher.graph("nmpc", COMMON, tmp_path / "x.mcap", fast=True)
+    first, second, third = (launcher.Launch(nodes, tmp_path, 1, "two") for _ in range(3))
+    if not first.cpus:
+        pytest.skip("one CPU: nothing is pinned")
+    pinned = dict(first.cpus)
+    first._take_pins()
+    second._take_pins()
+    assert first.cpus == pinned and second.cpus == {}
+    first.stop()
+    third._take_pins()
+    assert third.cpus == pinned
+    third.stop()
 
 
 def test_the_recorder_yields_the_cpu_in_fast_mode_only(tmp_path):

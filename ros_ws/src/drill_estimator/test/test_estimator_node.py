@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 from drill_core.rig_root import config_dir
-from rig_testing import stop_process
+from rig_testing import held_test_domain, stop_process
 
 pytestmark = pytest.mark.dds
 
-DOMAIN_ID = 83
+DOMAIN_ID = held_test_domain()
 CONFIG_DIR = config_dir()
 SCENARIO = CONFIG_DIR / "scenarios" / "case2.yaml"
 FRAME_NS = 100_000_000

@@ -7,12 +7,13 @@ from rclpy.executors import SingleThreadedExecutor
 from std_msgs.msg import Bool
 
 from drill_ros.node import RigNode
+from rig_testing import held_test_domain
 
 
 @pytest.fixture
 def context():
     ctx = Context()
-    rclpy.init(context=ctx, domain_id=47)
+    rclpy.init(context=ctx, domain_id=held_test_domain())
     yield ctx
     rclpy.shutdown(context=ctx)
 

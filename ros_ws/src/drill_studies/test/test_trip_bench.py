@@ -15,6 +15,8 @@ from drill_core.tripping.sequence import ARRIVAL_TOLERANCE_M
 from drill_core.tripping.trip_sheet import stands_per_hour
 from drill_studies.trip_bench import run_trip
 
+pytestmark = pytest.mark.slow          # closed-loop trips in process, seconds each
+
 STAND_M = 28.0
 TRIP_SPEED_MPS = 0.5
 BAR = 1.0e5
