@@ -41,7 +41,7 @@ from drill_rig import cli
 from drill_ros import topics
 from rig_testing import held_test_domain
 
-pytestmark = [pytest.mark.dds,
+pytestmark = [pytest.mark.dds, pytest.mark.realtime,
               pytest.mark.filterwarnings("ignore::DeprecationWarning")]
 
 ROOT = cli.ROOT

@@ -44,7 +44,7 @@ from drill_ros import topics
 from drill_gateway import certificates
 from drill_gateway import opcua_names as names
 
-pytestmark = [pytest.mark.dds, pytest.mark.slow,
+pytestmark = [pytest.mark.dds, pytest.mark.slow, pytest.mark.realtime,
               pytest.mark.filterwarnings("ignore::DeprecationWarning")]
 
 DOMAIN_ID = held_test_domain()
