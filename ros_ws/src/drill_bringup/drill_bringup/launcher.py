@@ -247,8 +247,8 @@ def default_domain_id() -> int:
 
 def held_domain(domains: range) -> int:
     """A free one of ``domains`` (searched from one the process id picks), held by an flock
-    on a lock file until this process exits: no other process of this machine that asks
-    here gets it."""
+    on a lock file until ``release_domain`` or this process's exit: no other process of
+    this machine that asks here gets it meanwhile."""
     LOCK_DIR.mkdir(parents=True, exist_ok=True)
     start = os.getpid() % len(domains)
     for i in range(len(domains)):
