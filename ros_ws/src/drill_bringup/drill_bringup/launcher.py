@@ -249,20 +249,28 @@ def held_domain(domains: range) -> int:
     """A free one of ``domains`` (searched from one the process id picks), held by an flock
     on a lock file until ``release_domain`` or this process's exit: no other process of
     this machine that asks here gets it meanwhile."""
-    LOCK_DIR.mkdir(parents=True, exist_ok=True)
     start = os.getpid() % len(domains)
     for i in range(len(domains)):
         domain = domains[(start + i) % len(domains)]
-        handle = open(LOCK_DIR / f"domain-{domain}.lock", "w")
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            handle.close()
-            continue
-        _held_domains[domain] = handle
-        return domain
+        handle = _try_lock(f"domain-{domain}.lock")
+        if handle is not None:
+            _held_domains[domain] = handle
+            return domain
     raise RuntimeError(f"every ROS domain in {domains[0]}..{domains[-1]} is in use "
                        f"(lock files in {LOCK_DIR})")
+
+
+def _try_lock(name: str):
+    """The open lock file ``name`` in LOCK_DIR with an exclusive flock on it, or None when
+    another open file of this machine holds it (the lock lasts while the file is open)."""
+    LOCK_DIR.mkdir(parents=True, exist_ok=True)
+    handle = open(LOCK_DIR / name, "w")
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        handle.close()
+        return None
+    return handle
 
 
 def release_domain(domain: int) -> None:
@@ -311,15 +319,9 @@ class Launch:
         """Keep ``cpus`` only if no other launch of this machine pins its processes now."""
         if not self.cpus:
             return
-        LOCK_DIR.mkdir(parents=True, exist_ok=True)
-        handle = open(LOCK_DIR / PIN_LOCK, "w")
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            handle.close()
+        self._pins = _try_lock(PIN_LOCK)
+        if self._pins is None:
             self.cpus = {}
-            return
-        self._pins = handle
 
     def start(self) -> None:
         self.logs.mkdir(parents=True, exist_ok=True)

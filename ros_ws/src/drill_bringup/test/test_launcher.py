@@ -60,7 +60,7 @@ def test_default_domains_are_exclusive_while_held(monkeypatch, tmp_path):
         launcher.release_domain(domain)
 
 
-def test_a_held_test_domain_is_no_other_processs(monkeypatch, tmp_path):
+def test_a_held_test_domain_is_no_other_processes(monkeypatch, tmp_path):
     """Two processes asking for the tests' domains at once (two parallel test workers) get
     different ones: the lock is an flock, exclusive across processes."""
     monkeypatch.setattr(launcher, "LOCK_DIR", tmp_path)
