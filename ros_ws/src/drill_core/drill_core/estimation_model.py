@@ -60,7 +60,7 @@ class NominalFriction:
     with 1/v_sm (docs/model.md: RK4 stability at the NMPC's and the UKF's steps); tanh makes the
     law exact to 1e-4 from 3 v_sm on. tau depends on a section only through its hydraulic
     diameter, so each distinct section is one cubic B-spline of its relative velocity
-    (checked against the exact function at build time, ``max_error_pa`` per path).
+    (checked against the exact function on demand, ``max_error_pa`` over the paths).
     """
 
     def __init__(self, wm: hy.WellModel, smoothing_mps: float, v_max_mps: float = 8.0):
@@ -76,6 +76,7 @@ class NominalFriction:
 
         self._exact = stress
         self.grid = grid                  # the tables' sample points [m/s]
+        self._sections = sections
         self._tables = {d: ca.interpolant(f"annulus_stress_{k}", "bspline", [grid], stress(grid, sec))
                         for k, (d, sec) in enumerate(sorted(sections.items()))}
         self._paths = []                  # per path: (4 L/d_h, A_f, K_c, d_h), alike sections merged
@@ -86,12 +87,19 @@ class NominalFriction:
                 merged[key] = merged.get(key, 0.0) + 4.0 * sec.length_m / sec.hydraulic_diameter_m
             self._paths.append(tuple((c, *key) for key, c in merged.items()))
         q = np.linspace(-0.06, 0.06, 2401)
-        self.max_error_pa = max(
-            float(np.max(np.abs(self.loss(NUMPY, k, q, v) - self._exact_loss(k, q, v, sections))))
-            for k in range(len(self._paths)) for v in (-0.5, 0.0, 0.5))
         self._gain_flow = 0.5 * (q[1:] + q[:-1])
         self._gain = [np.diff(self.loss(NUMPY, k, q, 0.0)) / np.diff(q) for k in range(len(self._paths))]
         self.peak_flow_gain = tuple(float(np.max(g)) for g in self._gain)
+
+    @functools.cached_property
+    def max_error_pa(self) -> float:
+        """The tables' largest error against the exact law [Pa], over +-0.06 m^3/s of each
+        path's flow at three string speeds (evaluated once, when first asked: a model is
+        rebuilt for every stand of a trip, and this check is a third of its build)."""
+        q = np.linspace(-0.06, 0.06, 2401)
+        return max(float(np.max(np.abs(self.loss(NUMPY, k, q, v)
+                                       - self._exact_loss(k, q, v, self._sections))))
+                   for k in range(len(self._paths)) for v in (-0.5, 0.0, 0.5))
 
     def peak_gain_near(self, k: int, flow_m3s: float, half_width_m3s: float) -> float:
         """Largest dF_nom/dq of path k + 2 (string still) within +-half_width of ``flow_m3s``."""
