@@ -17,7 +17,7 @@ import numpy as np
 
 from drill_bag import mcap_io
 
-from drill_analysis import drilling_report, trip_sheet_report
+from drill_analysis import drilling_report, prediction_report, trip_sheet_report
 from drill_analysis import well_control_report as well_control
 from drill_core.config import load_rig
 from drill_core.rig_root import rig_root
@@ -495,6 +495,10 @@ def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | Non
         if sheet is not None:                   # a multi-stand trip
             summary.update(sheet)
             table += "\n" + "\n".join(trip_sheet_report.format_sheet(sheet))
+        prediction = prediction_report.read_prediction_errors(mcap_path)
+        if prediction is not None:              # an NMPC run
+            summary.update(prediction)
+            table += "\n" + "\n".join(prediction_report.format_rows(prediction))
     (out_dir / "summary.json").write_text(json.dumps(
         {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
          for k, v in summary.items()}, indent=2))
