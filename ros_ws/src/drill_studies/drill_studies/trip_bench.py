@@ -25,8 +25,11 @@ loop, its back-pressure pump through the pump's lag.
     python -m drill_studies.trip_bench [--stands 2] [--round-trip] [--controller baseline]
                                        [--connection-s 90] [--settle-s 180] [--seed 12]
                                        [--mismatch thick_report] [--state truth]
+                                       [--prediction]
 
-prints the trip sheet (per stand, slips to slips) and the trip's figures.
+prints the trip sheet (per stand, slips to slips) and the trip's figures; with
+``--prediction`` the NMPC's BHP prediction errors by the floor's phase, as the run report
+gives them from a recording.
 """
 from __future__ import annotations
 
@@ -38,6 +41,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from drill_analysis import prediction_report
 from drill_core.config import RigConfig, load_rig
 from drill_core.hydraulics import rig_well_model
 from drill_core.mismatch import resolve, truth_config
@@ -49,6 +53,7 @@ from drill_core.tripping.trip_sheet import TripSheet, stands_per_hour
 from drill_core.rig_root import config_dir
 from drill_core.units import L_PER_M3, PA_PER_BAR
 from drill_core.scenario import ActiveSetpoints
+from drill_ros.stamps import seconds_to_ns
 from drill_estimator.tick import EstimatorTick
 from drill_studies.loop_bench import TruthState, ukf_view
 from drill_core.estimation_model import build_estimation_model
@@ -80,6 +85,10 @@ class TripRun:
     log: dict[str, np.ndarray] = field(default_factory=dict)
     drawn_m3: float = math.nan      # the trip tank's volume before less after, settled [m^3]
     solve_times_s: list = field(default_factory=list)   # the NMPC's, per sample
+    # the NMPC's solves: (stamp ns, predicted times after it [s], predicted BHP [Pa]), and
+    # the floor's phase at each (drill_analysis.prediction_report)
+    predictions: list = field(default_factory=list)
+    phases: dict = field(default_factory=dict)
 
 
 def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
@@ -129,6 +138,8 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     nmpc = NmpcTick(config, nmpc_estimation_model(config), start_inputs, trip=floor.programme) \
         if controller == "nmpc" else None
     solve_times: list[float] = []
+    predictions: list = []
+    phases: dict = {}
     advised_at_frame = 0
     per_command = int(round(config.nmpc.sample_time_s / frame_s))
     advice = None
@@ -190,6 +201,10 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
             result = nmpc.step(x_hat, _setpoints(trip_speed_mps),
                                measured_actuators(frames), command, t)
             solve_times.append(result.solve_time_s)
+            stamp_ns = seconds_to_ns(t)
+            predictions.append((stamp_ns, list(result.predicted_time_s),
+                                list(result.predicted.get("bhp_pa", []))))
+            phases[stamp_ns] = step.phase
             advice = nmpc.command(result, True)
         if step.phase == MOVING and advice is not None and controller != "held_choke":
             block = drawworks.frame(advice.block_position_ref_m, m.block_position_m, step_s,
@@ -224,7 +239,15 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
     names = ("time_s", "stand", "moving", "line_tension_n", "string_velocity_mps",
              "bit_height_m", "bhp_pa", "bhp_estimate_pa")
     log = {name: np.array(column) for name, column in zip(names, zip(*rows))}
-    return TripRun(sim, floor, sheets, alarms, log, tank_start_m3 - tank_end_m3, solve_times)
+    return TripRun(sim, floor, sheets, alarms, log, tank_start_m3 - tank_end_m3, solve_times,
+                   predictions, phases)
+
+
+def prediction_figures(run: TripRun) -> dict:
+    """The NMPC's prediction errors against the truth plant's BHP, as the run report gives
+    them from a recording (drill_analysis.prediction_report); {} without NMPC solves."""
+    truth = {seconds_to_ns(t): bhp for t, bhp in zip(run.log["time_s"], run.log["bhp_pa"])}
+    return prediction_report.prediction_errors(run.predictions, truth, run.phases)
 
 
 def _setpoints(trip_speed_mps: float) -> ActiveSetpoints:
@@ -288,6 +311,8 @@ def main(argv=None) -> int:
                                            "config/mismatch.yaml or draw:N")
     parser.add_argument("--state", choices=STATE_SOURCES, default="ukf",
                         help="what the NMPC plans from (truth: an oracle)")
+    parser.add_argument("--prediction", action="store_true",
+                        help="the NMPC's BHP prediction errors by the floor's phase")
     args = parser.parse_args(argv)
     config = load_rig(config_dir())
     plant_config = None if args.mismatch is None else \
@@ -306,6 +331,9 @@ def main(argv=None) -> int:
           f"{f['influx_m3'] * L_PER_M3:.0f} L, losses {f['loss_m3'] * L_PER_M3:.0f} L; trip "
           f"tank {f['trip_tank_drawn_m3'] * L_PER_M3:.0f} L drawn ({args.settle_s:.0f} s "
           f"after), the sheet's gain {f['trip_sheet_gain_m3'] * L_PER_M3:+.0f} L")
+    errors = prediction_figures(run) if args.prediction else {}
+    if errors:
+        print("\n".join(prediction_report.format_rows({"nmpc_prediction": errors})))
     return 0
 
 
