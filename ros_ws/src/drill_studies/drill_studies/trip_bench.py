@@ -25,7 +25,7 @@ loop, its back-pressure pump through the pump's lag.
     python -m drill_studies.trip_bench [--stands 2] [--round-trip] [--controller baseline]
                                        [--connection-s 90] [--settle-s 180] [--seed 12]
                                        [--mismatch thick_report] [--state truth]
-                                       [--prediction]
+                                       [--prediction] [--set nmpc.KEY=VALUE]
 
 prints the trip sheet (per stand, slips to slips) and the trip's figures; with
 ``--prediction`` the NMPC's BHP prediction errors by the floor's phase, as the run report
@@ -42,7 +42,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drill_analysis import prediction_report
-from drill_core.config import RigConfig, load_rig
+from drill_core.config import RigConfig, load_rig, parse_settings
+from drill_core.schema import ConfigError
 from drill_core.hydraulics import rig_well_model
 from drill_core.mismatch import resolve, truth_config
 from drill_core.tripping.programme import TripProgramme
@@ -313,10 +314,18 @@ def main(argv=None) -> int:
                         help="what the NMPC plans from (truth: an oracle)")
     parser.add_argument("--prediction", action="store_true",
                         help="the NMPC's BHP prediction errors by the floor's phase")
+    parser.add_argument("--set", action="append", default=[],
+                        help="config override FILE.KEY=VALUE of the estimator's and the "
+                             "controller's side only (the plant keeps config/), e.g. "
+                             "nmpc.floor_pump_on_share=0.3")
     args = parser.parse_args(argv)
-    config = load_rig(config_dir())
-    plant_config = None if args.mismatch is None else \
-        truth_config(config, resolve(args.mismatch, config_dir())[1])
+    written = load_rig(config_dir())           # the plant's side: config/ as it is
+    try:
+        config = load_rig(config_dir(), parse_settings(args.set)) if args.set else written
+    except ConfigError as error:
+        parser.error(str(error))
+    plant_config = written if args.mismatch is None else \
+        truth_config(written, resolve(args.mismatch, config_dir())[1])
     directions = ("out", "in") if args.round_trip else ("out",)
     programmes = [TripProgramme(direction=d, stands=args.stands,
                                 connection_s=args.connection_s) for d in directions]

@@ -230,3 +230,14 @@ def test_the_nmpcs_prediction_errors_are_grouped_by_the_floors_phase(tight_choke
     assert {MOVING, PUMP_DOWN, CONNECTION} <= set(errors)
     assert sum(e["1s"]["count"] for g, e in errors.items() if g != "run") == reached
     assert all(e["1s"]["rms_pa"] < 2.0 * BAR for e in errors.values())
+
+
+def test_a_bad_setting_is_refused_with_its_key_before_any_trip(capsys):
+    """``--set`` changes the model's side; an unknown key stops the command with the file,
+    the key and the keys allowed, before anything runs."""
+    from drill_studies.trip_bench import main
+    with pytest.raises(SystemExit) as stop:
+        main(["--stands", "1", "--set", "nmpc.floor_pump_on_shar=0.3"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "nmpc.yaml" in err and "floor_pump_on_shar" in err and "floor_pump_on_share" in err
