@@ -63,6 +63,8 @@ class NominalFriction:
     (checked against the exact function on demand, ``max_error_pa`` over the paths).
     """
 
+    CHECK_FLOWS_M3S = np.linspace(-0.06, 0.06, 2401)   # path flows of the gain and the check
+
     def __init__(self, wm: hy.WellModel, smoothing_mps: float, v_max_mps: float = 8.0):
         self.smoothing_mps = smoothing_mps
         fluid, g = wm.annulus_fluid, wm.geometry
@@ -86,7 +88,7 @@ class NominalFriction:
                 key = (sec.flow_area_m2, sec.clinging, sec.hydraulic_diameter_m)
                 merged[key] = merged.get(key, 0.0) + 4.0 * sec.length_m / sec.hydraulic_diameter_m
             self._paths.append(tuple((c, *key) for key, c in merged.items()))
-        q = np.linspace(-0.06, 0.06, 2401)
+        q = self.CHECK_FLOWS_M3S
         self._gain_flow = 0.5 * (q[1:] + q[:-1])
         self._gain = [np.diff(self.loss(NUMPY, k, q, 0.0)) / np.diff(q) for k in range(len(self._paths))]
         self.peak_flow_gain = tuple(float(np.max(g)) for g in self._gain)
@@ -96,7 +98,7 @@ class NominalFriction:
         """The tables' largest error against the exact law [Pa], over +-0.06 m^3/s of each
         path's flow at three string speeds (evaluated once, when first asked: a model is
         rebuilt for every stand of a trip, and this check is a third of its build)."""
-        q = np.linspace(-0.06, 0.06, 2401)
+        q = self.CHECK_FLOWS_M3S
         return max(float(np.max(np.abs(self.loss(NUMPY, k, q, v)
                                        - self._exact_loss(k, q, v, self._sections))))
                    for k in range(len(self._paths)) for v in (-0.5, 0.0, 0.5))
