@@ -1,7 +1,8 @@
-"""How well the NMPC's model predicted the bottom-hole pressure in a recorded run: each
-solve's predicted BHP some seconds ahead (drill_msgs/NmpcStatus) against the truth's BHP
-at that time, as a mean and an RMS error per horizon, over the run and, on a multi-stand
-trip, per phase of the rig floor at the solve.
+"""How well the NMPC's model predicted the bottom-hole pressure in a run (a recording's,
+as drill_analysis.report reads it, or the trip bench's): each solve's predicted BHP some
+seconds ahead (drill_msgs/NmpcStatus) against the truth's BHP at that time, as a mean and
+an RMS error per horizon, over the run and, on a multi-stand trip, per phase of the rig
+floor at the solve.
 
 One second ahead the plan's first input is the one applied, so that error is the model's
 and the estimate's; further ahead the plan's later inputs differ from those applied after
@@ -12,13 +13,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from pathlib import Path
 
-from drill_bag import mcap_io
 from drill_core.tripping.sequence import DONE, STAND_PHASES
 from drill_core.units import PA_PER_BAR
-from drill_ros import topic_names as topics
-from drill_ros.stamps import seconds_to_ns, to_ns
+from drill_ros.stamps import seconds_to_ns
 
 HORIZONS_S = (1.0, 5.0)      # how far ahead the predictions are judged [s]
 RUN = "run"                  # the group of every solve
@@ -52,26 +50,15 @@ def prediction_errors(solves: Iterable[tuple[int, list, list]], truth_bhp_pa: Ma
             for group, by_horizon in errors.items()}
 
 
-def read_prediction_errors(mcap_path: Path) -> dict | None:
-    """``{"nmpc_prediction": prediction_errors(...)}`` of a recording, None when it holds no
-    NMPC solve or no truth."""
-    truth, phases, solves = {}, {}, []
-    for rec, msg in mcap_io.decoded_messages(mcap_path, [topics.NMPC_STATUS, topics.TRUTH,
-                                                         topics.FLOOR]):
-        stamp = to_ns(msg.header.stamp)
-        if rec.topic == topics.TRUTH:
-            truth[stamp] = float(msg.bhp_pa)
-        elif rec.topic == topics.FLOOR:
-            phases[stamp] = str(msg.phase)
-        else:
-            solves.append((stamp, list(msg.predicted_time_s), list(msg.predicted_bhp_pa)))
-    errors = prediction_errors(solves, truth, phases)
-    return {"nmpc_prediction": errors} if errors else None
+def errors_over_run(solves, truth_t_s, truth_bhp_pa, phases: Mapping[int, str]) -> dict:
+    """prediction_errors against a run's truth: its BHP [Pa] at the times ``truth_t_s`` [s]
+    (a recording's stamps, or a bench's sample times)."""
+    truth = {seconds_to_ns(t): float(b) for t, b in zip(truth_t_s, truth_bhp_pa)}
+    return prediction_errors(solves, truth, phases)
 
 
-def format_rows(figures: dict) -> list[str]:
-    """The printed table's lines (display units: bar)."""
-    errors = figures["nmpc_prediction"]
+def format_rows(errors: dict) -> list[str]:
+    """The printed table's lines of prediction_errors' figures (display units: bar)."""
     horizons = list(errors[RUN])
     order = [RUN] + [p for p in PHASE_ORDER if p in errors] \
         + sorted(set(errors) - {RUN, *PHASE_ORDER})

@@ -22,6 +22,7 @@ from drill_analysis import well_control_report as well_control
 from drill_core.config import load_rig
 from drill_core.rig_root import rig_root
 from drill_ros import topic_names as topics
+from drill_ros.stamps import to_ns
 from drill_core.units import METRIC_DISPLAY, Display
 
 ARRIVAL_TOLERANCE_M = 0.5     # a trip leg ends when the string is this close to its target
@@ -63,6 +64,10 @@ class Series:
     advisor: str = ""       # source of the advisor commands (nmpc, baseline, sequencer)
     events: list = field(default_factory=list)    # RecordedEvent: rig, protection
     plant_status: dict = field(default_factory=dict)   # the plant's last NodeStatus values
+    # the NMPC's solves (stamp ns, predicted times after it [s], predicted BHP [Pa]) and the
+    # rig floor's phase by stamp ns (drill_analysis.prediction_report)
+    predictions: list = field(default_factory=list)
+    floor_phases: dict = field(default_factory=dict)
 
     def add(self, key: str, t_s: float, value) -> None:
         self.t.setdefault(key, []).append(t_s)
@@ -80,7 +85,7 @@ def load_series(mcap_path: Path) -> Series:
     s = Series()
     wanted = [topics.TRUTH, topics.MEASUREMENT, topics.ESTIMATE, topics.NMPC_STATUS,
               topics.COMMAND, topics.MACHINE_COMMAND, topics.SETPOINTS, topics.status("plant"),
-              *EVENT_SOURCES]
+              topics.FLOOR, *EVENT_SOURCES]
     for rec, msg in mcap_io.decoded_messages(mcap_path, wanted):
         t = _stamp_s(msg)
         if rec.topic == topics.TRUTH:
@@ -114,6 +119,10 @@ def load_series(mcap_path: Path) -> Series:
             s.add("solve_time", t, msg.solve_time_s)
             s.add("fallback", t, 0.0 if msg.fallback == "none" else 1.0)
             s.add("bhp_ref_smoothed", t, msg.bhp_ref_pa)
+            s.predictions.append((to_ns(msg.header.stamp), list(msg.predicted_time_s),
+                                  list(msg.predicted_bhp_pa)))
+        elif rec.topic == topics.FLOOR:
+            s.floor_phases[to_ns(msg.header.stamp)] = str(msg.phase)
         elif rec.topic == topics.COMMAND:
             s.advisor = msg.source
         elif rec.topic == topics.MACHINE_COMMAND:
@@ -495,10 +504,11 @@ def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | Non
         if sheet is not None:                   # a multi-stand trip
             summary.update(sheet)
             table += "\n" + "\n".join(trip_sheet_report.format_sheet(sheet))
-        prediction = prediction_report.read_prediction_errors(mcap_path)
-        if prediction is not None:              # an NMPC run
-            summary.update(prediction)
-            table += "\n" + "\n".join(prediction_report.format_rows(prediction))
+        errors = prediction_report.errors_over_run(series.predictions, *series.get("bhp"),
+                                                   series.floor_phases)
+        if errors:                              # an NMPC run
+            summary["nmpc_prediction"] = errors
+            table += "\n" + "\n".join(prediction_report.format_rows(errors))
     (out_dir / "summary.json").write_text(json.dumps(
         {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
          for k, v in summary.items()}, indent=2))

@@ -29,7 +29,7 @@ def test_the_errors_are_the_predictions_less_the_truth_by_phase_and_horizon():
     assert math.isclose(down["5s"]["rms_pa"], math.sqrt((1.0e10 + 9.0e10) / 2))
     assert run["1s"]["count"] == 3 and math.isclose(run["1s"]["mean_pa"], 1.0e5 / 3)
     assert math.isclose(e["moving"]["5s"]["mean_pa"], 1.0e5)
-    lines = pr.format_rows({"nmpc_prediction": e})
+    lines = pr.format_rows(e)
     assert "1 s ahead, 5 s ahead" in lines[0]
     assert [line.split()[0] for line in lines[1:]] == [pr.RUN, "moving", "pump_down"]
     assert "+0.00 / 2.00" in lines[3] and "-2.00 / 2.24" in lines[3]
@@ -44,3 +44,16 @@ def test_a_prediction_past_the_recording_a_hold_and_a_nan_are_left_out():
     e = pr.prediction_errors([late, hold, nan], bhp)
     assert e[pr.RUN]["1s"]["count"] == 1 and "5s" not in e[pr.RUN]
     assert pr.prediction_errors([hold], bhp) == {}
+
+
+def test_a_runs_truth_in_seconds_meets_the_solves_stamps():
+    """A recording's stamps as float seconds (sec + nanosec 1e-9) find the solves' ns
+    stamps again, far into a long run."""
+    start_s = 2400
+    bhp = {(start_s + k) * NS + 100_000_000: 6.85e7 + 1.0e4 * k for k in range(8)}
+    times_s = [(stamp // NS) + (stamp % NS) * 1e-9 for stamp in bhp]
+    stamp = start_s * NS + 100_000_000
+    solve_ = (stamp, [0.0, 1.0, 5.0], [bhp[stamp], bhp[stamp + NS] + 3.0e4, bhp[stamp + 5 * NS]])
+    e = pr.errors_over_run([solve_], times_s, list(bhp.values()), {stamp: "moving"})
+    assert e["moving"]["1s"] == {"mean_pa": 3.0e4, "rms_pa": 3.0e4, "count": 1}
+    assert e[pr.RUN]["5s"]["count"] == 1 and e[pr.RUN]["5s"]["mean_pa"] == 0.0

@@ -247,8 +247,8 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
 def prediction_figures(run: TripRun) -> dict:
     """The NMPC's prediction errors against the truth plant's BHP, as the run report gives
     them from a recording (drill_analysis.prediction_report); {} without NMPC solves."""
-    truth = {seconds_to_ns(t): bhp for t, bhp in zip(run.log["time_s"], run.log["bhp_pa"])}
-    return prediction_report.prediction_errors(run.predictions, truth, run.phases)
+    return prediction_report.errors_over_run(run.predictions, run.log["time_s"],
+                                             run.log["bhp_pa"], run.phases)
 
 
 def _setpoints(trip_speed_mps: float) -> ActiveSetpoints:
@@ -342,7 +342,7 @@ def main(argv=None) -> int:
           f"after), the sheet's gain {f['trip_sheet_gain_m3'] * L_PER_M3:+.0f} L")
     errors = prediction_figures(run) if args.prediction else {}
     if errors:
-        print("\n".join(prediction_report.format_rows({"nmpc_prediction": errors})))
+        print("\n".join(prediction_report.format_rows(errors)))
     return 0
 
 

@@ -221,11 +221,13 @@ def test_the_nmpcs_prediction_errors_are_grouped_by_the_floors_phase(tight_choke
     the run's group and its phase's (the report's function, drill_analysis.prediction_report);
     one second ahead the model's and the estimate's error is a bar or so, not tens."""
     from drill_core.tripping.sequence import CONNECTION, MOVING, PUMP_DOWN
+    from drill_ros.stamps import seconds_to_ns
     from drill_studies.trip_bench import prediction_figures
     run = tight_choke_nmpc
     errors = prediction_figures(run)
-    end_ns = round(run.log["time_s"][-1] * 1e9)
-    reached = sum(1 for stamp, _, bhp in run.predictions if len(bhp) > 1 and stamp + 10**9 <= end_ns)
+    end_ns = seconds_to_ns(run.log["time_s"][-1])
+    reached = sum(1 for stamp, _, bhp in run.predictions
+                  if len(bhp) > 1 and stamp + seconds_to_ns(1.0) <= end_ns)
     assert errors["run"]["1s"]["count"] == reached > 200
     assert {MOVING, PUMP_DOWN, CONNECTION} <= set(errors)
     assert sum(e["1s"]["count"] for g, e in errors.items() if g != "run") == reached
