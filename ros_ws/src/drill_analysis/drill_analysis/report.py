@@ -17,7 +17,7 @@ import numpy as np
 
 from drill_bag import mcap_io
 
-from drill_analysis import drilling_report, prediction_report, trip_sheet_report
+from drill_analysis import band_report, drilling_report, prediction_report, trip_sheet_report
 from drill_analysis import well_control_report as well_control
 from drill_core.config import load_rig
 from drill_core.rig_root import rig_root
@@ -504,6 +504,11 @@ def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | Non
         if sheet is not None:                   # a multi-stand trip
             summary.update(sheet)
             table += "\n" + "\n".join(trip_sheet_report.format_sheet(sheet))
+            t, bhp = series.get("bhp")
+            ref, band, _ = references(series, t)
+            by_phase = band_report.outside_band_by_phase(t, bhp, ref, band, series.floor_phases)
+            summary["outside_band_by_phase"] = by_phase
+            table += "\n" + "\n".join(band_report.format_rows(by_phase))
         errors = prediction_report.errors_over_run(series.predictions, *series.get("bhp"),
                                                    series.floor_phases)
         if errors:                              # an NMPC run

@@ -233,6 +233,23 @@ def test_the_pump_share_ahead_follows_the_programmed_ramps_and_connection():
     assert pump_factor_ahead(running_in, CONNECTION, 80.0, 15.0) == pytest.approx(5.0 / 30.0)
 
 
+def test_a_ramp_down_shaped_for_the_flow_falls_to_its_stop_share_then_stops():
+    """With ``pump_stop_share`` s0 the pressure share falls as s0 + (1 - s0)(1 - t/T)^2:
+    from the full rate, its slope zero at the ramp's end where it reaches s0, and the
+    pump off from the connection on; the plan ahead reads the same shape."""
+    from drill_core.tripping.sequence import pump_factor
+    shaped = TripProgramme(direction="out", stands=2, pump_ramp_down_s=30.0,
+                           pump_stop_share=0.4)
+    assert [pump_factor(shaped, PUMP_DOWN, t) for t in (0.0, 15.0, 27.0)] == pytest.approx(
+        [1.0, 0.4 + 0.6 * 0.25, 0.4 + 0.6 * 0.01])
+    assert pump_factor(shaped, PUMP_DOWN, 30.0) == 0.0
+    assert pump_factor(shaped, CONNECTION, 1.0) == 0.0
+    assert pump_factor_ahead(shaped, PUMP_DOWN, 10.0, 5.0) == pytest.approx(0.4 + 0.6 * 0.25)
+    assert pump_factor_ahead(shaped, PUMP_DOWN, 10.0, 25.0) == 0.0     # in the connection
+    linear = TripProgramme(direction="out", stands=2, pump_ramp_down_s=30.0)
+    assert pump_factor(linear, PUMP_DOWN, 15.0) == 0.5
+
+
 def test_the_floor_has_the_pump_stopped_through_the_connection_only(well):
     """What the estimator is told: the pump stopped by plan through every tick of the
     connection (and the ramps' ends at share 0), never while the string moves or the slips

@@ -23,11 +23,13 @@ its model the string's as racked), its choke flow reference through the choke's 
 loop, its back-pressure pump through the pump's lag.
 
     python -m drill_studies.trip_bench [--stands 2] [--round-trip] [--controller baseline]
-                                       [--connection-s 90] [--settle-s 180] [--seed 12]
+                                       [--connection-s 90] [--pump-stop-share 0.38]
+                                       [--settle-s 180] [--seed 12]
                                        [--mismatch thick_report] [--state truth]
                                        [--prediction] [--set nmpc.KEY=VALUE]
 
-prints the trip sheet (per stand, slips to slips) and the trip's figures; with
+prints the trip sheet (per stand, slips to slips), the trip's figures and the seconds
+outside the band under and over it by the floor's phase; with
 ``--prediction`` the NMPC's BHP prediction errors by the floor's phase, as the run report
 gives them from a recording.
 """
@@ -41,9 +43,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drill_analysis import prediction_report
+from drill_analysis import band_report, prediction_report
 from drill_core.config import RigConfig, load_rig, parse_settings
-from drill_core.schema import ConfigError
+from drill_core.schema import ConfigError, build
 from drill_core.hydraulics import rig_well_model
 from drill_core.mismatch import resolve, truth_config
 from drill_core.tripping.programme import TripProgramme
@@ -86,8 +88,8 @@ class TripRun:
     log: dict[str, np.ndarray] = field(default_factory=dict)
     drawn_m3: float = math.nan      # the trip tank's volume before less after, settled [m^3]
     solve_times_s: list = field(default_factory=list)   # the NMPC's, per sample
-    # the NMPC's solves: (stamp ns, predicted times after it [s], predicted BHP [Pa]), and
-    # the floor's phase at each (drill_analysis.prediction_report)
+    # the NMPC's solves: (stamp ns, predicted times after it [s], predicted BHP [Pa])
+    # (drill_analysis.prediction_report), and the floor's phase at each frame by its stamp
     predictions: list = field(default_factory=list)
     phases: dict = field(default_factory=dict)
 
@@ -166,6 +168,7 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
             sheets.append(TripSheet(floor.programme, volumes, BHP_BAND_PA))
             command = floor_tick.step(t, m.hook_load_n, m.block_position_m)
         step = command.step
+        phases[seconds_to_ns(t)] = step.phase
         estimator.step(t, m, frames, steps, string_held and floor_aware,
                        pump_stopped and floor_aware)
         if command.racked_to_m is not None and floor_aware:
@@ -202,10 +205,8 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
             result = nmpc.step(x_hat, _setpoints(trip_speed_mps),
                                measured_actuators(frames), command, t)
             solve_times.append(result.solve_time_s)
-            stamp_ns = seconds_to_ns(t)
-            predictions.append((stamp_ns, list(result.predicted_time_s),
+            predictions.append((seconds_to_ns(t), list(result.predicted_time_s),
                                 list(result.predicted.get("bhp_pa", []))))
-            phases[stamp_ns] = step.phase
             advice = nmpc.command(result, True)
         if step.phase == MOVING and advice is not None and controller != "held_choke":
             block = drawworks.frame(advice.block_position_ref_m, m.block_position_m, step_s,
@@ -244,6 +245,15 @@ def run_trip(config: RigConfig, programmes: Sequence[TripProgramme], seed: int,
                    predictions, phases)
 
 
+def band_figures(run: TripRun) -> dict:
+    """The seconds outside the band under and over it by the floor's phase, from the first
+    stand's start to the last one's end, as the run report gives them from a recording
+    (drill_analysis.band_report)."""
+    during = _during_trip(run)
+    return band_report.outside_band_by_phase(run.log["time_s"][during], run.log["bhp_pa"][during],
+                                             BHP_REF_PA, BHP_BAND_PA, run.phases)
+
+
 def prediction_figures(run: TripRun) -> dict:
     """The NMPC's prediction errors against the truth plant's BHP, as the run report gives
     them from a recording (drill_analysis.prediction_report); {} without NMPC solves."""
@@ -262,11 +272,18 @@ def _setpoints(trip_speed_mps: float) -> ActiveSetpoints:
                            mud_pump_on=True)
 
 
+def _during_trip(run: TripRun) -> np.ndarray:
+    """The log's samples from the first stand's start to the last one's end."""
+    rows = [row for sheet in run.sheets for row in sheet.rows]
+    t = run.log["time_s"]
+    return (t >= rows[0].start_s) & (t <= rows[-1].end_s)
+
+
 def trip_figures(run: TripRun, pore_pressure_pa: float) -> dict[str, float]:
     """The trip's figures from the first stand's start to the last one's end (SI)."""
     rows = [row for sheet in run.sheets for row in sheet.rows]
     t = run.log["time_s"]
-    during = (t >= rows[0].start_s) & (t <= rows[-1].end_s)
+    during = _during_trip(run)
     bhp = run.log["bhp_pa"][during]
     frame_s = float(t[1] - t[0])
     truth = run.sim.truth()
@@ -305,6 +322,9 @@ def main(argv=None) -> int:
     parser.add_argument("--controller", choices=CONTROLLERS, default="held_choke")
     parser.add_argument("--connection-s", type=float, default=90.0,
                         help="slips to slips of each connection [s]")
+    parser.add_argument("--pump-stop-share", type=float, default=None,
+                        help="the ramp-down shaped for the flow: the share at which the "
+                             "bit's flow stops (drill_core.tripping.programme; unset: linear)")
     parser.add_argument("--settle-s", type=float, default=180.0,
                         help="at rest after the trip, the pump on, before the tank is read [s]")
     parser.add_argument("--seed", type=int, default=12)
@@ -327,8 +347,13 @@ def main(argv=None) -> int:
     plant_config = written if args.mismatch is None else \
         truth_config(written, resolve(args.mismatch, config_dir())[1])
     directions = ("out", "in") if args.round_trip else ("out",)
-    programmes = [TripProgramme(direction=d, stands=args.stands,
-                                connection_s=args.connection_s) for d in directions]
+    try:
+        programmes = [build(TripProgramme, {"direction": d, "stands": args.stands,
+                                            "connection_s": args.connection_s,
+                                            "pump_stop_share": args.pump_stop_share},
+                            "the command line", "trip") for d in directions]
+    except ConfigError as error:
+        parser.error(str(error))
     run = run_trip(config, programmes, args.seed, settle_s=args.settle_s,
                    controller=args.controller, plant_config=plant_config, state=args.state)
     print("\n".join(sheet_table(run)) + "\n")
@@ -340,6 +365,7 @@ def main(argv=None) -> int:
           f"{f['influx_m3'] * L_PER_M3:.0f} L, losses {f['loss_m3'] * L_PER_M3:.0f} L; trip "
           f"tank {f['trip_tank_drawn_m3'] * L_PER_M3:.0f} L drawn ({args.settle_s:.0f} s "
           f"after), the sheet's gain {f['trip_sheet_gain_m3'] * L_PER_M3:+.0f} L")
+    print("\n".join(band_report.format_rows(band_figures(run))))
     errors = prediction_figures(run) if args.prediction else {}
     if errors:
         print("\n".join(prediction_report.format_rows(errors)))

@@ -73,6 +73,19 @@ def test_a_connection_at_a_held_choke_lets_the_well_flow_and_the_trip_sheet_book
     assert all(row.out_of_slips_s > STAND_M / TRIP_SPEED_MPS for row in sheet.rows)
 
 
+def test_the_band_time_by_phase_adds_up_to_the_trips_and_is_under_the_band_at_rest(trip):
+    """The trip's seconds outside the band, split by the floor's phase (the run report's
+    function, drill_analysis.band_report): at the held choke the BHP is under the band
+    through each connection's 90 s, the pump stopped."""
+    from drill_analysis.band_report import OVER, UNDER
+    from drill_core.tripping.sequence import CONNECTION
+    from drill_studies.trip_bench import band_figures, trip_figures
+    by_phase = band_figures(trip)
+    total_s = sum(cell[UNDER] + cell[OVER] for cell in by_phase.values())
+    assert total_s == pytest.approx(trip_figures(trip, 6.6e7)["outside_band_s"], abs=1e-6)
+    assert by_phase[CONNECTION][UNDER] > 2 * 80.0 and by_phase[CONNECTION][OVER] == 0.0
+
+
 def test_the_estimator_follows_the_floor_and_is_lost_without_it(trip, one_stand_unaware):
     """Told that the slips hold the string (a virtual block holds the model's string on the
     line) and at each connection that the string is a stand shorter (the new string's
@@ -135,6 +148,7 @@ def test_the_command_prints_the_trip_sheet_and_the_figures(capsys):
     assert out[0].startswith("| trip | stand | slips to slips [s]")
     assert out[2].startswith("| out | 1 | ") and out[3] == ""
     assert out[4].startswith("stands per hour ") and "L drawn (10 s after)" in out[4]
+    assert out[5].startswith("  BHP outside the band by rig-floor phase, under / over [s]")
 
 
 def test_automated_mpds_pressure_loop_keeps_the_connection_over_the_pore_pressure():
@@ -243,3 +257,12 @@ def test_a_bad_setting_is_refused_with_its_key_before_any_trip(capsys):
     assert stop.value.code == 2
     err = capsys.readouterr().err
     assert "nmpc.yaml" in err and "floor_pump_on_shar" in err and "floor_pump_on_share" in err
+
+
+def test_a_ramp_share_out_of_range_is_refused_with_its_range(capsys):
+    from drill_studies.trip_bench import main
+    with pytest.raises(SystemExit) as stop:
+        main(["--stands", "1", "--pump-stop-share", "1.3"])
+    assert stop.value.code == 2
+    assert "trip.pump_stop_share: value 1.3 is outside the allowed range [0, 0.95]" \
+        in capsys.readouterr().err

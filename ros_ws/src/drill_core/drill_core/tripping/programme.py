@@ -20,6 +20,12 @@ class TripProgramme:
                                 doc="slips to slips: the break-out (out) or make-up (in) time")
     pump_ramp_down_s: float = param("s", 0.0, 600.0, default=30.0,
                                     doc="the mud pump from its rate to off before a connection")
+    pump_stop_share: float | None = param(
+        "1", 0.0, 0.95, default=None,
+        doc="the ramp-down's shape (unset: the pump's share of its stand-pipe pressure falls "
+            "linearly to off): the share s0 at which the bit's flow stops, the share then "
+            "falling as s0 + (1 - s0)(1 - t/T)^2 to the pump's stop at the ramp's end, so "
+            "that the flow falls about linearly, as a rig steps its pump down")
     pump_ramp_up_s: float = param("s", 0.0, 600.0, default=30.0,
                                   doc="the mud pump from off back to its rate after it")
     pickup_margin_n: float = param(

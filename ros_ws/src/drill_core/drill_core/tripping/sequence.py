@@ -123,7 +123,10 @@ def pump_factor(programme: TripProgramme, phase: str, elapsed_s: float) -> float
     """The mud pump's share of its rate ``elapsed_s`` into ``phase``."""
     p = programme
     if phase == PUMP_DOWN:
-        return max(0.0, 1.0 - elapsed_s / p.pump_ramp_down_s) if p.pump_ramp_down_s > 0 else 0.0
+        left = max(0.0, 1.0 - elapsed_s / p.pump_ramp_down_s) if p.pump_ramp_down_s > 0 else 0.0
+        if p.pump_stop_share is None or left == 0.0:
+            return left
+        return p.pump_stop_share + (1.0 - p.pump_stop_share) * left * left
     if phase == CONNECTION:
         return 0.0
     if phase == PUMP_UP:
