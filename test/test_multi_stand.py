@@ -118,6 +118,11 @@ def test_bhp_stays_inside_the_window_and_the_trip_sheet_books_the_steel(run):
         sum(r["gain_m3"] for r in sheet))
     span_h = (sheet[-1]["end_s"] - sheet[0]["start_s"]) / 3600.0
     assert summary["stands_per_hour"] == pytest.approx(2 / span_h)
+    # the band time split by the floor's phase (drill_analysis.band_report) is the run's
+    by_phase = summary["outside_band_by_phase"]
+    assert set(by_phase) <= {*STAND_PHASES["out"], "done"}
+    assert sum(c["under_s"] + c["over_s"] for c in by_phase.values()) == pytest.approx(
+        summary["bhp_time_outside_s"], abs=1e-6)
 
 
 def test_the_nmpc_holds_bhp_through_the_connections_on_the_floors_plan(run):

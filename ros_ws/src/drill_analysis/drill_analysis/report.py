@@ -501,15 +501,15 @@ def write_report(mcap_path: Path, out_dir: Path, name: str, baseline: dict | Non
         plots = plot(series, out_dir / "plots", units)
         sheet = trip_sheet_report.trip_sheet(mcap_path, load_rig(run_config_dir(out_dir)))
         table = format_table(name, summary, baseline, units, multi_stand=sheet is not None)
+        t, bhp = series.get("bhp")
         if sheet is not None:                   # a multi-stand trip
             summary.update(sheet)
             table += "\n" + "\n".join(trip_sheet_report.format_sheet(sheet))
-            t, bhp = series.get("bhp")
             ref, band, _ = references(series, t)
             by_phase = band_report.outside_band_by_phase(t, bhp, ref, band, series.floor_phases)
             summary["outside_band_by_phase"] = by_phase
             table += "\n" + "\n".join(band_report.format_rows(by_phase))
-        errors = prediction_report.errors_over_run(series.predictions, *series.get("bhp"),
+        errors = prediction_report.errors_over_run(series.predictions, t, bhp,
                                                    series.floor_phases)
         if errors:                              # an NMPC run
             summary["nmpc_prediction"] = errors
